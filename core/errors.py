@@ -1,0 +1,104 @@
+"""The one exception tree of loadpath.
+
+Every error a user can meet is a :class:`LoadpathError`. Its message is one line that names what is
+wrong, where, and how to fix it; front ends print ``loadpath: <message>`` on stderr and exit non-zero.
+Third-party failures (gmsh, OSQP, file I/O) are wrapped at the boundary into one of these classes.
+
+::
+
+    LoadpathError
+    ├── GCodeParseError        (line_no, text, reason)
+    ├── UnsupportedFlavorError (dialect or format we cannot process: binary G-code, G20, ...)
+    ├── LoadCaseError          (bad TOML, selector that selects nothing, rigid-body motion, ...)
+    ├── GeometryError          (no perimeters, regions that cannot be derived)
+    ├── MeshingError           (wraps gmsh)
+    ├── SolverError            (wraps OSQP status, FEA residual)
+    ├── SettingsError          (bad option values)
+    └── ToolMissingError       (an external program is not installed)
+    LoadpathWarning
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "LoadpathError",
+    "GCodeParseError",
+    "UnsupportedFlavorError",
+    "LoadCaseError",
+    "GeometryError",
+    "MeshingError",
+    "SolverError",
+    "SettingsError",
+    "ToolMissingError",
+    "LoadpathWarning",
+]
+
+
+class LoadpathError(Exception):
+    """Base class of every error loadpath raises on purpose.
+
+    The message must be a single line: what is wrong, where, and how to fix it.
+    """
+
+    def __init__(self, message: str) -> None:
+        super().__init__(" ".join(str(message).split("\n")))
+
+
+class GCodeParseError(LoadpathError):
+    """The G-code text cannot be read.
+
+    Parameters
+    ----------
+    reason : str
+        What is wrong and how to fix it.
+    line_no : int or None
+        1-based line number in the file, when the problem is at one line.
+    text : str or None
+        The offending line (shortened in the message).
+    """
+
+    def __init__(self, reason: str, line_no: int | None = None, text: str | None = None) -> None:
+        self.reason = reason
+        self.line_no = line_no
+        self.text = text
+        where = ""
+        if line_no is not None:
+            where = f"line {line_no}"
+            if text is not None:
+                shown = text if len(text) <= 60 else text[:57] + "..."
+                where += f" ({shown.strip()!r})"
+            where += ": "
+        super().__init__(where + reason)
+
+
+class UnsupportedFlavorError(LoadpathError):
+    """The file is valid but of a kind loadpath cannot process (binary G-code, inch units, ...)."""
+
+
+class LoadCaseError(LoadpathError):
+    """The load case is invalid: bad TOML, unknown keys, non-physical values, empty selectors,
+    or supports that leave a body free to move."""
+
+
+class GeometryError(LoadpathError):
+    """Layer regions cannot be derived from the G-code (no perimeters, inconsistent loops, ...)."""
+
+
+class MeshingError(LoadpathError):
+    """gmsh failed to mesh a region; wraps the gmsh message."""
+
+
+class SolverError(LoadpathError):
+    """A numerical solve failed: QP status not solved, FEA residual too large, singular system."""
+
+
+class SettingsError(LoadpathError):
+    """An option (command line, load case ``[toolpath]``, slicer configuration) has a bad value."""
+
+
+class ToolMissingError(LoadpathError):
+    """An external program loadpath needs is not installed."""
+
+
+class LoadpathWarning(UserWarning):
+    """Base class of loadpath's warnings (things passed through, estimates that went stale, ...)."""

@@ -1,0 +1,51 @@
+"""One place for tolerances and unit conventions.
+
+Units: lengths in mm, time in s, forces in N, stresses and moduli in MPa, feedrates in mm/min only
+where G-code is read or written.  No naked epsilons elsewhere in the package: import :data:`TOL`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["Tolerances", "TOL"]
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Tolerances shared by every module.
+
+    Attributes
+    ----------
+    length_mm : float
+        Two lengths closer than this are equal (G-code prints 3 decimals).
+    e_mm : float
+        Two extrusion amounts closer than this are equal (G-code prints 5 decimals).
+    angle_rad : float
+        Two directions closer than this are parallel.
+    snap_mm : float
+        Perimeter loops whose ends are closer than this are snapped shut.
+    region_compare_mm : float
+        Two layer regions whose symmetric difference, divided by their perimeter, is below this
+        are the same region (so rounding does not make every layer distinct).
+    qp_eps_abs, qp_eps_rel : float
+        OSQP tolerances, in the scaled coordinates of the swarm QPs (displacements / step h).
+    fea_residual : float
+        Largest accepted relative residual ``||K u - f|| / ||f||`` of an FEA solve.
+    anisotropy_rel : float
+        A principal direction is undefined where ``sigma1 - sigma2`` is below this fraction of the
+        field's normalising stress.
+    """
+
+    length_mm: float = 1e-6
+    e_mm: float = 1e-5
+    angle_rad: float = 1e-9
+    snap_mm: float = 0.05
+    region_compare_mm: float = 0.02
+    qp_eps_abs: float = 1e-7
+    qp_eps_rel: float = 1e-7
+    fea_residual: float = 1e-8
+    anisotropy_rel: float = 1e-3
+
+
+TOL = Tolerances()

@@ -1,0 +1,107 @@
+"""What a path engine takes and returns.
+
+Both engines (``loadpath.engines.swarm`` and ``loadpath.engines.streamlines``) are functions
+``generate(inp: EngineInput, params) -> Toolpaths``; the splicer turns a :class:`Toolpaths` into
+G-code, using each point's local pitch to set the flow (variable bead width).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from shapely.geometry.base import BaseGeometry
+
+from loadpath._typing import Floats, Points2, Region
+from loadpath.errors import SettingsError
+from loadpath.field import StressField
+
+__all__ = ["EngineInput", "Path", "Toolpaths"]
+
+
+@dataclass(frozen=True)
+class EngineInput:
+    """Inputs of a path engine for one island of one layer.
+
+    Attributes
+    ----------
+    region : shapely Polygon or MultiPolygon, mm
+        The replace region (with holes, possibly several islands).
+    field : StressField
+        The layer's stress field; already set to the principal stress to follow.
+    pitch : float, mm
+        Nominal centre-to-centre distance between neighbouring paths (the paper's l).
+    load_entry : shapely geometry or None
+        Where the load enters this layer (the boundary pieces the load selectors picked, as lines),
+        or None when it does not enter here; the swarm starts its first front there.
+    seed : int
+        Seed for any randomised choice, so the same input gives the same paths.
+    """
+
+    region: Region
+    field: StressField
+    pitch: float
+    load_entry: BaseGeometry | None = None
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not (self.pitch > 0 and np.isfinite(self.pitch)):
+            raise SettingsError(f"pitch = {self.pitch!r} mm must be a positive number of millimetres")
+        if self.region.is_empty:
+            raise SettingsError("the replace region is empty; there is nothing to fill")
+
+
+@dataclass(frozen=True)
+class Path:
+    """One print path (a polyline printed without travel).
+
+    Attributes
+    ----------
+    points : (n, 2) float, mm
+        Vertices, n >= 2.
+    pitch : (n,) float, mm
+        Local centre-to-centre distance to the neighbouring paths at each vertex; the splicer sets
+        the bead's flow width from it.
+    kind : str
+        ``"continuous"`` (a main path) or ``"fill"`` (a gap-filling piece).
+    """
+
+    points: Points2
+    pitch: Floats
+    kind: str = "continuous"
+
+    def __post_init__(self) -> None:
+        pts = np.asarray(self.points, dtype=float)
+        pitch = np.asarray(self.pitch, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
+            raise ValueError(f"a path needs an (n >= 2, 2) array of points, got shape {pts.shape}")
+        if pitch.shape != (len(pts),):
+            raise ValueError(f"pitch must have shape ({len(pts)},), got {pitch.shape}")
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "pitch", pitch)
+
+    @property
+    def length(self) -> float:
+        """Length of the polyline, mm."""
+        return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=1)))
+
+
+@dataclass(frozen=True)
+class Toolpaths:
+    """The paths an engine produced for one region, in print order.
+
+    Attributes
+    ----------
+    paths : tuple of Path
+    stats : dict
+        Engine diagnostics (time per stage in s, solver statuses, counts); JSON-serialisable.
+    """
+
+    paths: tuple[Path, ...]
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def total_length(self) -> float:
+        """Summed length of all paths, mm."""
+        return float(sum(p.length for p in self.paths))

@@ -1,0 +1,1 @@
+"""Host-neutral application layer: settings, the pipeline job and the ``loadpath`` command line."""

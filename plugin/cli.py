@@ -1,0 +1,75 @@
+"""The ``loadpath`` command line: ``main(argv) -> exit status``.
+
+Subcommands live in :mod:`loadpath.plugin.commands` (one module each).  Any :class:`LoadpathError`
+becomes one line on stderr, ``loadpath: <what is wrong and how to fix it>``, and exit status 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from loadpath import __version__
+from loadpath.errors import LoadpathError
+
+__all__ = ["main", "COMMANDS"]
+
+COMMANDS = {
+    "run": "loadpath.plugin.commands.run",
+    "demo": "loadpath.plugin.commands.demo",
+    "inspect": "loadpath.plugin.commands.inspect",
+    "compare": "loadpath.plugin.commands.compare",
+    "batch": "loadpath.plugin.commands.batch",
+    "serve": "loadpath.plugin.commands.serve",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every available subcommand."""
+    parser = argparse.ArgumentParser(
+        prog="loadpath", description="Stress-aligned infill for PrusaSlicer and Cura G-code."
+    )
+    parser.add_argument("--version", action="version", version=f"loadpath {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, module_name in COMMANDS.items():
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name == module_name:
+                continue  # not built yet in this checkout
+            raise
+        p = sub.add_parser(name, help=module.HELP, description=module.__doc__)
+        module.add_args(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success, 1 on a loadpath error, 2 on a usage error, 130 on interrupt.
+    """
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args._run(args) or 0)
+    except LoadpathError as exc:
+        print(f"loadpath: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("loadpath: interrupted; no file was written", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""PrusaSlicer post-processing entry point ``loadpath-prusaslicer`` (see issue 7)."""

@@ -1,0 +1,49 @@
+#!/bin/sh
+# Set up a loadpath checkout: system tools (as root on Debian), a virtual environment in .venv,
+# and the package installed in editable mode with its test extras.
+#
+# System tools the tests drive (Debian 12 package names, see ../shared/docs/real-tools.md):
+#   prusa-slicer (2.5), cura-engine (4.13), cura (CuraEngine's machine definitions and the Python
+#   modules of Cura's plugin API), calculix-ccx (the FEA cross-check), python3-venv, and the X/GL
+#   libraries the gmsh wheel's libgmsh.so links against even when headless.
+# Without root (or off Debian) the tools are not installed; tests that need them then skip with a
+# message, except in CI (CI=true), where they fail.
+set -eu
+cd "$(dirname "$0")/.."
+
+APT_PACKAGES="prusa-slicer cura-engine cura calculix-ccx python3-venv python3-pip \
+libglu1-mesa libgl1 libxrender1 libxcursor1 libxfixes3 libxext6 libxft2 libfontconfig1 \
+libxinerama1 libx11-6 libgomp1 libopengl0 libglx0"
+
+need_apt() {
+  for exe in prusa-slicer CuraEngine ccx; do
+    command -v "$exe" >/dev/null 2>&1 || return 0
+  done
+  [ -d /usr/lib/cura/plugins/PostProcessingPlugin ] || return 0
+  return 1
+}
+
+if [ "$(id -u)" = 0 ] && [ -f /etc/debian_version ] && command -v apt-get >/dev/null 2>&1; then
+  if need_apt; then
+    echo "setup: installing system tools with apt (about 2 minutes)" >&2
+    apt-get update -q >/dev/null
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -q $APT_PACKAGES >/dev/null
+  fi
+elif need_apt; then
+  echo "setup: not root on Debian; install these for the full test suite: apt-get install $APT_PACKAGES" >&2
+fi
+
+PY=${PYTHON:-python3}
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv" >&2
+  "$PY" -m venv .venv
+fi
+# Reinstall only when the package metadata changed.
+stamp=.venv/.loadpath-setup-stamp
+sig=$(cat setup.cfg pyproject.toml | cksum)
+if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$sig" ]; then
+  echo "setup: installing loadpath and its test extras into .venv" >&2
+  .venv/bin/python -m pip install -q --upgrade pip >/dev/null
+  .venv/bin/python -m pip install -q -e '.[test]'
+  echo "$sig" > "$stamp"
+fi

@@ -1,0 +1,51 @@
+"""Shared fixtures and the rule for tests that need real programs.
+
+A test that needs PrusaSlicer, CuraEngine, Cura's Python modules or CalculiX asks for it with
+:func:`require_tool`.  In CI (``CI=true``) a missing tool is a failure, never a skip; elsewhere the
+test skips with the apt command that installs the tool.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+
+# executable (or marker path) -> Debian package that provides it
+TOOLS = {
+    "prusa-slicer": "prusa-slicer",
+    "CuraEngine": "cura-engine",
+    "ccx": "calculix-ccx",
+    "cura": "cura",  # Cura's Python modules and machine definitions
+}
+
+CURA_PLUGINS = Path("/usr/lib/cura/plugins")
+CURA_RESOURCES = Path("/usr/share/cura/resources")
+
+
+def tool_available(name: str) -> bool:
+    if name == "cura":
+        return (CURA_PLUGINS / "PostProcessingPlugin" / "Script.py").exists() and CURA_RESOURCES.is_dir()
+    return shutil.which(name) is not None
+
+
+def require_tool(name: str) -> None:
+    """Skip (outside CI) or fail (in CI) when a real program is missing."""
+    if tool_available(name):
+        return
+    msg = f"{name} is not installed: apt-get install {TOOLS[name]} (or run ./dev setup as root)"
+    if IN_CI:
+        pytest.fail(f"CI=true but {msg}")
+    pytest.skip(msg)
+
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def repo_root() -> Path:
+    return REPO
