@@ -479,9 +479,18 @@ class CoverageStats:
     flow_width: float | None
 
 
+def _lines(paths: Sequence[Path]) -> np.ndarray:
+    """One shapely LineString per path (vectorized over ragged paths)."""
+    if not paths:
+        return np.zeros(0, dtype=object)
+    coords = np.concatenate([p.points for p in paths])
+    idx = np.repeat(np.arange(len(paths)), [len(p.points) for p in paths])
+    return shapely.linestrings(coords, indices=idx)
+
+
 def _beads(paths: tuple[Path, ...], flow_width: float | None) -> list[shapely.Geometry]:
     if flow_width is not None:
-        lines = shapely.linestrings([p.points for p in paths]) if paths else []
+        lines = _lines(paths)
         return list(shapely.buffer(lines, 0.5 * flow_width)) if len(lines) else []
     beads = []
     for p in paths:
@@ -538,7 +547,7 @@ def crossings(paths: PathsLike) -> int:
     ps = _paths(paths)
     if len(ps) < 2:
         return 0
-    lines = shapely.linestrings([p.points for p in ps])
+    lines = _lines(ps)
     tree = shapely.STRtree(lines)
     pairs = tree.query(lines, predicate="intersects")
     return int(np.count_nonzero(pairs[0] < pairs[1]))

@@ -1,0 +1,155 @@
+"""The swarm potential of chains of agents as a banded, box-constrained QP (paper Eq. 3-12).
+
+Change of coordinates (paper Sec. III-B5, "all constraints can be transformed into input bounds").
+Every agent ``j`` gets a local orthonormal frame ``B_j = [e1_j, e2_j]`` and its position is
+
+    x_j = t_j + h B_j u_j,      lo_j <= u_j <= hi_j
+
+where ``t_j`` is its ideal location (Eq. 2) and ``h`` the step.  For a moving agent ``e1 = s_hat``
+(the stress direction it stepped along) and ``e2 = s_hat^perp``, and the box of Eq. 12 becomes
+``|u1| <= 1/4`` (``h/4`` along the stress) and ``|u2| <= 1/8`` (``h/8`` across it).  A boundary agent
+moves along the boundary: ``e1`` is the boundary tangent at its reference point, ``u1`` is bounded
+by ``+-1/2`` and ``u2`` is pinned to 0 (it is projected back onto the boundary afterwards).
+Everything is divided by ``h``, so the unknowns are O(1) wherever the part sits on the bed.
+
+Potentials (scaled by ``1/h^2``):
+
+* environment, Eq. 3 with the squared norm (benchmarks.md §1.5): ``K m_j |x_j - t_j|^2 / h^2 =
+  K m_j |u_j|^2`` (``B_j`` is orthonormal); boundary agents have none (Eq. 10 sums over 1..N);
+* aggregation, Eq. 7-9, for a linked pair ``(j, j+1)`` with radial unit vector ``d`` (Eq. 5-6):
+  ``(v.d - L)^2 + |v - (v.d) d|^2 = |v - L d|^2`` with ``v = (x_{j+1} - x_j) / h``; ``L = l / h = 1``
+  between moving agents and ``1/2`` between a boundary agent and its neighbour (our boundary is
+  the edge of the region to fill, so the first bead's edge, not its centre, lies on it).
+
+So ``P = sum_pairs |c_p + B_{j+1} u_{j+1} - B_j u_j|^2 + K sum_j m_j |u_j|^2`` with
+``c_p = (t_{j+1} - t_j) / h - L_p d_p``: a QP whose Hessian is block tridiagonal (three
+super-diagonals in the scalar unknowns ``u = [u_0^1, u_0^2, u_1^1, ...]``), whatever the number
+of chains (unlinked neighbours simply have no coupling).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from loadpath._typing import Bools, Floats, Points2
+from loadpath.engines.swarm.banded import BandedQP
+
+__all__ = ["ChainProblem", "build_qp", "potentials", "positions", "MASS_FLOOR"]
+
+MASS_FLOOR = 1e-3
+"""Smallest virtual mass used in the QP, so the Hessian stays positive definite where the stress
+vanishes (there the aggregation term alone decides, as it should)."""
+
+BOX_ALONG = 0.25
+BOX_ACROSS = 0.125
+BOUNDARY_SLIDE = 0.5
+
+
+@dataclass(frozen=True)
+class ChainProblem:
+    """Agents of one or several chains, in chain order, in coordinates scaled by ``h``.
+
+    Attributes
+    ----------
+    t : (n, 2) float
+        Ideal locations divided by ``h`` (boundary agents: their reference point on the boundary).
+    frame : (n, 2, 2) float
+        ``frame[j] = [e1_j, e2_j]`` as rows: the local orthonormal frame of each agent.
+    lo, hi : (n, 2) float
+        Bounds on ``u_j`` in that frame.
+    weight : (n,) float
+        ``K m_j`` (0 for boundary agents).
+    link : (n - 1,) bool
+        ``link[j]``: agents ``j`` and ``j + 1`` are neighbours (aggregation term).
+    radial : (n - 1, 2) float
+        Unit radial direction ``d`` of each pair (unused where not linked).
+    target : (n - 1,) float
+        Desired radial distance ``L`` of each pair, in units of ``h``.
+    """
+
+    t: Points2
+    frame: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    weight: Floats
+    link: Bools
+    radial: np.ndarray
+    target: Floats
+
+    @property
+    def n(self) -> int:
+        """Number of agents."""
+        return int(self.t.shape[0])
+
+
+def _pair_offsets(cp: ChainProblem) -> np.ndarray:
+    """``c_p = t_{j+1} - t_j - L_p d_p`` per pair, (n - 1, 2)."""
+    return cp.t[1:] - cp.t[:-1] - cp.target[:, None] * cp.radial
+
+
+def build_qp(cp: ChainProblem) -> tuple[BandedQP, float]:
+    """Assemble the banded QP of the chains.
+
+    Returns
+    -------
+    qp : BandedQP
+        Unknowns ``u`` flattened agent by agent (2 per agent); ``P(u) = 1/2 u^T H u + q^T u + c0``.
+    c0 : float
+        The constant term, so ``P`` itself can be compared between swarms.
+    """
+    n = cp.n
+    link = cp.link.astype(float)
+    nl = np.zeros(n)
+    nl[:-1] += link
+    nl[1:] += link
+    diag = 2.0 * (nl + cp.weight)
+    ab = np.zeros((4, 2 * n))
+    ab[3, 0::2] = diag
+    ab[3, 1::2] = diag
+    q = np.zeros(2 * n)
+    c0 = 0.0
+    if n > 1:
+        f = cp.frame  # (n, 2, 2), rows e1, e2
+        # off-diagonal block -2 B_j^T B_{j+1}: entry (a, b) = -2 e_a(j) . e_b(j+1)
+        m = -2.0 * np.einsum("jak,jbk->jab", f[:-1], f[1:]) * link[:, None, None]
+        j2 = 2 * np.arange(n - 1)
+        ab[1, j2 + 2] = m[:, 0, 0]  # (2j, 2j+2)
+        ab[0, j2 + 3] = m[:, 0, 1]  # (2j, 2j+3)
+        ab[2, j2 + 2] = m[:, 1, 0]  # (2j+1, 2j+2)
+        ab[1, j2 + 3] = m[:, 1, 1]  # (2j+1, 2j+3)
+        c = _pair_offsets(cp) * link[:, None]
+        gq_next = 2.0 * np.einsum("jak,jk->ja", f[1:], c)  # d/du_{j+1}
+        gq_prev = -2.0 * np.einsum("jak,jk->ja", f[:-1], c)  # d/du_j
+        qa = np.zeros((n, 2))
+        qa[1:] += gq_next
+        qa[:-1] += gq_prev
+        q = qa.ravel()
+        c0 = float(np.sum(c * c))
+    qp = BandedQP(ab=ab, q=q, lo=cp.lo.ravel().astype(float), hi=cp.hi.ravel().astype(float))
+    return qp, c0
+
+
+def positions(cp: ChainProblem, u: Floats) -> Points2:
+    """Scaled positions ``t_j + B_j u_j`` of the agents, (n, 2)."""
+    uu = np.asarray(u).reshape(-1, 2)
+    return cp.t + np.einsum("ja,jak->jk", uu, cp.frame)
+
+
+def potentials(cp: ChainProblem, u: Floats) -> tuple[Floats, Floats]:
+    """Potential of each pair and of each agent at the solution.
+
+    Returns
+    -------
+    pair : (n - 1,) float
+        ``|v - L d|^2`` for linked pairs, 0 otherwise.
+    agent : (n,) float
+        ``K m_j |u_j|^2``.
+    """
+    uu = np.asarray(u).reshape(-1, 2)
+    x = positions(cp, u)
+    a = x[1:] - x[:-1] - cp.target[:, None] * cp.radial
+    pair = np.where(cp.link, np.sum(a * a, axis=1), 0.0)
+    agent = cp.weight * np.sum(uu * uu, axis=1)
+    return pair, agent

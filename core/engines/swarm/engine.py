@@ -1,0 +1,329 @@
+"""The swarm engine: paper Algorithm 1, generalised to cover any layer region.
+
+:func:`generate` runs
+
+1. a first swarm from where the load enters (the paper: "where the largest external force is
+   applied"): agents one pitch apart on the curve half a pitch inside the region next to
+   ``load_entry``, heading into the part;
+2. then, while the region is not covered (beads of the nominal pitch leave pieces wide enough for
+   a path) and the coverage target is not met, further swarms on each uncovered piece: agents on a
+   line across the piece through its deepest point, perpendicular to the local stress, one swarm
+   heading each way from that line (their paths are joined at it).  This covers several islands,
+   holes, concave outlines, branches the first swarm never reached, areas behind the starting
+   line, loads through a hole or no load at all (then the first swarm is simply one of these).
+
+A fill swarm's domain is the uncovered piece: its boundary runs along the beads already laid, so
+its boundary agents keep the new paths a pitch from the old ones and its margin keeps them at
+least ``(1/2 + margin)`` pitches away.  Everything is deterministic (no random choice).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import fields
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from loadpath._typing import Floats, Ints, Points2, Region
+from loadpath.engines.swarm.boundary import Domain
+from loadpath.engines.swarm.grid import Occupancy
+from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, step
+from loadpath.errors import SettingsError
+from loadpath.field import StressField
+from loadpath.toolpath import EngineInput, Path, Toolpaths
+
+__all__ = ["generate", "SwarmParams"]
+
+_PARAM_NAMES = {f.name for f in fields(SwarmParams)}
+
+
+class _Recorder:
+    """Points of all paths, with the step at which each was laid (negative for backward swarms)."""
+
+    def __init__(self) -> None:
+        self.pts: list[Points2] = []
+        self.pid: list[Ints] = []
+        self.pitch: list[Floats] = []
+        self.k: list[Ints] = []
+
+    def add(self, pts: Points2, pid: Ints, pitch: Floats, k: int) -> None:
+        if len(pts):
+            self.pts.append(pts)
+            self.pid.append(pid)
+            self.pitch.append(pitch)
+            self.k.append(np.full(len(pts), k, dtype=np.int64))
+
+    def paths(self, min_points: int = 2) -> list[Path]:
+        if not self.pts:
+            return []
+        pts = np.concatenate(self.pts)
+        pid = np.concatenate(self.pid)
+        pitch = np.concatenate(self.pitch)
+        k = np.concatenate(self.k)
+        order = np.lexsort((k, pid))
+        pts, pid, pitch, k = pts[order], pid[order], pitch[order], k[order]
+        # the seed point is recorded by both swarms of a fill pair: keep it once
+        dup = np.zeros(len(pid), dtype=bool)
+        dup[1:] = (pid[1:] == pid[:-1]) & (k[1:] == k[:-1])
+        pts, pid, pitch = pts[~dup], pid[~dup], pitch[~dup]
+        cuts = np.flatnonzero(np.diff(pid)) + 1
+        out = []
+        for p, w in zip(np.split(pts, cuts), np.split(pitch, cuts)):
+            if len(p) >= min_points:
+                out.append(Path(points=p, pitch=w))
+        return out
+
+    def lines(self) -> list[Points2]:
+        return [p.points for p in self.paths()]
+
+
+def _run(
+    state: SwarmState, ctx: Context, rec: _Recorder, direction: int, max_steps: int
+) -> int:
+    """Advance a swarm until it dies; returns the number of steps."""
+    n = 0
+    while state.n and n < max_steps:
+        n += 1
+        state, pts, pid, pitch, _ = step(state, ctx)
+        rec.add(pts, pid, pitch, direction * n)
+    ctx.count("steps", n)
+    if state.n:
+        ctx.count("step_limit_hit")
+    return n
+
+
+def _order_chain(seeds: Points2, head: Points2) -> tuple[Points2, Points2]:
+    """Order seeds so consecutive agents step to the right of the heading (Eq. 5)."""
+    if len(seeds) > 1:
+        right = np.stack([head[:-1, 1], -head[:-1, 0]], axis=1)
+        if np.sum(np.sum((seeds[1:] - seeds[:-1]) * right, axis=1)) < 0:
+            return seeds[::-1].copy(), head[::-1].copy()
+    return seeds, head
+
+
+def _sample_curve(line: shapely.LineString, pitch: float) -> Points2:
+    """Points one pitch apart along a curve, centred on it, (n, 2)."""
+    length = line.length
+    n = int(np.floor(length / pitch + 1e-9)) + 1
+    s = 0.5 * (length - (n - 1) * pitch) + pitch * np.arange(n)
+    return shapely.get_coordinates(shapely.line_interpolate_point(line, s))
+
+
+def _load_seeds(region: Region, load_entry: BaseGeometry, pitch: float) -> list[tuple[Points2, Points2]]:
+    """Chains of seeds half a pitch inside the region next to where the load enters."""
+    inner = region.buffer(-0.5 * pitch, join_style="mitre")
+    if inner.is_empty:
+        return []
+    curve = inner.boundary
+    gap = float(shapely.distance(load_entry, curve))
+    near = curve.intersection(load_entry.buffer(gap + 0.25 * pitch))
+    near = shapely.line_merge(near) if near.geom_type == "MultiLineString" else near
+    chains = []
+    for piece in shapely.get_parts(near):
+        if piece.geom_type != "LineString" or piece.length < 0.5 * pitch:
+            continue
+        seeds = _sample_curve(piece, pitch)
+        foot = shapely.get_coordinates(
+            shapely.shortest_line(shapely.points(seeds), load_entry)
+        ).reshape(-1, 2, 2)[:, 1]
+        head = seeds - foot
+        norm = np.linalg.norm(head, axis=1)
+        head = np.where(norm[:, None] > 1e-9, head / np.maximum(norm, 1e-12)[:, None], np.nan)
+        if np.any(~np.isfinite(head)):
+            continue
+        chains.append(_order_chain(seeds, head))
+    return chains
+
+
+def _dominant(field: StressField, pts: Points2) -> Floats | None:
+    smp = field.sample(pts)
+    if not np.any(smp.valid):
+        return None
+    d = smp.direction[smp.valid]
+    w = np.maximum(smp.mass[smp.valid], 1e-12)
+    a = np.arctan2(d[:, 1], d[:, 0])
+    th = 0.5 * np.arctan2(np.sum(w * np.sin(2 * a)), np.sum(w * np.cos(2 * a)))
+    return np.array([np.cos(th), np.sin(th)])
+
+
+def _fill_seeds(piece: Region, field: StressField, pitch: float) -> tuple[Points2, Points2] | None:
+    """Seeds on a line across an uncovered piece, perpendicular to the stress at its deepest point."""
+    core = piece.buffer(-0.5 * pitch)
+    if core.is_empty:
+        return None
+    circle = shapely.maximum_inscribed_circle(piece, 0.05 * pitch)
+    c = np.asarray(circle.coords[0])
+    smp = field.sample(c[None, :])
+    if smp.valid[0]:
+        s = smp.direction[0]
+    else:
+        grid = shapely.get_coordinates(
+            shapely.points(
+                np.asarray(core.representative_point().coords)
+                + pitch * np.stack(np.meshgrid(np.arange(-5, 6), np.arange(-5, 6)), -1).reshape(-1, 2)
+            )
+        )
+        dom = _dominant(field, grid)
+        s = dom if dom is not None else np.array([1.0, 0.0])
+    n = np.array([-s[1], s[0]])
+    reach = float(np.hypot(*np.subtract(*np.reshape(piece.bounds, (2, 2))))) + pitch
+    line = shapely.LineString([c - reach * n, c + reach * n]).intersection(core)
+    parts = [g for g in shapely.get_parts(line) if g.geom_type == "LineString" and g.length > 0]
+    if not parts:
+        seeds = np.asarray(core.representative_point().coords)
+    else:
+        best = min(parts, key=lambda g: g.distance(shapely.Point(c)))
+        seeds = _sample_curve(best, pitch)
+    head = np.tile(s, (len(seeds), 1))
+    return _order_chain(seeds, head)
+
+
+def _uncovered(region: Region, lines: list[Points2], pitch: float) -> list[Region]:
+    """Pieces of the region beads of the nominal pitch leave uncovered, wide enough for a path."""
+    if lines:
+        coords = np.concatenate(lines)
+        idx = np.repeat(np.arange(len(lines)), [len(x) for x in lines])
+        beads = shapely.buffer(
+            shapely.multilinestrings(shapely.linestrings(coords, indices=idx)), 0.5 * pitch, quad_segs=4
+        )
+        left = region.difference(beads)
+    else:
+        left = region
+    pieces = [
+        g for g in shapely.get_parts(left) if g.geom_type == "Polygon" and not g.buffer(-0.45 * pitch).is_empty
+    ]
+    pieces.sort(key=lambda g: (-round(g.area, 6), round(g.centroid.x, 6), round(g.centroid.y, 6)))
+    return pieces
+
+
+def _state(seeds: Points2, head: Points2, pid: Ints) -> SwarmState:
+    start = np.zeros(len(seeds), dtype=bool)
+    start[0] = True
+    return SwarmState(pos=seeds.copy(), head=head.copy(), pid=pid, start=start)
+
+
+def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
+    """Stress-aligned paths for one layer region by the swarm method.
+
+    Parameters
+    ----------
+    inp : EngineInput
+        Region, stress field (already set to the followed principal stress), nominal pitch ``l``
+        (the step is ``h = l``), and where the load enters (or None).
+    K : float
+        Weight of the environment (alignment) potential against the aggregation (spacing)
+        potential, Eq. 12: ``P = P_a + K P_e``.
+    **options
+        Fields of :class:`SwarmParams` (``window``, ``kill_below``, ``spawn_above``, ...), and
+        ``coverage_target`` (default 0.995: stop starting swarms above this nominal-bead
+        coverage), ``max_swarms`` (default 400), ``fill`` (default True: start further swarms on
+        uncovered pieces).
+
+    Returns
+    -------
+    Toolpaths
+        Paths with the local pitch at every point; ``stats`` holds the counts (steps, QP solves and
+        statuses, kills, spawns, swarms) and the time per stage.
+    """
+    if not (np.isfinite(K) and K >= 0):
+        raise SettingsError(f"K = {K!r} must be a non-negative number (the paper uses 0.5 to 50; default 5)")
+    opts = dict(options)
+    coverage_target = float(opts.pop("coverage_target", 0.995))  # type: ignore[arg-type]
+    max_swarms = int(opts.pop("max_swarms", 400))  # type: ignore[call-overload]
+    fill = bool(opts.pop("fill", True))
+    params_kw = {k: opts.pop(k) for k in list(opts) if k in _PARAM_NAMES}
+    if opts:
+        raise SettingsError(
+            f"unknown swarm option(s) {', '.join(sorted(opts))}; known: "
+            f"{', '.join(sorted(_PARAM_NAMES | {'coverage_target', 'max_swarms', 'fill'}))}"
+        )
+    params = SwarmParams(K=float(K), **params_kw)  # type: ignore[arg-type]
+    t0 = time.perf_counter()
+    pitch = float(inp.pitch)
+    region = shapely.make_valid(inp.region) if not inp.region.is_valid else inp.region
+    region = shapely.normalize(region)
+    grid = Occupancy(tuple(region.bounds), pitch / 3.0)
+    rec = _Recorder()
+    stats: dict = {}
+    next_pid = 0
+    diag = float(np.hypot(region.bounds[2] - region.bounds[0], region.bounds[3] - region.bounds[1]))
+    max_steps = int(4 * (region.length + diag) / pitch) + 10
+    swarms = 0
+
+    def run_swarm(domain_region: Region, chains: list[tuple[Points2, Points2]], both_ways: bool) -> None:
+        """One swarm from the seed chains (and, for a fill swarm, its twin heading the other way)."""
+        nonlocal next_pid, swarms
+        domain = Domain(domain_region, params.margin * pitch)
+        seeds0 = np.concatenate([c[0] for c in chains])
+        head0 = np.concatenate([c[1] for c in chains])
+        start0 = np.concatenate([np.arange(len(c[0])) == 0 for c in chains])
+        pid0 = np.arange(next_pid, next_pid + len(seeds0), dtype=np.int64)
+        next_pid += len(seeds0)
+        for sign in (1, -1) if both_ways else (1,):
+            seeds, head, start, pid = seeds0, head0, start0, pid0
+            if sign < 0:  # the twin: reversed heading, so reversed chain order (Eq. 5)
+                seeds, head, pid = seeds[::-1], -head[::-1], pid[::-1]
+                start = np.roll(start[::-1], 1)
+            ok = domain.inside(seeds) & grid.free_for(seeds, pid)
+            if not np.any(ok):
+                continue
+            gone = np.zeros(len(seeds), dtype=bool)
+            gone[1:] = ~ok[:-1]
+            start = (start | gone)[ok]
+            start[0] = True
+            st = SwarmState(pos=seeds[ok].copy(), head=head[ok].copy(), pid=pid[ok], start=start)
+            ctx = Context(
+                field=inp.field, domain=domain, grid=grid, params=params, pitch=pitch,
+                next_pid=next_pid, stats=stats,
+            )
+            rec.add(st.pos, st.pid, np.full(st.n, pitch), 0)
+            grid.mark(st.pos, st.pos, st.pid)
+            _run(st, ctx, rec, sign, max_steps)
+            next_pid = ctx.next_pid
+            swarms += 1
+
+    t_first = time.perf_counter()
+    if inp.load_entry is not None and not inp.load_entry.is_empty:
+        chains = _load_seeds(region, inp.load_entry, pitch)
+        if chains:
+            run_swarm(region, chains, both_ways=False)
+    stats["time_first_swarm_s"] = time.perf_counter() - t_first
+    t_fill = time.perf_counter()
+    rounds = 0
+    area = float(region.area)
+    given_up: list[Region] = []
+    while fill and swarms < max_swarms:
+        lines = rec.lines()
+        pieces = _uncovered(region, lines, pitch)
+        if given_up:
+            pieces = [p for p in pieces if not any(p.equals_exact(g, 1e-9) for g in given_up)]
+        covered = 1.0 - sum(p.area for p in pieces) / area
+        stats["coverage_nominal"] = covered
+        if not pieces or covered >= coverage_target:
+            break
+        rounds += 1
+        progressed = False
+        for piece in pieces:
+            if swarms >= max_swarms:
+                break
+            seeds = _fill_seeds(piece, inp.field, pitch)
+            if seeds is None:
+                given_up.append(piece)
+                continue
+            before = sum(len(p) for p in rec.pts)
+            run_swarm(piece, [seeds], both_ways=True)
+            if sum(len(p) for p in rec.pts) > before + 1:
+                progressed = True
+            else:
+                given_up.append(piece)
+        if not progressed:
+            break
+    stats["time_fill_s"] = time.perf_counter() - t_fill
+    stats["fill_rounds"] = rounds
+    stats["swarms"] = swarms
+    paths = rec.paths()
+    stats["time_s"] = time.perf_counter() - t0
+    stats["K"] = params.K
+    return Toolpaths(paths=tuple(paths), stats=stats)
