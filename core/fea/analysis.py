@@ -1,0 +1,259 @@
+"""From a resolved load case to a solved analysis and per-layer stress fields.
+
+:func:`analyze` meshes a :class:`~loadpath.loadcase.resolve.ResolvedBody` (2D plane stress over its
+thickness, or 3D), applies supports and loads, checks that the body is held (before solving),
+solves, and returns an :class:`Analysis`; :meth:`Analysis.field` / :func:`field_for_layer` give the
+:class:`~loadpath.fea.field.FEStressField` of a layer at height ``z``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+from scipy.spatial import cKDTree
+from shapely.geometry.base import BaseGeometry
+
+from loadpath.errors import LoadCaseError
+from loadpath.fea.boundary import Facets, check_rigid, facets_of, load_vector, pick, support_dofs
+from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice
+from loadpath.fea.material import elasticity_matrix
+from loadpath.fea.solve import FEAResult, Problem, solve
+from loadpath.field import principal_stresses
+from loadpath.loadcase.resolve import ResolvedBody
+from loadpath.mesh.data import MeshData
+from loadpath.mesh.sizing import MeshSize, default_mesh_size
+
+__all__ = ["Analysis", "analyze", "field_for_layer", "build_mesh", "stress_scale"]
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """A solved load case on one body.
+
+    Attributes
+    ----------
+    resolved : ResolvedBody
+    mesh : MeshData
+    result : FEAResult
+        Displacements, nodal stresses, residual.
+    facets : Facets
+        Boundary facets of the mesh.
+    picked : dict of str -> (b,) bool
+        Facets each support / load picked, by name.
+    scale : float, MPa
+        Normalising stress of every layer's field (:func:`stress_scale`).
+    times : dict
+        Seconds for ``mesh``, ``assemble``, ``solve``, ``stress``.
+    """
+
+    resolved: ResolvedBody
+    mesh: MeshData
+    result: FEAResult
+    facets: Facets
+    picked: dict[str, np.ndarray]
+    scale: float
+    times: dict[str, float] = field(default_factory=dict)
+    _cache: dict[Any, FEStressField] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def analysis(self) -> str:
+        """``"2d"`` or ``"3d"``."""
+        return self.resolved.analysis
+
+    def field(self, z: float | None = None, principal: str = "max_abs") -> FEStressField:
+        """The stress field of the layer at height ``z`` (see :func:`field_for_layer`)."""
+        return field_for_layer(self, z, principal)
+
+
+def build_mesh(rb: ResolvedBody, size: MeshSize | float | None = None, pitch: float | None = None) -> MeshData:
+    """Mesh a resolved body for its analysis (2D outline or 3D prism stack).
+
+    Parameters
+    ----------
+    rb : ResolvedBody
+    size : MeshSize or float, optional
+        Default :func:`~loadpath.mesh.sizing.default_mesh_size` of the largest outline and ``pitch``.
+    pitch : float, mm, optional
+        The infill pitch the default size is derived from.
+    """
+    from loadpath.mesh.gmsh_mesher import mesh_2d, mesh_3d
+
+    body = rb.body
+    largest = max(body.slabs, key=lambda s: s.outline.area).outline
+    sz = default_mesh_size(largest, pitch) if size is None else size
+    if rb.analysis == "2d":
+        return mesh_2d(
+            body.slabs[0].outline,
+            sz,
+            refine_at=rb.refine_lines(),
+            split_at=rb.split_points(),
+            thickness=rb.thickness,
+            z_range=body.z_range,
+        )
+    return mesh_3d(body.slabs, sz, refine_at=rb.refine_lines(), cut_boxes=rb.cut_boxes())
+
+
+def analyze(
+    rb: ResolvedBody,
+    size: MeshSize | float | None = None,
+    pitch: float | None = None,
+    mesh: MeshData | None = None,
+    D: np.ndarray | None = None,
+    method: str = "auto",
+    scale_percentile: float = 99.0,
+) -> Analysis:
+    """Mesh, load, check, solve.
+
+    Parameters
+    ----------
+    rb : ResolvedBody
+    size : MeshSize or float, optional
+        Mesh size (see :func:`build_mesh`).
+    pitch : float, mm, optional
+        Infill pitch, for the default mesh size.
+    mesh : MeshData, optional
+        A ready mesh (e.g. from an STL with ``--model``); its dimension must match the analysis.
+    D : (nv, nv) or (m, nv, nv) float, MPa, optional
+        Constitutive matrices; default the load case's isotropic material.
+    method : {"auto", "direct", "amg-cg"}
+    scale_percentile : float
+        Percentile of ``|s|`` used as the fields' normalising stress.
+
+    Returns
+    -------
+    Analysis
+
+    Raises
+    ------
+    LoadCaseError
+        A selection that picks no mesh facet; a body free to move.
+    SolverError
+        The solve failed or its residual is too large.
+    """
+    t0 = time.perf_counter()
+    if mesh is None:
+        mesh = build_mesh(rb, size, pitch)
+    elif (mesh.dim == 2) != (rb.analysis == "2d"):
+        raise ValueError(f"a {mesh.dim}D mesh cannot carry a {rb.analysis} analysis")
+    t1 = time.perf_counter()
+    facets = facets_of(mesh)
+    picked: dict[str, np.ndarray] = {}
+    fixed = []
+    f = np.zeros(len(mesh.points) * mesh.dim)
+    for sup, sel in rb.supports:
+        m = _picked(mesh, facets, sel, rb)
+        picked[sup.name] = m
+        fixed.append(support_dofs(mesh, facets, m, sup))
+    for load, sel in rb.loads:
+        m = _picked(mesh, facets, sel, rb)
+        picked[load.name] = m
+        f += load_vector(mesh, facets, m, load, rb.name)
+    fixed_all = np.concatenate(fixed) if fixed else np.zeros(0, dtype=np.int64)
+    check_rigid(mesh, fixed_all, rb)
+    Dm = elasticity_matrix(rb.loadcase.material, mesh.dim) if D is None else D
+    result = solve(Problem(mesh, Dm, f, fixed_all), method=method)
+    exclude = np.unique(np.concatenate([facets.nodes[m].ravel() for m in picked.values()]))
+    scale = stress_scale(mesh, result.stress, mesh.points[exclude], rb, scale_percentile)
+    times = {"mesh": t1 - t0, **result.times}
+    return Analysis(rb, mesh, result, facets, picked, scale, times)
+
+
+def _picked(mesh: MeshData, facets: Facets, sel: Any, rb: ResolvedBody) -> np.ndarray:
+    m = pick(mesh, facets, sel)
+    if not np.any(m):
+        raise LoadCaseError(
+            f"{rb.loadcase.source}: {sel.role} {sel.name!r} ({sel.selector.describe()}) selects no element faces of the "
+            f"mesh of object {rb.name!r}; part bounding box is {rb.body.describe_bounds()}; widen the selector"
+        )
+    return m
+
+
+def _inplane(stress: np.ndarray) -> np.ndarray:
+    return stress if stress.shape[1] == 3 else stress[:, [0, 1, 5]]
+
+
+def stress_scale(
+    mesh: MeshData, stress: np.ndarray, bc_points: np.ndarray, rb: ResolvedBody, percentile: float = 99.0
+) -> float:
+    """Normalising stress: a high percentile of ``|s|`` away from supports and loads.
+
+    ``|s| = max(|sigma1|, |sigma2|)`` of the in-plane stress at the nodes, each node weighted by its
+    share of the cell sizes; nodes closer to the supported or loaded boundary than 5 % of the
+    body's bounding-box diagonal are left out, so the result does not depend on the mesh at a
+    boundary-condition singularity.
+
+    Returns
+    -------
+    float, MPa
+        Positive (1.0 for an unstressed body).
+    """
+    s1, s2, _, _ = principal_stresses(_inplane(stress))
+    mag = np.maximum(np.abs(s1), np.abs(s2))
+    k = mesh.cells.shape[1]
+    w = np.bincount(mesh.cells.ravel(), weights=np.repeat(np.abs(mesh.measures) / k, k), minlength=len(mesh.points))
+    lo, hi = rb.body.bounds
+    reach = 0.05 * float(np.linalg.norm((hi - lo)[: mesh.dim]))
+    keep = (w > 0) & np.isfinite(mag)
+    if len(bc_points):
+        d, _ = cKDTree(bc_points).query(mesh.points, k=1)
+        far = keep & (d > reach)
+        if np.sum(w[far]) > 0.2 * np.sum(w[keep]):
+            keep = far
+    vals, wts = mag[keep], w[keep]
+    if len(vals) == 0:
+        return 1.0
+    order = np.argsort(vals)
+    cum = np.cumsum(wts[order])
+    i = int(np.searchsorted(cum, percentile / 100.0 * cum[-1]))
+    v = float(vals[order][min(i, len(vals) - 1)])
+    return v if v > 0 else 1.0
+
+
+def field_for_layer(analysis: Analysis, z: float | None = None, principal: str = "max_abs") -> FEStressField:
+    """The stress field of the layer at height ``z``.
+
+    A 2D analysis gives the same field for every layer of the body; a 3D analysis the section of
+    the tetrahedral mesh at ``z`` (use the middle of the layer).
+
+    Parameters
+    ----------
+    analysis : Analysis
+    z : float, mm, optional
+        Layer height (middle of the layer); default the middle of the body.
+    principal : str
+        Followed principal stress (``loadpath.field.PRINCIPALS``).
+
+    Returns
+    -------
+    FEStressField
+        With ``load_entry`` (lines where the load enters this layer, or None), ``support_lines``,
+        ``region`` (the part outline at ``z``) and ``scale`` set.
+    """
+    rb = analysis.resolved
+    z0, z1 = rb.body.z_range
+    zq = 0.5 * (z0 + z1) if z is None else float(z)
+    if not z0 - 1e-6 <= zq <= z1 + 1e-6:
+        raise ValueError(f"z = {zq} mm is outside object {rb.name!r} (z {z0}..{z1})")
+    key = ("2d",) if rb.analysis == "2d" else ("3d", round(zq, 9))
+    base = analysis._cache.get(key)
+    if base is None:
+        slab = rb.body.slab_at(zq)
+        region = slab.outline if slab is not None else None
+        sup = _union([s.lines if rb.analysis == "2d" else s.lines_at(zq) for _, s in rb.supports])
+        entry = rb.load_entry(None if rb.analysis == "2d" else zq)
+        kw = dict(region=region, load_entry=entry, support_lines=sup)
+        if rb.analysis == "2d":
+            base = field_from_2d(analysis.mesh, analysis.result.stress, analysis.scale, **kw)
+        else:
+            base = field_from_slice(analysis.mesh, analysis.result.stress, zq, analysis.scale, **kw)
+        analysis._cache[key] = base
+    return base if principal == base.principal else base.with_principal(principal)  # type: ignore[return-value]
+
+
+def _union(parts: list[BaseGeometry | None]) -> BaseGeometry | None:
+    g = [p for p in parts if p is not None and not p.is_empty]
+    return shapely.line_merge(shapely.unary_union(g)) if g else None

@@ -1,0 +1,101 @@
+"""Stresses from displacements: per cell, at nodes (recovered), and their principal values.
+
+Recovery: the cell stress ``D B u`` is evaluated at each cell's own nodes (for straight quadratic
+elements it is linear in the cell, so this is exact within the cell) and averaged over the cells
+sharing a node, weighted by cell size. For quadratic elements this nodal average is accurate at
+free edges such as holes (the open-hole Kt test, benchmarks.md §4).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from loadpath.fea.assembly import cell_dofs, constitutive, gradients, strain_matrix
+from loadpath.fea.elements import ELEMENTS
+from loadpath.mesh.data import MeshData
+
+__all__ = ["cell_stress", "nodal_stress", "von_mises", "principal_3d"]
+
+_CHUNK = 50000
+
+
+def cell_stress(mesh: MeshData, D: np.ndarray, u: np.ndarray, xi: np.ndarray | None = None) -> np.ndarray:
+    """Stress of every cell at reference points.
+
+    Parameters
+    ----------
+    mesh : MeshData
+    D : (nv, nv) or (m, nv, nv) float, MPa
+    u : (n, d) or (n d,) float, mm
+    xi : (q, d) float, optional
+        Reference points; default the element's nodes.
+
+    Returns
+    -------
+    (m, q, nv) float, MPa
+        Voigt order (2D ``[sxx, syy, sxy]``, 3D ``[sxx, syy, szz, syz, sxz, sxy]``).
+    """
+    el = ELEMENTS[mesh.cell_type]
+    pts = el.nodes if xi is None else np.asarray(xi, dtype=float)
+    ue = np.asarray(u, dtype=float).ravel()[cell_dofs(mesh)]  # (m, k d)
+    Dm = constitutive(D, mesh)
+    out = []
+    for s in range(0, len(mesh.cells), _CHUNK):
+        sl = slice(s, s + _CHUNK)
+        B = strain_matrix(gradients(mesh, pts, sl).dN)  # (m, q, nv, k d)
+        eps = np.einsum("mqvn,mn->mqv", B, ue[sl])
+        out.append(np.einsum("mvw,mqw->mqv", Dm[sl], eps))
+    return np.concatenate(out, axis=0)
+
+
+def nodal_stress(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Recovered nodal stresses: size-weighted average of the cells' own nodal values.
+
+    Returns
+    -------
+    (n, nv) float, MPa
+    """
+    s = cell_stress(mesh, D, u)  # (m, k, nv)
+    m, k, nv = s.shape
+    w = np.repeat(np.abs(mesh.measures), k)
+    idx = mesh.cells.ravel()
+    tot = np.bincount(idx, weights=w, minlength=len(mesh.points))
+    out = np.zeros((len(mesh.points), nv))
+    flat = s.reshape(-1, nv)
+    for j in range(nv):
+        out[:, j] = np.bincount(idx, weights=w * flat[:, j], minlength=len(mesh.points))
+    used = tot > 0
+    out[used] /= tot[used, None]
+    out[~used] = np.nan
+    return out
+
+
+def von_mises(stress: np.ndarray) -> np.ndarray:
+    """Von Mises stress of 2D (plane stress) or 3D Voigt stresses, ``(n,)`` MPa."""
+    s = np.asarray(stress, dtype=float)
+    if s.shape[-1] == 3:
+        sxx, syy, sxy = s[..., 0], s[..., 1], s[..., 2]
+        return np.sqrt(sxx * sxx - sxx * syy + syy * syy + 3 * sxy * sxy)
+    sxx, syy, szz, syz, sxz, sxy = (s[..., i] for i in range(6))
+    return np.sqrt(
+        0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3 * (syz**2 + sxz**2 + sxy**2)
+    )
+
+
+def principal_3d(stress: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Principal stresses and directions of 3D Voigt stresses (one batched ``eigh``).
+
+    Returns
+    -------
+    values : (n, 3) float, MPa
+        Ascending.
+    vectors : (n, 3, 3) float
+        ``vectors[:, :, i]`` is the direction of ``values[:, i]``.
+    """
+    s = np.asarray(stress, dtype=float).reshape(-1, 6)
+    T = np.zeros((len(s), 3, 3))
+    T[:, 0, 0], T[:, 1, 1], T[:, 2, 2] = s[:, 0], s[:, 1], s[:, 2]
+    T[:, 1, 2] = T[:, 2, 1] = s[:, 3]
+    T[:, 0, 2] = T[:, 2, 0] = s[:, 4]
+    T[:, 0, 1] = T[:, 1, 0] = s[:, 5]
+    return np.linalg.eigh(T)

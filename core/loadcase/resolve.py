@@ -1,0 +1,197 @@
+"""Resolve a load case on the bodies of a print: which body, which boundary, 2D or 3D.
+
+:func:`resolve` is the step between the validated :class:`~loadpath.loadcase.model.LoadCase` and
+the finite-element analysis: it picks the bodies the load case applies to, merges their layers into
+prisms, evaluates every selector on each body's boundary (an empty selection is an error naming
+the selector and the part's bounding box), and decides whether the 2D plane-stress shortcut is
+exact enough (one prism and an in-plane load case) or a 3D analysis is needed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from loadpath.errors import LoadCaseError
+from loadpath.loadcase.body import Body, merge_slabs
+from loadpath.loadcase.model import HoleSelector, Load, LoadCase, Support
+from loadpath.loadcase.select import Selection, nearest_hole, select
+
+__all__ = ["ResolvedBody", "resolve", "resolve_body"]
+
+
+@dataclass(frozen=True)
+class ResolvedBody:
+    """A load case applied to one body.
+
+    Attributes
+    ----------
+    body : Body
+        Merged into prisms.
+    loadcase : LoadCase
+    supports : tuple of (Support, Selection)
+    loads : tuple of (Load, Selection)
+    analysis : {"2d", "3d"}
+        ``"2d"``: plane stress over the body's thickness (one prism, in-plane load case).
+    reason : str
+        Why this analysis was chosen (for reports).
+    """
+
+    body: Body
+    loadcase: LoadCase
+    supports: tuple[tuple[Support, Selection], ...]
+    loads: tuple[tuple[Load, Selection], ...]
+    analysis: str
+    reason: str
+
+    @property
+    def name(self) -> str:
+        """The body's name."""
+        return self.body.name
+
+    @property
+    def thickness(self) -> float:
+        """Height of the body, mm (the plate thickness of a 2D analysis)."""
+        z0, z1 = self.body.z_range
+        return z1 - z0
+
+    @property
+    def selections(self) -> tuple[Selection, ...]:
+        """All selections, supports first."""
+        return tuple(s for _, s in self.supports) + tuple(s for _, s in self.loads)
+
+    def load_entry(self, z: float | None = None) -> BaseGeometry | None:
+        """Where the load enters: the side-wall lines the load selectors picked at height ``z``.
+
+        Parameters
+        ----------
+        z : float, mm, optional
+            Layer height; None: all heights.
+
+        Returns
+        -------
+        shapely (Multi)LineString or None
+        """
+        parts = []
+        for _, sel in self.loads:
+            g = sel.lines if z is None else sel.lines_at(z)
+            if g is not None and not g.is_empty:
+                parts.append(g)
+        if not parts:
+            return None
+        return shapely.line_merge(shapely.unary_union(parts))
+
+    def refine_lines(self) -> list[BaseGeometry]:
+        """Picked side-wall lines (xy), where the mesh is refined."""
+        return [g for s in self.selections if (g := s.lines) is not None]
+
+    def split_points(self) -> np.ndarray:
+        """Ends of the picked side-wall pieces, ``(n, 2)`` mm: outline vertices the mesh must have."""
+        pts = []
+        for s in self.selections:
+            if s.lower is None:
+                continue
+            for _, _, g in s.lateral:
+                for ln in getattr(g, "geoms", [g]):
+                    c = np.asarray(ln.coords)
+                    if len(c) >= 2 and not np.allclose(c[0], c[-1]):
+                        pts.extend([c[0, :2], c[-1, :2]])
+        return np.array(pts, dtype=float).reshape(-1, 2)
+
+    def cut_boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Boxes of side/box selectors clipped to a little more than the body, for conforming 3D meshes."""
+        lo_b, hi_b = self.body.bounds
+        pad = 0.01 * float(np.max(hi_b - lo_b)) + 1.0
+        out = []
+        for s in self.selections:
+            if s.lower is None:
+                continue
+            lo = np.maximum(s.lower, lo_b - pad)
+            hi = np.minimum(s.upper, hi_b + pad)
+            if np.all(hi > lo):
+                out.append((lo, hi))
+        return out
+
+
+def resolve(loadcase: LoadCase, bodies: Iterable[Body], analysis: str | None = None) -> tuple[ResolvedBody, ...]:
+    """Apply a load case to the bodies of a print.
+
+    Parameters
+    ----------
+    loadcase : LoadCase
+    bodies : iterable of Body
+        One per object, one slab per layer (or already merged).
+    analysis : {"2d", "3d"}, optional
+        Force an analysis; default: 2D when the body is one prism and the load case is in-plane.
+
+    Returns
+    -------
+    tuple of ResolvedBody
+        The body named by ``object =``, or every body (each must be held by its own supports).
+
+    Raises
+    ------
+    LoadCaseError
+        Unknown object; a selector that selects nothing (naming it and the bounding box).
+    """
+    bodies = list(bodies)
+    if loadcase.object is not None:
+        chosen = [b for b in bodies if b.name == loadcase.object]
+        if not chosen:
+            names = ", ".join(repr(b.name) for b in bodies) or "none"
+            raise LoadCaseError(
+                f"{loadcase.source}: object = {loadcase.object!r} is not in the G-code (objects found: {names}); "
+                "fix the name or remove the key"
+            )
+        bodies = chosen
+    if not bodies:
+        raise LoadCaseError(f"{loadcase.source}: there is no object to apply the load case to")
+    return tuple(resolve_body(loadcase, b, analysis) for b in bodies)
+
+
+def resolve_body(loadcase: LoadCase, body: Body, analysis: str | None = None) -> ResolvedBody:
+    """Apply a load case to one body (see :func:`resolve`)."""
+    merged = merge_slabs(body)
+    origin = merged.bounds[0] if loadcase.frame == "part" else np.zeros(3)
+    sups = tuple((s, select(s.where, merged, origin, s.name, "support")) for s in loadcase.supports)
+    loads = tuple((ld, select(ld.where, merged, origin, ld.name, "load")) for ld in loadcase.loads)
+    sels = [s for _, s in sups] + [s for _, s in loads]
+    if analysis is not None:
+        if analysis not in ("2d", "3d"):
+            raise ValueError(f"analysis must be '2d' or '3d', not {analysis!r}")
+        kind, reason = analysis, "requested"
+    elif len(merged.slabs) > 1:
+        kind, reason = "3d", f"the part has {len(merged.slabs)} distinct regions over its height"
+    elif loadcase.needs_3d:
+        kind, reason = "3d", "the load case has loads, supports or selectors in z"
+    elif any(s.measure("2d") <= 0 < s.measure("3d") for s in sels):
+        kind, reason = "3d", "a selector picks only top or bottom faces"
+    else:
+        kind, reason = "2d", "one region over the height and an in-plane load case: plane stress"
+    for sel in sels:
+        if sel.measure(kind) <= 0:
+            raise LoadCaseError(_empty_message(loadcase, merged, sel))
+    return ResolvedBody(merged, loadcase, sups, loads, kind, reason)
+
+
+def _empty_message(lc: LoadCase, body: Body, sel: Selection) -> str:
+    what = f"{sel.role} {sel.name!r} ({sel.selector.describe()})"
+    extra = ""
+    if isinstance(sel.selector, HoleSelector):
+        origin = body.bounds[0] if lc.frame == "part" else np.zeros(3)
+        p = (sel.selector.near[0] + origin[0], sel.selector.near[1] + origin[1])
+        best = math.inf
+        for s in body.slabs:
+            _, d = nearest_hole(s.outline, p)
+            best = min(best, d)
+        extra = "; the part has no holes" if math.isinf(best) else f"; the nearest hole is {best:.3f} mm away"
+    frame = ' (selector coordinates are relative to its minimum corner: frame = "part")' if lc.frame == "part" else ""
+    return (
+        f"{lc.source}: {what} selects no boundary of object {body.name!r}{extra}; "
+        f"part bounding box is {body.describe_bounds()}{frame}"
+    )
