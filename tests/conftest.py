@@ -49,3 +49,6 @@ REPO = Path(__file__).resolve().parent.parent
 @pytest.fixture(scope="session")
 def repo_root() -> Path:
     return REPO
+
+
+from fixtures import *  # noqa: E402,F401,F403  shared real-slicer fixtures (tests/fixtures.py)
