@@ -107,7 +107,7 @@ def _sample_curve(line: shapely.LineString, pitch: float) -> Points2:
     """Points one pitch apart along a curve, centred on it, (n, 2)."""
     length = line.length
     n = int(np.floor(length / pitch + 1e-9)) + 1
-    s = 0.5 * (length - (n - 1) * pitch) + pitch * np.arange(n)
+    s = np.clip(0.5 * (length - (n - 1) * pitch) + pitch * np.arange(n), 0.0, length)
     return shapely.get_coordinates(shapely.line_interpolate_point(line, s))
 
 

@@ -28,6 +28,21 @@ __all__ = ["QPSolution", "solve", "solve_osqp", "banded_to_csc"]
 _BANDED_TOL = 1e-10
 
 
+def _osqp_major() -> int:
+    try:
+        from importlib.metadata import version
+
+        return int(version("osqp").split(".")[0])
+    except Exception:  # pragma: no cover - metadata missing
+        return 1
+
+
+# OSQP 1.x renamed "polish" to "polishing" and warns that solve() will start raising on failure;
+# we check the status ourselves, so ask it not to raise.
+_POLISH = {"polishing": True} if _osqp_major() >= 1 else {"polish": True}
+_SOLVE_KW = {"raise_error": False} if _osqp_major() >= 1 else {}
+
+
 @dataclass(frozen=True)
 class QPSolution:
     """Result of one swarm QP.
@@ -66,6 +81,21 @@ def _kkt(qp: BandedQP, x: Floats) -> float:
     return float(np.max(np.abs(x - np.clip(x - g, qp.lo, qp.hi)), initial=0.0))
 
 
+def _setup(solver: object, qp: BandedQP, n: int) -> None:
+    solver.setup(  # type: ignore[attr-defined]
+        banded_to_csc(qp.ab),
+        np.asarray(qp.q, dtype=float),
+        sp.identity(n, format="csc"),
+        qp.lo,
+        qp.hi,
+        verbose=False,
+        eps_abs=TOL.qp_eps_abs,
+        eps_rel=TOL.qp_eps_rel,
+        max_iter=200_000,
+        **_POLISH,
+    )
+
+
 def solve_osqp(qp: BandedQP, x0: Floats | None = None) -> QPSolution:
     """Solve the QP with OSQP (tight tolerances, polish), clip to the box, check the status.
 
@@ -92,21 +122,16 @@ def solve_osqp(qp: BandedQP, x0: Floats | None = None) -> QPSolution:
         raise ToolMissingError("the swarm engine needs OSQP: pip install osqp qpsolvers") from exc
     n = qp.n
     solver = osqp.OSQP()
-    solver.setup(
-        banded_to_csc(qp.ab),
-        np.asarray(qp.q, dtype=float),
-        sp.identity(n, format="csc"),
-        qp.lo,
-        qp.hi,
-        verbose=False,
-        eps_abs=TOL.qp_eps_abs,
-        eps_rel=TOL.qp_eps_rel,
-        polish=True,
-        max_iter=200_000,
-    )
-    if x0 is not None:
-        solver.warm_start(x=np.clip(x0, qp.lo, qp.hi))
-    res = solver.solve()
+    try:
+        _setup(solver, qp, n)
+        if x0 is not None:
+            solver.warm_start(x=np.clip(x0, qp.lo, qp.hi))
+        res = solver.solve(**_SOLVE_KW)
+    except (ValueError, RuntimeError, getattr(osqp, "OSQPException", RuntimeError)) as exc:
+        raise SolverError(
+            f"OSQP rejected a swarm QP with {n} unknowns ({exc}); the bounds or the stress field are "
+            "inconsistent (check the field for NaN inside the region)"
+        ) from exc
     status = str(res.info.status)
     if status != "solved" or res.x is None or not np.all(np.isfinite(res.x)):
         raise SolverError(

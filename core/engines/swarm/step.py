@@ -281,18 +281,39 @@ def _ideal(st: SwarmState, ctx: Context) -> tuple[Points2, Points2, Floats]:
 
 
 def _remove_blocked(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx: Context):
-    """Stage 2: agents whose ideal location leaves the domain end their path; chains split."""
-    ok = ctx.domain.inside(t) & ctx.grid.free_path(st.pos, t, st.pid)
+    """Stage 2: agents whose ideal location leaves the domain end their path; chains split.
+
+    An agent stopped by the domain's boundary takes a last, shorter step that brings its bead's
+    edge to the boundary (centre half a pitch from it), so paths reach the region's edge.
+
+    Returns the remaining state and arrays, and the last points ``(points, pid)`` of the removed.
+    """
+    in_dom = ctx.domain.inside(t)
+    ok = in_dom & ctx.grid.free_path(st.pos, t, st.pid)
+    none = (np.zeros((0, 2)), np.zeros(0, np.int64))
     if np.all(ok):
-        return st, t, sdir, mass
+        return st, t, sdir, mass, none
     ctx.count("blocked", int(np.count_nonzero(~ok)))
+    # last partial step for those stopped by the boundary
+    last = none
+    ends = np.flatnonzero(~in_dom)
+    if len(ends):
+        dist, _, _ = ctx.domain.ray(st.pos[ends], sdir[ends], 2.0 * ctx.pitch)
+        reach = np.where(np.isfinite(dist), dist - 0.5 * ctx.pitch, 0.0)
+        go = (reach > 0.1 * ctx.pitch) & (reach <= ctx.pitch)
+        q = st.pos[ends[go]] + reach[go, None] * sdir[ends[go]]
+        fine = ctx.grid.free_path(st.pos[ends[go]], q, st.pid[ends[go]]) & ctx.grid.clear_of(
+            q, st.pid[ends[go]], (ctx.params.min_gap + 1.0 / 12.0) * ctx.pitch
+        )
+        last = (q[fine], st.pid[ends[go]][fine])
+        ctx.grid.mark(st.pos[ends[go]][fine], q[fine], st.pid[ends[go]][fine])
     gone_before = np.zeros(st.n, dtype=bool)
     gone_before[1:] = ~ok[:-1]
     start = (st.start | gone_before)[ok]
     if len(start):
         start[0] = True
     st2 = SwarmState(pos=st.pos[ok], head=st.head[ok], pid=st.pid[ok], start=start)
-    return st2, t[ok], sdir[ok], mass[ok]
+    return st2, t[ok], sdir[ok], mass[ok], last
 
 
 def _extend(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx: Context) -> _Ext:
@@ -531,10 +552,10 @@ def step(st: SwarmState, ctx: Context) -> tuple[SwarmState, Points2, Ints, Float
         Their previous locations (spawned agents: the new location).
     """
     t, sdir, mass = _ideal(st, ctx)
-    st, t, sdir, mass = _remove_blocked(st, t, sdir, mass, ctx)
-    empty = (st, np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 2)))
+    st, t, sdir, mass, (last, last_pid) = _remove_blocked(st, t, sdir, mass, ctx)
+    last_pitch = np.full(len(last), ctx.pitch)
     if st.n == 0:
-        return empty
+        return st, last, last_pid, last_pitch, last
     ext = _extend(st, t, sdir, mass, ctx)
     kw, kills, sw, spairs = _propose(ext, ctx)
     variants = [ext]
@@ -594,4 +615,10 @@ def step(st: SwarmState, ctx: Context) -> tuple[SwarmState, Points2, Ints, Float
     new = SwarmState(pos=xm, head=head, pid=pid, start=start)
     ctx.grid.mark(prev, xm, pid)
     new = _merge(new, ctx)
-    return new, xm, pid, pitch[mv], prev
+    return (
+        new,
+        np.concatenate([xm, last]),
+        np.concatenate([pid, last_pid]),
+        np.concatenate([pitch[mv], last_pitch]),
+        np.concatenate([prev, last]),
+    )
