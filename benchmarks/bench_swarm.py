@@ -31,12 +31,11 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import shapely  # noqa: E402
-from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box  # noqa: E402
-
 from loadpath import metrics as M  # noqa: E402
 from loadpath.engines.swarm import generate  # noqa: E402
 from loadpath.field import AnalyticField, kirsch_tensor  # noqa: E402
 from loadpath.toolpath import EngineInput  # noqa: E402
+from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box  # noqa: E402
 
 PITCH = 0.4
 PAPER = {0.5: (0.981, 6.1e-3), 5.0: (0.993, 12.9e-3), 50.0: (0.998, 16.4e-3)}
@@ -99,7 +98,7 @@ def plot(out: Path, runs, region):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(runs), figsize=(5 * len(runs), 5))
-    for ax, (K, tp) in zip(np.atleast_1d(axes), runs.items()):
+    for ax, (K, tp) in zip(np.atleast_1d(axes), runs.items(), strict=True):
         for p in tp.paths:
             ax.plot(p.points[:, 0], p.points[:, 1], lw=0.6)
         for g in shapely.get_parts(region):

@@ -38,13 +38,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from scipy.spatial import cKDTree
-
 from loadpath._typing import Bools, Floats, Ints, Points2, Region
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
 from loadpath.tolerances import TOL
 from loadpath.toolpath import Path, Toolpaths
+from scipy.spatial import cKDTree
 
 __all__ = [
     "AlignmentResult",

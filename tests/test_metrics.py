@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from shapely.geometry import MultiPolygon, Point, box
-
 from loadpath import metrics as M
 from loadpath.errors import SettingsError
 from loadpath.field import AnalyticField, kirsch_tensor
 from loadpath.toolpath import Path, Toolpaths
+from shapely.geometry import MultiPolygon, Point, box
 
 
 def _uniform(angle_deg: float, region=None) -> AnalyticField:

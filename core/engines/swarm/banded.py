@@ -24,9 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import LinAlgError, solveh_banded
-
 from loadpath._typing import Floats
+from scipy.linalg import LinAlgError, solveh_banded
 
 __all__ = ["BandedQP", "BandedResult", "solve_banded_box_qp", "banded_matvec", "banded_to_dense"]
 

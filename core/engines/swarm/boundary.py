@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-
 from loadpath._typing import Bools, Floats, Points2, Region
 
 __all__ = ["Domain", "boundary_segments"]

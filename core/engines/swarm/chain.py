@@ -32,7 +32,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from loadpath._typing import Bools, Floats, Points2
 from loadpath.engines.swarm.banded import BandedQP
 

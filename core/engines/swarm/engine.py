@@ -24,8 +24,6 @@ from dataclasses import fields
 
 import numpy as np
 import shapely
-from shapely.geometry.base import BaseGeometry
-
 from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.swarm.boundary import Domain
 from loadpath.engines.swarm.grid import Occupancy
@@ -33,6 +31,7 @@ from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, step
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
 from loadpath.toolpath import EngineInput, Path, Toolpaths
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["generate", "SwarmParams"]
 
@@ -70,7 +69,7 @@ class _Recorder:
         pts, pid, pitch = pts[~dup], pid[~dup], pitch[~dup]
         cuts = np.flatnonzero(np.diff(pid)) + 1
         out = []
-        for p, w in zip(np.split(pts, cuts), np.split(pitch, cuts)):
+        for p, w in zip(np.split(pts, cuts), np.split(pitch, cuts), strict=True):
             if len(p) >= min_points:
                 out.append(Path(points=p, pitch=w))
         return out

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
 from loadpath._typing import Bools, Ints, Points2
 
 __all__ = ["Occupancy"]

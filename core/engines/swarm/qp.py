@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-
 from loadpath._typing import Floats
 from loadpath.engines.swarm.banded import BandedQP, banded_matvec, solve_banded_box_qp
 from loadpath.errors import SolverError, ToolMissingError

@@ -36,7 +36,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
 from loadpath._typing import Bools, Floats, Ints, Points2
 from loadpath.engines.swarm.boundary import Domain
 from loadpath.engines.swarm.chain import (

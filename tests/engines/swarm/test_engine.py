@@ -5,14 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
-
 from loadpath import metrics as M
 from loadpath.engines import generate as generate_by_name
 from loadpath.engines.swarm import generate
 from loadpath.errors import SettingsError
 from loadpath.field import AnalyticField, kirsch_tensor
 from loadpath.toolpath import EngineInput
+from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
 
 PITCH = 0.4
 
@@ -134,7 +133,7 @@ def test_deterministic():
     a, _ = _run(region, func, load)
     b, _ = _run(region, func, load)
     assert len(a.paths) == len(b.paths)
-    for p, q in zip(a.paths, b.paths):
+    for p, q in zip(a.paths, b.paths, strict=True):
         assert np.array_equal(p.points, q.points) and np.array_equal(p.pitch, q.pitch)
 
 

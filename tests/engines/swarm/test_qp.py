@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from loadpath.engines.swarm import qp as Q
 from loadpath.engines.swarm.banded import BandedQP, banded_to_dense, solve_banded_box_qp
 from loadpath.engines.swarm.chain import ChainProblem, build_qp, potentials
