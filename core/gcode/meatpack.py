@@ -26,6 +26,8 @@ Python loops run over lines (encoder) and over the few bytes that announce full 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 from loadpath.errors import GCodeParseError
 
@@ -56,7 +58,8 @@ def _decode_table(nospaces: bool) -> np.ndarray:
     return table
 
 
-_DECODE = {True: _decode_table(True), False: _decode_table(False)}
+_DECODE_BOTH = np.concatenate([_decode_table(False), _decode_table(True)])  # 16 codes each
+_COMMAND = re.compile(rb"\xff\xff[\x00-\xff]")
 _PARAM = np.zeros(256, dtype=bool)
 _PARAM[np.frombuffer(b"XYZEFIJRSGPWHCA", dtype=np.uint8)] = True
 
@@ -230,21 +233,18 @@ def unpack(data: bytes) -> bytes:
     if n == 0:
         return b""
     b = np.frombuffer(data, dtype=np.uint8)
-    # --- commands, and the mode of every byte
-    packed = np.zeros(n, dtype=bool)
-    nospace = np.zeros(n, dtype=bool)
-    command = np.zeros(n, dtype=bool)
+    # --- commands, and the mode of every byte: segments alternate data, command, data, ...
+    seg_len: list[int] = []
+    seg_packed: list[bool] = []
+    seg_nospace: list[bool] = []
     packing = nospaces = False
-    pos = 0
-    while pos < n:
-        k = data.find(_SIGNAL, pos)
-        end = n if k < 0 else k
-        packed[pos:end] = packing
-        nospace[pos:end] = nospaces
-        if k < 0:
-            break
-        command[k : k + 3] = True
-        code = data[k + 2] if k + 2 < n else -1
+    prev = 0
+    for m in _COMMAND.finditer(data):
+        k = m.start()
+        seg_len += [k - prev, 3]
+        seg_packed += [packing, False]
+        seg_nospace += [nospaces, False]
+        code = data[k + 2]
         if code == _ENABLE:
             packing = True
         elif code in (_DISABLE, _RESET):
@@ -253,7 +253,15 @@ def unpack(data: bytes) -> bytes:
             nospaces = True
         elif code == _NOSPACES_OFF:
             nospaces = False
-        pos = k + 3
+        prev = k + 3
+    seg_len.append(n - prev)
+    seg_packed.append(packing)
+    seg_nospace.append(nospaces)
+    is_command = np.zeros(len(seg_len), dtype=bool)
+    is_command[1::2] = True
+    packed = np.repeat(np.array(seg_packed, dtype=bool), seg_len)
+    nospace = np.repeat(np.array(seg_nospace, dtype=bool), seg_len)
+    command = np.repeat(is_command, seg_len)
     # --- pair bytes versus full characters (a newline in the low half ends the pair)
     lo, hi = b & 15, b >> 4
     extra = ((lo == 15).astype(np.int64) + ((hi == 15) & (lo != 12))) * packed
@@ -294,13 +302,13 @@ def unpack(data: bytes) -> bytes:
     out[start[verbatim]] = b[verbatim]
     h = np.flatnonzero(heads)
     hl, hh, hs = lo[h], hi[h], start[h]
-    table = np.where(nospace[h, None], _DECODE[True], _DECODE[False])
-    rows = np.arange(len(h))
+    table = _DECODE_BOTH
+    row = nospace[h].astype(np.int64) * 16  # second half of the table: no-spaces mode
     at1 = np.minimum(h + 1, n - 1)
     at2 = np.minimum(h + 1 + (hl == 15), n - 1)
-    out[hs] = np.where(hl == 15, b[at1], table[rows, np.minimum(hl, 14)])
+    out[hs] = np.where(hl == 15, b[at1], table[row + hl])
     keep2 = hl != 12
-    second = np.where(hh == 15, b[at2], table[rows, np.minimum(hh, 14)])
+    second = np.where(hh == 15, b[at2], table[row + hh])
     out[hs[keep2] + 1] = second[keep2]
     return _respace(out).tobytes()
 
