@@ -19,6 +19,15 @@ Round trips:
   MeatPack drops while the newline it had written before them survives (checked against libbgcode
   in ``tests/gcode/test_bgcode_reference.py``).
 
+Use in a reader/writer (the G-code text of a binary file has no ``; prusaslicer_config`` block: the
+configuration is :attr:`BinaryGCode.slicer_config`)::
+
+    data = path.read_bytes()
+    container = bgcode.decode(data) if bgcode.is_bgcode(data) else None
+    text = container.gcode_bytes if container else data      # parse this
+    ...
+    out = bgcode.encode(container, new_text) if container else new_text   # binary stays binary
+
 Example
 -------
 >>> from loadpath.gcode import bgcode
@@ -199,6 +208,11 @@ class BinaryGCode:
             if block.kind == kind and block.encoding == MetadataEncoding.INI:
                 out.update(block.items)
         return out
+
+    @property
+    def gcode_bytes(self) -> bytes:
+        """The G-code text as the exact bytes stored in the file."""
+        return self.gcode.encode(*_TEXT)
 
     @property
     def slicer_config(self) -> dict[str, str]:

@@ -84,7 +84,7 @@ def test_real_file_thumbnails_are_the_images_their_parameters_describe(real):
 
 def test_real_file_gcode_text(real):
     text = real.gcode
-    assert real.gcode_blocks[0].text_size == len(text.encode()) == 53301
+    assert real.gcode_blocks[0].text_size == len(real.gcode_bytes) == len(text.encode()) == 53301
     # one ;LAYER_CHANGE per layer: max_layer_z 6.2 mm at 0.2 mm
     assert text.count(";LAYER_CHANGE\n") == 31
     assert 'M862.3 P "MK4S"\n' in text  # non-G lines keep their spaces
