@@ -2,7 +2,9 @@
 
 Usage::
 
-    python benchmarks/bench_bgcode.py [--part tower] [--repeats 7] [--work DIR]
+    python benchmarks/bench_bgcode.py [OUT_DIR] [--part tower] [--repeats 7] [--quick]
+
+(``./dev bench`` passes the same arguments to every benchmark; unknown ones are ignored.)
 
 The input is real: PrusaSlicer 2.5 slices a test part (``tests/slicing.py``; default the 24 mm
 twisted tower, 120 layers, MK3S presets), libbgcode's converter (``pybgcode``, the ``test`` extra)
@@ -63,18 +65,21 @@ def _reference(pybgcode, src: Path, dst: Path, to_binary: bool) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("out_dir", type=Path, nargs="?", default=None,
+                    help="folder for the sliced files (default: temporary)")
     ap.add_argument("--part", default="tower", choices=sorted(slicing.PARTS))
     ap.add_argument("--repeats", type=int, default=7)
-    ap.add_argument("--work", type=Path, default=None,
-                    help="folder for the sliced files (default: temporary)")
-    args = ap.parse_args(argv)
+    ap.add_argument("--quick", action="store_true", help="3 repeats")
+    args, _ = ap.parse_known_args(argv)
+    if args.quick:
+        args.repeats = 3
     try:
         import pybgcode
     except ImportError:
         print("pybgcode is not installed: pip install -e .[test]")
         return 1
 
-    work = args.work or Path(tempfile.mkdtemp(prefix="bench_bgcode_"))
+    work = (args.out_dir / "bgcode") if args.out_dir else Path(tempfile.mkdtemp(prefix="bench_bgcode_"))
     work.mkdir(parents=True, exist_ok=True)
     stl = slicing.write_stl(slicing.PARTS[args.part](), work / f"{args.part}.stl")
     ascii_path = slicing.slice_prusa(stl, work / f"{args.part}.gcode", **slicing.PRUSA_MIXED)
