@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     ref_dec = _median_time(lambda: _reference(pybgcode, bin_path, work / "ref.gcode", False), args.repeats)
     ref_enc = _median_time(lambda: _reference(pybgcode, ascii_path, work / "ref.bgcode", True), args.repeats)
 
-    print(f"input: PrusaSlicer {slicing.prusa_version()} '{args.part}' (MK3S, PRUSA_MIXED) -> libbgcode "
+    print(f"input: {slicing.prusa_version()} '{args.part}' (MK3S, PRUSA_MIXED) -> libbgcode "
           f"{pybgcode.version()}: {len(data) / 1e6:.3f} MB binary, {mb:.3f} MB G-code text, "
           f"{len(blocks)} G-code blocks; median of {args.repeats}")
     print()
