@@ -44,6 +44,8 @@ import base64
 import struct
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import TypeVar
 
 import numpy as np
 from loadpath.errors import GCodeParseError, UnsupportedFlavorError
@@ -86,6 +88,7 @@ __all__ = [
     "to_ascii",
 ]
 
+_E = TypeVar("_E", bound=IntEnum)
 GCODE_BLOCK_SIZE = 65536  # PrusaSlicer's G-code cache: a block holds whole lines, at most this many bytes
 _TEXT = ("utf-8", "surrogateescape")  # lossless bytes <-> str
 _U16 = struct.Struct("<H")
@@ -289,7 +292,7 @@ def decode(data: bytes, verify_checksum: bool = True) -> BinaryGCode:
     )
 
 
-def _u16(block: RawBlock, what: str, cls):
+def _u16(block: RawBlock, what: str, cls: type[_E]) -> _E:
     value = _U16.unpack_from(block.params)[0]
     try:
         return cls(value)

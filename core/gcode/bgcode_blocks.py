@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import struct
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import TypeVar
 
 from loadpath.errors import GCodeParseError, UnsupportedFlavorError
 from loadpath.gcode import heatshrink
@@ -44,6 +46,7 @@ __all__ = [
     "DISABLE_HINT",
 ]
 
+_E = TypeVar("_E", bound=IntEnum)
 MAGIC = b"GCDE"
 VERSION = 1  # the only version the specification defines
 _FILE_HEADER = struct.Struct("<4sIH")  # magic, version, checksum type: 10 bytes
@@ -144,7 +147,7 @@ class RawBlock:
         return f"block {self.index} ({self.type.name.lower()}, offset {self.offset})"
 
 
-def _enum(cls: type[IntEnum], value: int, what: str, where: str) -> IntEnum:
+def _enum(cls: type[_E], value: int, what: str, where: str) -> _E:
     try:
         return cls(value)
     except ValueError:
@@ -181,10 +184,12 @@ def read_file_header(data: bytes | memoryview) -> tuple[int, ChecksumType]:
             f"binary G-code version {version} is not supported (loadpath reads version {VERSION}); "
             "update loadpath " + DISABLE_HINT
         )
-    return version, _enum(ChecksumType, checksum, "checksum type", "file header")  # type: ignore[return-value]
+    return version, _enum(ChecksumType, checksum, "checksum type", "file header")
 
 
-def iter_blocks(data: bytes | memoryview, checksum: ChecksumType, verify: bool = True):
+def iter_blocks(
+    data: bytes | memoryview, checksum: ChecksumType, verify: bool = True
+) -> Iterator[RawBlock]:
     """Yield the :class:`RawBlock` s after the file header, checking sizes and checksums.
 
     Parameters
@@ -212,9 +217,9 @@ def iter_blocks(data: bytes | memoryview, checksum: ChecksumType, verify: bool =
         where = f"block {index} (offset {pos})"
         if pos + _BLOCK_HEADER.size > n:
             raise _truncated(where, pos + _BLOCK_HEADER.size, n)
-        btype, comp, usize = _BLOCK_HEADER.unpack_from(view, pos)
-        btype = _enum(BlockType, btype, "block type", where)
-        comp = _enum(Compression, comp, "compression", where)
+        type_code, comp_code, usize = _BLOCK_HEADER.unpack_from(view, pos)
+        btype = _enum(BlockType, type_code, "block type", where)
+        comp = _enum(Compression, comp_code, "compression", where)
         head = _BLOCK_HEADER.size
         size = usize
         if comp != Compression.NONE:

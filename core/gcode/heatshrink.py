@@ -14,12 +14,14 @@ of length - 1); bits are packed MSB first and the last byte is zero-padded.
 
 from __future__ import annotations
 
+from types import ModuleType
+
 from loadpath.errors import GCodeParseError, ToolMissingError
 
 __all__ = ["compress", "decompress"]
 
 
-def _lib():
+def _lib() -> ModuleType:
     try:
         import heatshrink2
     except ImportError:  # pragma: no cover - heatshrink2 is an install requirement
