@@ -35,6 +35,8 @@ class Tolerances:
     anisotropy_rel : float
         A principal direction is undefined where ``sigma1 - sigma2`` is below this fraction of the
         field's normalising stress.
+    arc_chord_mm : float
+        G2/G3 arcs read from G-code are sampled into chords that deviate from the arc by at most this.
     """
 
     length_mm: float = 1e-6
@@ -46,6 +48,7 @@ class Tolerances:
     qp_eps_rel: float = 1e-7
     fea_residual: float = 1e-8
     anisotropy_rel: float = 1e-3
+    arc_chord_mm: float = 0.005
 
 
 TOL = Tolerances()

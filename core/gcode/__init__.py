@@ -1,1 +1,128 @@
+r"""Lossless G-code model: every original line kept, machine state per line, moves and blocks per layer.
 
+Reading
+-------
+>>> from loadpath import gcode
+>>> program = gcode.read("examples/ohs.gcode")           # doctest: +SKIP
+>>> program.to_bytes() == open("examples/ohs.gcode", "rb").read()   # byte for byte  # doctest: +SKIP
+True
+
+:func:`parse` (bytes or str) and :func:`read` (path) return a :class:`Program`.  Unmodified,
+``program.to_bytes()`` is the input byte for byte (line endings, trailing blanks, encoding).
+
+Dialects are detected from the file itself (:class:`Dialect`): the header line names the slicer
+(PrusaSlicer, SuperSlicer, OrcaSlicer, BambuStudio, Cura) and the layer markers found decide the
+marker family (``"prusa"``: ``;LAYER_CHANGE``/``;TYPE:``/``;WIDTH:``/``;HEIGHT:``; ``"bambu"``:
+``; CHANGE_LAYER``/``; FEATURE:``/``; LINE_WIDTH:``; ``"cura"``: ``;LAYER:n``/``;TYPE:``/``;MESH:``).
+
+What a Program holds (all arrays numpy, indexed by 0-based line number or move row)
+--------------------------------------------------------------------------------------
+- ``program.state`` (:class:`LineState`): machine state **after** each line: ``x, y, z`` (mm,
+  logical), ``e`` (E axis as the firmware counts it), ``de`` (mm of filament this line pushed/pulled,
+  any E mode), ``f`` (mm/min), ``absolute_xyz``, ``e_relative``, ``moved_xy``, ``retracted`` (mm of
+  filament held back by retract/wipe moves), ``fw_retracted`` (G10/G11), ``tool``, ``cmd``.
+  ``program.state_before(i)`` / ``state_after(i)`` give a :class:`MachineState` with names resolved.
+- Per line also: ``feature_of_line``, ``object_of_line``, ``layer_of_line``, ``width_of_line``,
+  ``height_of_line``, ``wipe_of_line``, ``kind_of_line`` (:data:`KINDS`).
+- ``program.moves``: one structured array (:data:`MOVE_DTYPE`) of every move in file order: start and
+  end point (``x0 y0 z0 x1 y1 z1``, mm), ``e`` (mm of filament), ``f``, ``width``, ``height``,
+  ``line``, ``layer``, ``feature``, ``role`` (:class:`Role`), ``object``, ``tool`` and the flags
+  ``travel extrude retract unretract wipe lift lower arc``.  G2/G3 arcs are sampled into chords
+  (within ``TOL.arc_chord_mm``), each chord carrying the arc's line.
+- ``program.layers``: :class:`Layer` objects (``index``, ``number``, ``z``, ``height``, ``start``,
+  ``stop``, ``moves`` = view of the layer's rows, ``blocks`` = view of its blocks, ``roles``).
+- ``program.blocks``: :data:`BLOCK_DTYPE` rows, one per feature block, with the line ranges a splicer
+  replaces (``start:stop`` core, ``span_start:span_stop`` with entering travel and leaving
+  wipe/retraction, ``exit_start:exit_stop`` the leaving wipe/retraction wherever it is); see
+  :mod:`loadpath.gcode.blocks`.  ``program.block(i)`` / ``blocks_of(layer)`` give :class:`Block`.
+- ``program.features`` / ``objects``: names indexed by the codes above; ``config`` (the embedded
+  slicer configuration), ``header``, ``header_widths``; ``dialect``; ``print_end``.
+- Text: ``line(i)``, ``lines_bytes(start, stop)``, ``replace_lines([(start, stop, new_bytes), ...])``.
+
+Bad input raises a one-line :class:`~loadpath.errors.GCodeParseError` or
+:class:`~loadpath.errors.UnsupportedFlavorError` naming what, where and the fix: empty file, not
+text, binary G-code, inch units (``G20``), no layer markers, truncated file (:mod:`.checks`),
+malformed motion words.  ``parse(..., strict=False)`` skips the structural checks (no layer markers,
+truncation) for excerpts and generated snippets.
+
+Binary G-code (``GCDE`` magic) goes through one hook, :func:`decode_container`: today it refuses the
+file with the fix (turn binary G-code off); :mod:`loadpath.gcode.bgcode` decodes it and can be
+plugged in there.
+"""
+
+from __future__ import annotations
+
+import os
+
+from loadpath.errors import UnsupportedFlavorError
+from loadpath.gcode.blocks import BLOCK_DTYPE, KINDS
+from loadpath.gcode.flavors import Dialect, Role, role_of
+from loadpath.gcode.model import MOVE_DTYPE, Block, Layer, MachineState, Program
+from loadpath.gcode.parse import parse_bytes
+from loadpath.gcode.state import LineState
+
+__all__ = [
+    "parse",
+    "read",
+    "decode_container",
+    "Program",
+    "Layer",
+    "Block",
+    "MachineState",
+    "LineState",
+    "Dialect",
+    "Role",
+    "role_of",
+    "MOVE_DTYPE",
+    "BLOCK_DTYPE",
+    "KINDS",
+    "BINARY_MAGIC",
+]
+
+BINARY_MAGIC = b"GCDE"
+"""First four bytes of a binary G-code file (``.bgcode``, PrusaSlicer 2.7+)."""
+
+
+def decode_container(data: bytes, source: str = "the file") -> bytes:
+    """The single hook between file bytes and the text parser.
+
+    Plain G-code is returned unchanged.  Binary G-code (``GCDE`` magic) is refused with the fix for
+    now; this is where :func:`loadpath.gcode.bgcode.decode` plugs in to return the text instead.
+
+    Raises
+    ------
+    UnsupportedFlavorError
+        For binary G-code.
+    """
+    if data[:4] == BINARY_MAGIC:
+        raise UnsupportedFlavorError(
+            f"{source} is binary G-code (.bgcode, starts with 'GCDE'); loadpath reads text G-code: turn binary "
+            "G-code off in PrusaSlicer (Printer Settings > General > Firmware > 'Supports binary G-code') and "
+            "export again")
+    return data
+
+
+def parse(data: bytes | str, *, strict: bool = True) -> Program:
+    """Parse G-code text into a :class:`Program`.
+
+    Parameters
+    ----------
+    data : bytes or str
+        The file's content (str is encoded as UTF-8; ``to_bytes()`` then returns those bytes).
+    strict : bool
+        Also check the structure (layer markers present, file not truncated).  Turn off for excerpts.
+
+    Raises
+    ------
+    GCodeParseError, UnsupportedFlavorError
+        One-line message naming what is wrong, where and the fix.
+    """
+    raw = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    return parse_bytes(decode_container(raw), strict=strict)
+
+
+def read(path: str | os.PathLike, *, strict: bool = True) -> Program:
+    """Read and parse a G-code file (see :func:`parse`).  The file is only read, never written."""
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    return parse_bytes(decode_container(raw, source=os.fspath(path)), strict=strict)
