@@ -19,25 +19,33 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from loadpath._typing import Bools, Floats, Points2, Region
+from loadpath._typing import Bools, Floats, Ints, Points2, Region
 
 __all__ = ["Domain", "boundary_segments"]
 
 
-def boundary_segments(region: Region) -> tuple[Points2, Points2]:
-    """All boundary segments of a polygon or multipolygon: start points and end points, (s, 2)."""
+def boundary_segments(region: Region) -> tuple[Points2, Points2, Ints]:
+    """All boundary segments of a polygon or multipolygon, ring by ring, in ring order.
+
+    Returns
+    -------
+    a, b : (s, 2) float, mm
+        Start and end points.
+    ring : (s,) int
+        Index of the ring each segment belongs to.
+    """
     rings = shapely.get_rings(shapely.get_parts(region))
-    a, b = [], []
-    for r in rings:
+    a, b, ring = [], [], []
+    for k, r in enumerate(rings):
         c = np.asarray(r.coords)
+        c = c[np.concatenate([[True], np.any(c[1:] != c[:-1], axis=1)])]
         if len(c) >= 2:
             a.append(c[:-1])
             b.append(c[1:])
+            ring.append(np.full(len(c) - 1, k, dtype=np.int64))
     if not a:
-        return np.zeros((0, 2)), np.zeros((0, 2))
-    a_all, b_all = np.concatenate(a), np.concatenate(b)
-    keep = np.any(a_all != b_all, axis=1)
-    return a_all[keep], b_all[keep]
+        return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0, dtype=np.int64)
+    return np.concatenate(a), np.concatenate(b), np.concatenate(ring)
 
 
 @dataclass
@@ -57,7 +65,14 @@ class Domain:
     def __post_init__(self) -> None:
         self.inner = self.region.buffer(-self.margin) if self.margin > 0 else self.region
         shapely.prepare(self.inner)
-        self.seg_a, self.seg_b = boundary_segments(self.region)
+        self.seg_a, self.seg_b, ring = boundary_segments(self.region)
+        # first segment and length of each segment's ring (for walking along a ring)
+        first = np.ones(len(ring), dtype=bool)
+        first[1:] = ring[1:] != ring[:-1]
+        starts = np.flatnonzero(first)
+        counts = np.diff(np.append(starts, len(ring)))
+        self.ring_start = np.repeat(starts, counts)
+        self.ring_len = np.repeat(counts, counts)
         d = self.seg_b - self.seg_a
         self.seg_len = np.linalg.norm(d, axis=1)
         self.seg_dir = d / self.seg_len[:, None]
@@ -76,7 +91,9 @@ class Domain:
         boxes = shapely.box(p[:, 0] - radius, p[:, 1] - radius, p[:, 0] + radius, p[:, 1] + radius)
         return self._tree.query(boxes)
 
-    def ray(self, origins: Points2, directions: Points2, max_dist: float) -> tuple[Floats, Points2, Points2]:
+    def ray(
+        self, origins: Points2, directions: Points2, max_dist: float
+    ) -> tuple[Floats, Points2, Points2, Ints]:
         """First boundary crossing along rays ``o + s d``, ``0 < s <= max_dist``.
 
         Parameters
@@ -94,6 +111,8 @@ class Domain:
             The hit (NaN where none).
         tangent : (m, 2) float
             Unit tangent of the boundary there (NaN where none).
+        segment : (m,) int
+            Index of the boundary segment hit (-1 where none).
         """
         o = np.asarray(origins, dtype=float).reshape(-1, 2)
         d = np.asarray(directions, dtype=float).reshape(-1, 2)
@@ -125,7 +144,36 @@ class Domain:
         tangent = np.full((m, 2), np.nan)
         point[hit] = o[hit] + dist[hit, None] * d[hit]
         tangent[hit] = self.seg_dir[seg[hit]]
-        return dist, point, tangent
+        return dist, point, tangent, seg
+
+    def project_local(self, points: Points2, segment: Ints, reach: int = 6) -> Points2:
+        """Nearest point on the boundary near a known segment (within ``reach`` segments along its ring).
+
+        A boundary agent slides along the tangent of its segment by at most half a step; this puts
+        it back onto the boundary without a global search.
+
+        Parameters
+        ----------
+        points : (m, 2) float, mm
+        segment : (m,) int
+            A segment near each point (where the agent was on the boundary).
+        reach : int
+
+        Returns
+        -------
+        (m, 2) float, mm
+        """
+        p = np.asarray(points, dtype=float).reshape(-1, 2)
+        seg = np.asarray(segment, dtype=np.int64)
+        rs, rl = self.ring_start[seg], self.ring_len[seg]
+        k = np.arange(-reach, reach + 1)
+        cand = rs[:, None] + (seg[:, None] - rs[:, None] + k[None, :]) % rl[:, None]
+        a = self.seg_a[cand]
+        e = self.seg_b[cand] - a
+        u = np.clip(np.sum((p[:, None, :] - a) * e, axis=2) / np.sum(e * e, axis=2), 0.0, 1.0)
+        q = a + u[..., None] * e
+        best = np.argmin(np.sum((q - p[:, None, :]) ** 2, axis=2), axis=1)
+        return q[np.arange(len(p)), best]
 
     def project(self, points: Points2) -> tuple[Points2, Points2, Floats]:
         """Nearest boundary point, the boundary tangent there, and the distance.

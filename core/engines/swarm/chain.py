@@ -55,7 +55,8 @@ class ChainProblem:
     t : (n, 2) float
         Ideal locations divided by ``h`` (boundary agents: their reference point on the boundary).
     frame : (n, 2, 2) float
-        ``frame[j] = [e1_j, e2_j]`` as rows: the local orthonormal frame of each agent.
+        ``frame[j] = [e1_j, e2_j]`` as rows: the local orthonormal frame of each agent, ``e2_j`` is
+        ``e1_j`` turned by +90 degrees.
     lo, hi : (n, 2) float
         Bounds on ``u_j`` in that frame.
     weight : (n,) float
@@ -110,22 +111,25 @@ def build_qp(cp: ChainProblem) -> tuple[BandedQP, float]:
     q = np.zeros(2 * n)
     c0 = 0.0
     if n > 1:
-        f = cp.frame  # (n, 2, 2), rows e1, e2
-        # off-diagonal block -2 B_j^T B_{j+1}: entry (a, b) = -2 e_a(j) . e_b(j+1)
-        m = -2.0 * np.einsum("jak,jbk->jab", f[:-1], f[1:]) * link[:, None, None]
-        j2 = 2 * np.arange(n - 1)
-        ab[1, j2 + 2] = m[:, 0, 0]  # (2j, 2j+2)
-        ab[0, j2 + 3] = m[:, 0, 1]  # (2j, 2j+3)
-        ab[2, j2 + 2] = m[:, 1, 0]  # (2j+1, 2j+2)
-        ab[1, j2 + 3] = m[:, 1, 1]  # (2j+1, 2j+3)
-        c = _pair_offsets(cp) * link[:, None]
-        gq_next = 2.0 * np.einsum("jak,jk->ja", f[1:], c)  # d/du_{j+1}
-        gq_prev = -2.0 * np.einsum("jak,jk->ja", f[:-1], c)  # d/du_j
+        # frames are rotations: e1 = (c, s), e2 = (-s, c); the off-diagonal block -2 B_j^T B_{j+1}
+        # is -2 [[C, S], [-S, C]] with C = e1_j . e1_{j+1}, S = e1_j . e2_{j+1}
+        e = cp.frame[:, 0, :]
+        c, s_ = e[:, 0], e[:, 1]
+        C = -2.0 * link * (c[:-1] * c[1:] + s_[:-1] * s_[1:])
+        S = -2.0 * link * (s_[:-1] * c[1:] - c[:-1] * s_[1:])
+        ab[1, 2::2] = C  # (2j, 2j+2)
+        ab[0, 3::2] = S  # (2j, 2j+3)
+        ab[2, 2::2] = -S  # (2j+1, 2j+2)
+        ab[1, 3::2] = C  # (2j+1, 2j+3)
+        off = _pair_offsets(cp) * link[:, None]
+        ox, oy = off[:, 0], off[:, 1]
         qa = np.zeros((n, 2))
-        qa[1:] += gq_next
-        qa[:-1] += gq_prev
+        qa[1:, 0] += 2.0 * (c[1:] * ox + s_[1:] * oy)  # d/du_{j+1}: 2 B_{j+1}^T c
+        qa[1:, 1] += 2.0 * (c[1:] * oy - s_[1:] * ox)
+        qa[:-1, 0] -= 2.0 * (c[:-1] * ox + s_[:-1] * oy)  # d/du_j: -2 B_j^T c
+        qa[:-1, 1] -= 2.0 * (c[:-1] * oy - s_[:-1] * ox)
         q = qa.ravel()
-        c0 = float(np.sum(c * c))
+        c0 = float(np.sum(off * off))
     qp = BandedQP(ab=ab, q=q, lo=cp.lo.ravel().astype(float), hi=cp.hi.ravel().astype(float))
     return qp, c0
 
@@ -133,7 +137,7 @@ def build_qp(cp: ChainProblem) -> tuple[BandedQP, float]:
 def positions(cp: ChainProblem, u: Floats) -> Points2:
     """Scaled positions ``t_j + B_j u_j`` of the agents, (n, 2)."""
     uu = np.asarray(u).reshape(-1, 2)
-    return cp.t + np.einsum("ja,jak->jk", uu, cp.frame)
+    return cp.t + uu[:, 0:1] * cp.frame[:, 0, :] + uu[:, 1:2] * cp.frame[:, 1, :]
 
 
 def potentials(cp: ChainProblem, u: Floats) -> tuple[Floats, Floats]:

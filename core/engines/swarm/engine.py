@@ -27,6 +27,7 @@ import shapely
 from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.swarm.boundary import Domain
 from loadpath.engines.swarm.grid import Occupancy
+from loadpath.engines.swarm.raster import raster_for
 from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, step
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
@@ -190,9 +191,10 @@ def _uncovered(region: Region, lines: list[Points2], pitch: float) -> list[Regio
         left = region.difference(beads)
     else:
         left = region
-    pieces = [
-        g for g in shapely.get_parts(left) if g.geom_type == "Polygon" and not g.buffer(-0.45 * pitch).is_empty
-    ]
+    parts = shapely.get_parts(left)
+    # a piece wide enough for a path has at least the area of a 0.9-pitch disc: test only those
+    big = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= 0.6 * pitch * pitch)]
+    pieces = list(big[~shapely.is_empty(shapely.buffer(big, -0.45 * pitch))])
     pieces.sort(key=lambda g: (-round(g.area, 6), round(g.centroid.x, 6), round(g.centroid.y, 6)))
     return pieces
 
@@ -243,9 +245,12 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     pitch = float(inp.pitch)
     region = shapely.make_valid(inp.region) if not inp.region.is_valid else inp.region
     region = shapely.normalize(region)
-    grid = Occupancy(tuple(region.bounds), pitch / 3.0)
-    rec = _Recorder()
     stats: dict = {}
+    grid = Occupancy(tuple(region.bounds), pitch / 3.0)
+    t_raster = time.perf_counter()
+    raster = raster_for(inp.field, tuple(region.bounds), params.field_cell * pitch)
+    stats["time_raster_s"] = time.perf_counter() - t_raster
+    rec = _Recorder()
     next_pid = 0
     diag = float(np.hypot(region.bounds[2] - region.bounds[0], region.bounds[3] - region.bounds[1]))
     max_steps = int(4 * (region.length + diag) / pitch) + 10
@@ -274,7 +279,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
             start[0] = True
             st = SwarmState(pos=seeds[ok].copy(), head=head[ok].copy(), pid=pid[ok], start=start)
             ctx = Context(
-                field=inp.field, domain=domain, grid=grid, params=params, pitch=pitch,
+                raster=raster, domain=domain, grid=grid, params=params, pitch=pitch,
                 next_pid=next_pid, stats=stats,
             )
             rec.add(st.pos, st.pid, np.full(st.n, pitch), 0)

@@ -50,7 +50,7 @@ from loadpath.engines.swarm.chain import (
 )
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.qp import solve
-from loadpath.field import StressField
+from loadpath.engines.swarm.raster import FieldRaster
 
 __all__ = ["SwarmParams", "SwarmState", "Context", "step"]
 
@@ -78,6 +78,8 @@ class SwarmParams:
     grow_free_ends : bool
         Spawn a new agent beyond a chain end that has no boundary in reach (off by default: the
         fill swarms cover what a front does not reach, more evenly than a front growing sideways).
+    field_cell : float
+        Node spacing of the stress-field raster the steps sample (:mod:`.raster`), in pitches.
     """
 
     K: float = 5.0
@@ -89,6 +91,7 @@ class SwarmParams:
     ray_reach: float = 2.5
     merge_reach: float = 2.5
     grow_free_ends: bool = False
+    field_cell: float = 0.5
 
 
 @dataclass
@@ -122,7 +125,7 @@ class SwarmState:
 class Context:
     """What a swarm run shares across its steps."""
 
-    field: StressField
+    raster: FieldRaster
     domain: Domain
     grid: Occupancy
     params: SwarmParams
@@ -142,8 +145,8 @@ class Context:
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return np.where(n > 0, v / np.where(n > 0, n, 1.0), v)
+    n = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+    return v / np.where(n > 0, n, 1.0)
 
 
 def _right(v: np.ndarray) -> np.ndarray:
@@ -152,108 +155,101 @@ def _right(v: np.ndarray) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------------------------
-# the extended chain (moving agents plus boundary agents) as flat arrays
+# the extended chain (moving agents plus boundary agents) as one table, one row per agent
 # ----------------------------------------------------------------------------------------------
+# One float table instead of a dataclass of arrays: taking, inserting and gluing rows is then one
+# numpy call instead of one per field (the step is dominated by the number of calls, not their size).
+
+_T = slice(0, 2)  # ideal location t (boundary agents: reference point on the boundary), mm
+_E = slice(2, 4)  # along-direction of the frame (stress direction, or boundary tangent)
+_MASS = 4  # virtual mass
+_H = slice(5, 7)  # last displacement direction (zero for boundary agents)
+_P = slice(7, 9)  # location x(k) (spawned and boundary agents: t)
+_KIND = 9  # 0 moving agent, 1 spawned this step, -1 boundary agent
+_CHAIN = 10
+_WIN = 11  # kill/spawn window
+_PID = 12  # path id (-1 boundary agent, -3 spawned this step)
+_SEG = 13  # boundary segment of a boundary agent (-1 otherwise)
+_NCOL = 14
 
 
-@dataclass
-class _Ext:
-    """Moving and boundary agents of all chains, in order.
-
-    ``kind``: 0 moving agent, 1 spawned this step, -1 boundary agent.
-    """
-
-    t: Points2  # ideal location (boundary agents: reference point on the boundary), mm
-    e1: Points2  # along-direction of the frame (stress direction, or boundary tangent)
-    mass: Floats
-    head: Points2  # last displacement direction (zero for boundary agents)
-    pos: Points2  # location x(k) (spawned and boundary agents: t)
-    kind: Ints
-    chain: Ints
-    win: Ints
-    pid: Ints
-
-    def take(self, idx: Ints | Bools) -> _Ext:
-        return _Ext(*(getattr(self, f)[idx] for f in _FIELDS))
-
-    @staticmethod
-    def cat(parts: list[_Ext]) -> _Ext:
-        return _Ext(*(np.concatenate([getattr(p, f) for p in parts]) for f in _FIELDS))
-
-    @property
-    def moving(self) -> Bools:
-        return self.kind >= 0
-
-    def links(self) -> tuple[Bools, Points2, Floats]:
-        """Links, radial unit vectors (Eq. 5-6) and target distances (in pitches) of neighbours."""
-        link = self.chain[1:] == self.chain[:-1]
-        radial = _unit(_right(self.head[1:] + self.head[:-1]))
-        bnd = (self.kind[1:] < 0) | (self.kind[:-1] < 0)
-        return link, radial, np.where(bnd, 0.5, 1.0)
-
-    def problem(self, pitch: float, K: float) -> ChainProblem:
-        moving = self.moving
-        e2 = np.stack([-self.e1[:, 1], self.e1[:, 0]], axis=1)
-        lo = np.where(moving[:, None], [-BOX_ALONG, -BOX_ACROSS], [-BOUNDARY_SLIDE, 0.0])
-        hi = np.where(moving[:, None], [BOX_ALONG, BOX_ACROSS], [BOUNDARY_SLIDE, 0.0])
-        link, radial, target = self.links()
-        return ChainProblem(
-            t=self.t / pitch,
-            frame=np.stack([self.e1, e2], axis=1),
-            lo=lo,
-            hi=hi,
-            weight=np.where(moving, K * np.maximum(self.mass, MASS_FLOOR), 0.0),
-            link=link,
-            radial=radial,
-            target=target,
-        )
+def _rows(
+    t: Points2, e1: Points2, mass: Floats, head: Points2, pos: Points2, kind: float,
+    chain: Floats, pid: Floats, seg: Floats | float = -1.0,
+) -> np.ndarray:
+    out = np.empty((len(t), _NCOL))
+    out[:, _T] = t
+    out[:, _E] = e1
+    out[:, _MASS] = mass
+    out[:, _H] = head
+    out[:, _P] = pos
+    out[:, _KIND] = kind
+    out[:, _CHAIN] = chain
+    out[:, _WIN] = 0.0
+    out[:, _PID] = pid
+    out[:, _SEG] = seg
+    return out
 
 
-_FIELDS = tuple(_Ext.__dataclass_fields__)
+def _links(tab: np.ndarray) -> tuple[Bools, Points2, Floats]:
+    """Links, radial unit vectors (Eq. 5-6) and target distances (in pitches) of neighbours."""
+    chain = tab[:, _CHAIN]
+    kind = tab[:, _KIND]
+    link = chain[1:] == chain[:-1]
+    radial = _unit(_right(tab[1:, _H] + tab[:-1, _H]))
+    bnd = (kind[1:] < 0) | (kind[:-1] < 0)
+    return link, radial, np.where(bnd, 0.5, 1.0)
 
 
-def _gaps(ext: _Ext, pitch: float) -> Floats:
-    """Radial gap of each neighbour pair over its target (NaN where not linked), (n - 1,)."""
-    link, radial, target = ext.links()
-    gap = np.sum((ext.t[1:] - ext.t[:-1]) * radial, axis=1) / (pitch * target)
-    return np.where(link, gap, np.nan)
+_LO_MOV = np.array([-BOX_ALONG, -BOX_ACROSS])
+_HI_MOV = np.array([BOX_ALONG, BOX_ACROSS])
+_LO_BND = np.array([-BOUNDARY_SLIDE, 0.0])
+_HI_BND = np.array([BOUNDARY_SLIDE, 0.0])
 
 
-def _windows(ext: _Ext, window: int) -> Ints:
-    """Window of each agent: rank of moving agents within their chain // window."""
-    m = len(ext.kind)
-    moving = ext.moving
+def _problem(tab: np.ndarray, pitch: float, K: float) -> ChainProblem:
+    moving = (tab[:, _KIND] >= 0)[:, None]
+    e1 = tab[:, _E]
+    link, radial, target = _links(tab)
+    return ChainProblem(
+        t=tab[:, _T] / pitch,
+        frame=np.stack([e1, np.stack([-e1[:, 1], e1[:, 0]], axis=1)], axis=1),
+        lo=np.where(moving, _LO_MOV, _LO_BND),
+        hi=np.where(moving, _HI_MOV, _HI_BND),
+        weight=np.where(moving[:, 0], K * np.maximum(tab[:, _MASS], MASS_FLOOR), 0.0),
+        link=link,
+        radial=radial,
+        target=target,
+    )
+
+
+def _windows(tab: np.ndarray, window: int) -> Floats:
+    """Window of each agent: rank of moving agents within their chain // window (numbered from 0)."""
+    m = len(tab)
+    moving = tab[:, _KIND] >= 0
+    chain = tab[:, _CHAIN]
     first = np.ones(m, dtype=bool)
-    first[1:] = ext.chain[1:] != ext.chain[:-1]
+    first[1:] = chain[1:] != chain[:-1]
     cum = np.cumsum(moving)
     first_idx = np.maximum.accumulate(np.where(first, np.arange(m), 0))
     before = cum[first_idx] - moving[first_idx]
     rank = np.maximum(cum - before - 1, 0)
-    key = ext.chain * (m + 1) + rank // max(1, window)
-    return np.unique(key, return_inverse=True)[1].astype(np.int64)
-
-
-def _window_potential(ext: _Ext, cp: ChainProblem, u: Floats, n_win: int) -> Floats:
-    """Potential per moving agent in each window (Eq. 13 restricted to the window), (n_win,)."""
-    pair, agent = potentials(cp, u)
-    lw = np.where(ext.kind[:-1] >= 0, ext.win[:-1], ext.win[1:])
-    tot = np.bincount(ext.win, weights=agent, minlength=n_win)
-    tot += np.bincount(lw, weights=pair, minlength=n_win)
-    cnt = np.bincount(ext.win, weights=ext.moving.astype(float), minlength=n_win)
-    return np.where(cnt > 0, tot / np.maximum(cnt, 1.0), np.inf)
+    key = chain * (m + 1) + rank // max(1, window)
+    new = np.ones(m, dtype=bool)
+    new[1:] = key[1:] != key[:-1]  # keys are non-decreasing along the table
+    return (np.cumsum(new) - 1).astype(float)
 
 
 def _extreme_per_window(win: Ints, key: Floats) -> tuple[Ints, Ints]:
     """For each window, the index of the smallest finite key (ties: the lowest index)."""
-    ok = np.isfinite(key)
-    idx = np.flatnonzero(ok)
+    idx = np.flatnonzero(np.isfinite(key))
     if not len(idx):
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     order = idx[np.lexsort((idx, key[idx], win[idx]))]
     g = win[order]
     first = np.ones(len(g), dtype=bool)
     first[1:] = g[1:] != g[:-1]
-    return g[first], order[first]
+    return g[first].astype(np.int64), order[first]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -263,19 +259,18 @@ def _extreme_per_window(win: Ints, key: Floats) -> tuple[Ints, Ints]:
 
 def _ideal(st: SwarmState, ctx: Context) -> tuple[Points2, Points2, Floats]:
     """Stage 1: step direction (Eq. 2 with momentum), ideal locations and virtual masses."""
-    smp = ctx.field.sample(st.pos)
-    link = ~st.start[1:]
-    mean = st.head.copy()
-    mean[:-1] += np.where(link[:, None], st.head[1:], 0.0)
-    mean[1:] += np.where(link[:, None], st.head[:-1], 0.0)
-    mean = _unit(mean)
-    mean = np.where(np.linalg.norm(mean, axis=1)[:, None] > 0.5, mean, st.head)
-    valid = smp.valid & np.all(np.isfinite(smp.direction), axis=1)
-    s = np.where(valid[:, None], smp.direction, mean)
-    mu = np.where(np.sum(s * st.head, axis=1) >= 0, 1.0, -1.0)
-    sdir = _unit(mu[:, None] * s)
-    mass = np.where(valid, smp.mass, 0.0)
-    ctx.count("no_direction", int(np.count_nonzero(~valid)))
+    s, mass, valid = ctx.raster.sample(st.pos)
+    if not np.all(valid):
+        link = ~st.start[1:]
+        mean = st.head.copy()
+        mean[:-1] += np.where(link[:, None], st.head[1:], 0.0)
+        mean[1:] += np.where(link[:, None], st.head[:-1], 0.0)
+        mean = _unit(mean)
+        mean = np.where(np.sum(mean * mean, axis=1)[:, None] > 0.25, mean, st.head)
+        s = np.where(valid[:, None], s, mean)
+        mass = np.where(valid, mass, 0.0)
+        ctx.count("no_direction", int(np.count_nonzero(~valid)))
+    sdir = np.where((np.sum(s * st.head, axis=1) >= 0)[:, None], s, -s)
     return st.pos + ctx.pitch * sdir, sdir, mass
 
 
@@ -297,7 +292,7 @@ def _remove_blocked(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx
     last = none
     ends = np.flatnonzero(~in_dom)
     if len(ends):
-        dist, _, _ = ctx.domain.ray(st.pos[ends], sdir[ends], 2.0 * ctx.pitch)
+        dist, _, _, _ = ctx.domain.ray(st.pos[ends], sdir[ends], 2.0 * ctx.pitch)
         reach = np.where(np.isfinite(dist), dist - 0.5 * ctx.pitch, 0.0)
         go = (reach > 0.1 * ctx.pitch) & (reach <= ctx.pitch)
         q = st.pos[ends[go]] + reach[go, None] * sdir[ends[go]]
@@ -315,169 +310,182 @@ def _remove_blocked(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx
     return st2, t[ok], sdir[ok], mass[ok], last
 
 
-def _extend(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx: Context) -> _Ext:
-    """Stage 3: boundary agents at chain ends, new agents at free ends."""
+def _extend(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx: Context) -> np.ndarray:
+    """Stage 3: boundary agents at chain ends, new agents at free ends; returns the table."""
     p = ctx.params
     pitch = ctx.pitch
     n = st.n
     starts = np.flatnonzero(st.start)
     ends = np.append(starts[1:] - 1, n - 1)
     nc = len(starts)
-    chain = np.cumsum(st.start) - 1
+    chain = (np.cumsum(st.start) - 1).astype(float)
     src = np.concatenate([starts, ends])
     dirs = np.concatenate([-_right(st.head[starts]), _right(st.head[ends])])
-    dist, point, tangent = ctx.domain.ray(t[src], dirs, p.ray_reach * pitch)
+    dist, point, tangent, seg = ctx.domain.ray(t[src], dirs, p.ray_reach * pitch)
     hit = np.isfinite(dist)
-    # free ends: one new agent a pitch further out, if there is room
-    cand = t[src] + pitch * dirs
-    spawn = ~hit & ctx.domain.inside(cand) & ctx.grid.free_for(cand, np.full(len(cand), -2))
-    # only where the chain really ends there: the ray continues the chain's own line (an end
-    # agent that turned with the field, e.g. into the hoop stress at a hole, must not grow a
-    # chain along the direction of travel)
-    nb = np.concatenate([np.minimum(starts + 1, ends), np.maximum(ends - 1, starts)])
-    along = _unit(t[src] - t[nb])
-    lone = nb == src
-    square = np.abs(np.sum(st.head[src] * along, axis=1)) < 0.5
-    spawn &= ~lone & square & (np.sum(along * dirs, axis=1) > 0.8) & p.grow_free_ends
-    if np.any(spawn):
-        idx = np.flatnonzero(spawn)
-        d = np.min(np.linalg.norm(cand[idx][:, None, :] - t[None, :, :], axis=2), axis=1)
-        spawn[idx[d < 0.75 * pitch]] = False
-        if nc == 1 and n == 1 and spawn[0] and spawn[1]:
-            spawn[1] = False  # a lone agent grows on one side per step
-    k = int(np.count_nonzero(spawn))
-    ctx.count("spawn_free_end", k)
     left = np.arange(2 * nc) < nc
     # ordering keys: 3j+1 moving agent j; 3j left of it; 3j+2 right of it
-    keys = [3 * np.arange(n) + 1.0]
-    parts = [
-        _Ext(t, sdir, mass, st.head, st.pos, np.zeros(n, np.int64), chain, np.zeros(n, np.int64), st.pid)
-    ]
-    sp = np.flatnonzero(spawn)
-    if k:
-        s_src = src[sp]
-        keys.append(np.where(left[sp], 3 * s_src + 0.0, 3 * s_src + 2.0))
-        parts.append(
-            _Ext(
-                cand[sp], sdir[s_src], mass[s_src], st.head[s_src], cand[sp],
-                np.ones(k, np.int64), chain[s_src], np.zeros(k, np.int64), ctx.new_pids(k),
+    keys = [3.0 * np.arange(n) + 1.0]
+    parts = [_rows(t, sdir, mass, st.head, st.pos, 0.0, chain, st.pid)]
+    if p.grow_free_ends:
+        # free ends: one new agent a pitch further out, if there is room, only where the chain
+        # really ends there: the ray continues the chain's own line (an end agent that turned with
+        # the field, e.g. into the hoop stress at a hole, must not grow a chain along its travel)
+        cand = t[src] + pitch * dirs
+        spawn = ~hit & ctx.domain.inside(cand) & ctx.grid.free_for(cand, np.full(len(cand), -2))
+        nb = np.concatenate([np.minimum(starts + 1, ends), np.maximum(ends - 1, starts)])
+        along = _unit(t[src] - t[nb])
+        square = np.abs(np.sum(st.head[src] * along, axis=1)) < 0.5
+        spawn &= (nb != src) & square & (np.sum(along * dirs, axis=1) > 0.8)
+        if np.any(spawn):
+            idx = np.flatnonzero(spawn)
+            d = np.min(np.linalg.norm(cand[idx][:, None, :] - t[None, :, :], axis=2), axis=1)
+            spawn[idx[d < 0.75 * pitch]] = False
+            if nc == 1 and n == 1 and spawn[0] and spawn[1]:
+                spawn[1] = False  # a lone agent grows on one side per step
+        sp = np.flatnonzero(spawn)
+        ctx.count("spawn_free_end", len(sp))
+        if len(sp):
+            s_src = src[sp]
+            keys.append(np.where(left[sp], 3.0 * s_src, 3.0 * s_src + 2.0))
+            parts.append(
+                _rows(
+                    cand[sp], sdir[s_src], mass[s_src], st.head[s_src], cand[sp], 1.0, chain[s_src],
+                    ctx.new_pids(len(sp)).astype(float),
+                )
             )
-        )
     bh = np.flatnonzero(hit)
     if len(bh):
         b_src = src[bh]
-        keys.append(np.where(left[bh], 3 * b_src - 0.4, 3 * b_src + 2.4))
-        nb = len(bh)
-        parts.append(
-            _Ext(
-                point[bh], tangent[bh], np.zeros(nb), np.zeros((nb, 2)), point[bh],
-                np.full(nb, -1, np.int64), chain[b_src], np.zeros(nb, np.int64), np.full(nb, -1, np.int64),
-            )
-        )
-    ext = _Ext.cat(parts).take(np.argsort(np.concatenate(keys), kind="stable"))
-    ext.win = _windows(ext, p.window)
-    return ext
+        keys.append(np.where(left[bh], 3.0 * b_src - 0.4, 3.0 * b_src + 2.4))
+        z = np.zeros((len(bh), 2))
+        parts.append(_rows(point[bh], tangent[bh], 0.0, z, point[bh], -1.0, chain[b_src], -1.0, seg[bh]))
+    tab = np.concatenate(parts)[np.argsort(np.concatenate(keys), kind="stable")] if len(parts) > 1 else parts[0]
+    tab[:, _WIN] = _windows(tab, p.window)
+    return tab
 
 
-def _propose(ext: _Ext, ctx: Context) -> tuple[Ints, Ints, Ints, Ints]:
-    """Stage 4a: per window, the agent to kill and the pair to split (indices into ``ext``).
+def _propose(tab: np.ndarray, ctx: Context) -> tuple[Ints, Ints, Ints, Ints]:
+    """Stage 4a: per window, the agent to kill and the pair to split (indices into the table).
 
     Returns kill windows, kill agents, spawn windows, spawn pairs (spawn between j and j + 1).
     """
     p = ctx.params
-    gap = _gaps(ext, ctx.pitch)
-    lw = np.where(ext.kind[:-1] >= 0, ext.win[:-1], ext.win[1:])
+    kind = tab[:, _KIND]
+    link, radial, target = _links(tab)
+    gap = np.sum((tab[1:, _T] - tab[:-1, _T]) * radial, axis=1) / (ctx.pitch * target)
+    gap = np.where(link, gap, np.nan)
+    lw = np.where(kind[:-1] >= 0, tab[:-1, _WIN], tab[1:, _WIN])
     kw, kpair = _extreme_per_window(lw, np.where(gap < p.kill_below, gap, np.inf))
     sw, spair = _extreme_per_window(lw, np.where(gap > p.spawn_above, -gap, np.inf))
-    # the victim: the moving agent of the pair whose other neighbour is closer too
-    m = len(ext.kind)
-    left_other = np.where(kpair - 1 >= 0, gap[np.maximum(kpair - 1, 0)], np.inf)
-    right_other = np.where(kpair + 1 < m - 1, gap[np.minimum(kpair + 1, m - 2)], np.inf)
-    left_other = np.where(np.isnan(left_other), np.inf, left_other)
-    right_other = np.where(np.isnan(right_other), np.inf, right_other)
-    victim = np.where(left_other <= right_other, kpair, kpair + 1)
-    victim = np.where(ext.kind[kpair] < 0, kpair + 1, np.where(ext.kind[kpair + 1] < 0, kpair, victim))
-    ok = ext.kind[victim] >= 0
-    return kw[ok], victim[ok], sw, spair
+    if len(kpair):
+        # the victim: the moving agent of the pair whose other neighbour is closer too
+        m = len(kind)
+        g = np.where(np.isnan(gap), np.inf, gap)
+        left_other = np.where(kpair - 1 >= 0, g[np.maximum(kpair - 1, 0)], np.inf)
+        right_other = np.where(kpair + 1 < m - 1, g[np.minimum(kpair + 1, m - 2)], np.inf)
+        victim = np.where(left_other <= right_other, kpair, kpair + 1)
+        victim = np.where(kind[kpair] < 0, kpair + 1, np.where(kind[kpair + 1] < 0, kpair, victim))
+        ok = kind[victim] >= 0
+        kw, kpair = kw[ok], victim[ok]
+    return kw, kpair, sw, spair
 
 
-def _spawned(ext: _Ext, pairs: Ints, ctx: Context) -> _Ext:
+def _spawned(tab: np.ndarray, pairs: Ints) -> np.ndarray:
     """New agents in the gaps ``(j, j + 1)``: at the point that splits the gap by the targets."""
-    a, b = pairs, pairs + 1
-    la = np.where(ext.kind[a] < 0, 0.5, 1.0)
-    lb = np.where(ext.kind[b] < 0, 0.5, 1.0)
-    frac = (la / (la + lb))[:, None]
-    t = ext.t[a] + frac * (ext.t[b] - ext.t[a])
-    mov_a = (ext.kind[a] >= 0)[:, None]
-    mov_b = (ext.kind[b] >= 0)[:, None]
-    e1 = _unit(np.where(mov_a, ext.e1[a], 0.0) + np.where(mov_b, ext.e1[b], 0.0))
-    head = _unit(np.where(mov_a, ext.head[a], 0.0) + np.where(mov_b, ext.head[b], 0.0))
-    wa = mov_a[:, 0].astype(float)
-    wb = mov_b[:, 0].astype(float)
-    mass = (wa * ext.mass[a] + wb * ext.mass[b]) / np.maximum(wa + wb, 1.0)
-    k = len(pairs)
-    return _Ext(
-        t, e1, mass, head, t.copy(), np.ones(k, np.int64), ext.chain[a],
-        np.where(ext.kind[a] >= 0, ext.win[a], ext.win[b]), np.full(k, -3, np.int64),
-    )
+    a, b = tab[pairs], tab[pairs + 1]
+    mov_a = a[:, _KIND] >= 0
+    mov_b = b[:, _KIND] >= 0
+    la = np.where(mov_a, 1.0, 0.5)
+    lb = np.where(mov_b, 1.0, 0.5)
+    t = a[:, _T] + (la / (la + lb))[:, None] * (b[:, _T] - a[:, _T])
+    wa = mov_a.astype(float)[:, None]
+    wb = mov_b.astype(float)[:, None]
+    e1 = _unit(wa * a[:, _E] + wb * b[:, _E])
+    head = _unit(wa * a[:, _H] + wb * b[:, _H])
+    mass = (wa[:, 0] * a[:, _MASS] + wb[:, 0] * b[:, _MASS]) / np.maximum(wa[:, 0] + wb[:, 0], 1.0)
+    out = _rows(t, e1, mass, head, t, 1.0, a[:, _CHAIN], -3.0)
+    out[:, _WIN] = np.where(mov_a, a[:, _WIN], b[:, _WIN])
+    return out
 
 
-def _variant(ext: _Ext, kill: Ints, spawn_pairs: Ints, ctx: Context) -> _Ext:
+def _variant(tab: np.ndarray, kill: Ints, spawn_pairs: Ints) -> np.ndarray:
     """The swarm with the given agents killed and new agents in the given gaps."""
-    keep = np.ones(len(ext.kind), dtype=bool)
+    keep = np.ones(len(tab), dtype=bool)
     keep[kill] = False
     if not len(spawn_pairs):
-        return ext.take(keep)
-    new = _spawned(ext, spawn_pairs, ctx)
-    keys = np.concatenate([np.arange(len(ext.kind), dtype=float), spawn_pairs + 0.5])
-    both = _Ext.cat([ext, new])
+        return tab[keep]
+    both = np.concatenate([tab, _spawned(tab, spawn_pairs)])
+    keys = np.concatenate([np.arange(len(tab), dtype=float), spawn_pairs + 0.5])
     keep_all = np.concatenate([keep, np.ones(len(spawn_pairs), dtype=bool)])
     order = np.argsort(keys, kind="stable")
-    return both.take(order[keep_all[order]])
+    return both[order[keep_all[order]]]
 
 
-def _solve_many(variants: list[_Ext], ctx: Context) -> list[tuple[ChainProblem, Floats]]:
-    """Solve the QPs of several swarms as one banded system (they do not interact)."""
-    probs = [v.problem(ctx.pitch, ctx.params.K) for v in variants]
-    offsets = np.cumsum([0] + [cp.n for cp in probs])
-    glued = ChainProblem(
-        t=np.concatenate([cp.t for cp in probs]),
-        frame=np.concatenate([cp.frame for cp in probs]),
-        lo=np.concatenate([cp.lo for cp in probs]),
-        hi=np.concatenate([cp.hi for cp in probs]),
-        weight=np.concatenate([cp.weight for cp in probs]),
-        link=np.concatenate(
-            [np.concatenate([cp.link, [False]]) for cp in probs[:-1]] + [probs[-1].link]
-        ),
-        radial=np.concatenate(
-            [np.concatenate([cp.radial, np.zeros((1, 2))]) for cp in probs[:-1]] + [probs[-1].radial]
-        ),
-        target=np.concatenate([np.concatenate([cp.target, [1.0]]) for cp in probs[:-1]] + [probs[-1].target]),
-    )
-    qp, _ = build_qp(glued)
+def _solve(tabs: list[np.ndarray], ctx: Context) -> tuple[np.ndarray, ChainProblem, Floats]:
+    """Solve the QPs of several swarms as one banded system (they do not interact).
+
+    The tables are glued with their chains renumbered apart, so no pair links two of them.
+    Returns the glued table, its problem and the solution ``u``.
+    """
+    if len(tabs) > 1:
+        shift = 0.0
+        parts = []
+        for tb in tabs:
+            tb = tb.copy()
+            tb[:, _CHAIN] += shift
+            shift = float(tb[-1, _CHAIN]) + 1.0
+            parts.append(tb)
+        glued = np.concatenate(parts)
+    else:
+        glued = tabs[0]
+    cp = _problem(glued, ctx.pitch, ctx.params.K)
+    qp, _ = build_qp(cp)
     sol = solve(qp)
     ctx.count("qp_solves")
     ctx.count("qp_unknowns", qp.n)
     ctx.count("qp_" + sol.status.replace(":", "_"))
-    return [
-        (cp, sol.x[2 * offsets[i] : 2 * offsets[i + 1]]) for i, cp in enumerate(probs)
-    ]
+    return glued, cp, sol.x
 
 
-def _safety(ext: _Ext, x: Points2, ctx: Context) -> Bools:
-    """Stage 5: which moving agents survive (inside, free cells, at least min_gap from neighbours)."""
-    start = np.where((ext.kind == 0)[:, None], ext.pos, x)
-    clear = ctx.grid.clear_of(x, ext.pid, (ctx.params.min_gap + 1.0 / 12.0) * ctx.pitch)
-    alive = ~ext.moving | (ctx.domain.inside(x) & ctx.grid.free_path(start, x, ext.pid) & clear)
+def _window_potentials(tab: np.ndarray, cp: ChainProblem, u: Floats, size: int) -> Floats:
+    """Potential per moving agent of each (variant, window) (Eq. 13 restricted to the window).
+
+    ``tab[:, _WIN]`` must already number the windows of all variants apart; returns (size,).
+    """
+    pair, agent = potentials(cp, u)
+    win = tab[:, _WIN].astype(np.intp)
+    kind = tab[:, _KIND]
+    lw = np.where(kind[:-1] >= 0, win[:-1], win[1:])
+    tot = np.bincount(win, weights=agent, minlength=size) + np.bincount(lw, weights=pair, minlength=size)
+    cnt = np.bincount(win, weights=(kind >= 0).astype(float), minlength=size)
+    return np.where(cnt > 0, tot / np.maximum(cnt, 1.0), np.inf)
+
+
+def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarray, np.ndarray]:
+    """Stage 5: which agents survive (inside, free cells, at least min_gap from neighbours).
+
+    Returns the survivors and the grid cells and samples along each agent's move (for marking).
+    """
+    kind = tab[:, _KIND]
+    moving = kind >= 0
+    pid = tab[:, _PID].astype(np.int64)
+    start = np.where((kind == 0)[:, None], tab[:, _P], x)
+    min_gap = ctx.params.min_gap * ctx.pitch
+    clear = ctx.grid.clear_of(x, pid, min_gap + ctx.pitch / 12.0)
+    cells, samples = ctx.grid.cells(start, x)
+    alive = ~moving | (ctx.domain.inside(x) & ctx.grid.free_cells(cells, pid) & clear)
+    chain = tab[:, _CHAIN]
+    head = tab[:, _H]
     for _ in range(8):
-        idx = np.flatnonzero(alive & ext.moving)
+        idx = np.flatnonzero(alive & moving)
         if len(idx) < 2:
             break
-        sub = ext.take(idx)
-        link, radial, _ = sub.links()
-        gap = np.sum((x[idx[1:]] - x[idx[:-1]]) * radial, axis=1)
-        dist = np.linalg.norm(x[idx[1:]] - x[idx[:-1]], axis=1)
-        bad = link & ((gap < ctx.params.min_gap * ctx.pitch) | (dist < ctx.params.min_gap * ctx.pitch))
+        link = chain[idx[1:]] == chain[idx[:-1]]
+        radial = _unit(_right(head[idx[1:]] + head[idx[:-1]]))
+        dx = x[idx[1:]] - x[idx[:-1]]
+        gap = np.sum(dx * radial, axis=1)
+        bad = link & ((gap < min_gap) | (np.sum(dx * dx, axis=1) < min_gap * min_gap))
         if not np.any(bad):
             break
         j = np.flatnonzero(bad)
@@ -486,20 +494,23 @@ def _safety(ext: _Ext, x: Points2, ctx: Context) -> Bools:
         victim = np.where(gl[j] <= gr[j + 1], j, j + 1)
         alive[idx[victim]] = False
         ctx.count("killed_too_close", len(np.unique(victim)))
-    return alive
+    return alive, cells, samples
 
 
-def _local_pitch(ext: _Ext, x: Points2, ctx: Context) -> Floats:
+def _local_pitch(tab: np.ndarray, x: Points2, ctx: Context) -> Floats:
     """Local pitch of each agent: half the gap to each moving neighbour, the full gap to a boundary."""
-    m = len(ext.kind)
+    m = len(tab)
+    chain = tab[:, _CHAIN]
+    bnd = tab[:, _KIND] < 0
     link = np.zeros(m + 1, dtype=bool)
-    link[1:-1] = ext.chain[1:] == ext.chain[:-1]
+    link[1:-1] = chain[1:] == chain[:-1]
     gap = np.full(m + 1, np.nan)
-    gap[1:-1] = np.linalg.norm(x[1:] - x[:-1], axis=1)
+    d = x[1:] - x[:-1]
+    gap[1:-1] = np.sqrt(np.sum(d * d, axis=1))
     left_b = np.zeros(m, dtype=bool)
     right_b = np.zeros(m, dtype=bool)
-    left_b[1:] = ext.kind[:-1] < 0
-    right_b[:-1] = ext.kind[1:] < 0
+    left_b[1:] = bnd[:-1]
+    right_b[:-1] = bnd[1:]
     lpart = np.where(link[:-1], np.where(left_b, 1.0, 0.5) * gap[:-1], np.nan)
     rpart = np.where(link[1:], np.where(right_b, 1.0, 0.5) * gap[1:], np.nan)
     lpart = np.where(np.isnan(lpart), rpart, lpart)
@@ -515,9 +526,10 @@ def _merge(st: SwarmState, ctx: Context) -> SwarmState:
         return st
     a = st.pos[starts[1:] - 1]
     b = st.pos[starts[1:]]
-    close = np.linalg.norm(b - a, axis=1) <= ctx.params.merge_reach * ctx.pitch
+    d = b - a
+    close = np.sum(d * d, axis=1) <= (ctx.params.merge_reach * ctx.pitch) ** 2
     # they must face each other: b lies to the right of a's travel
-    close &= np.sum((b - a) * _right(st.head[starts[1:] - 1] + st.head[starts[1:]]), axis=1) > 0
+    close &= np.sum(d * _right(st.head[starts[1:] - 1] + st.head[starts[1:]]), axis=1) > 0
     if not np.any(close):
         return st
     close[close] &= ~ctx.domain.crosses(a[close], b[close])
@@ -527,6 +539,57 @@ def _merge(st: SwarmState, ctx: Context) -> SwarmState:
     start[starts[1:][close]] = False
     ctx.count("merged", int(np.count_nonzero(close)))
     return SwarmState(st.pos, st.head, st.pid, start)
+
+
+def _choose(tab: np.ndarray, kills: Ints, kw: Ints, spairs: Ints, sw: Ints, ctx: Context):
+    """Stage 4b: solve X0, X-1, X+1 (Eq. 12) and keep per window the lowest potential (Eq. 13).
+
+    Returns the chosen table, its problem and solution.
+    """
+    n_win = int(tab[-1, _WIN]) + 1 if len(tab) else 0
+    variants = [tab]
+    if len(kills):
+        variants.append(_variant(tab, kills, np.zeros(0, np.int64)))
+    if len(spairs):
+        variants.append(_variant(tab, np.zeros(0, np.int64), spairs))
+    if len(variants) == 1:
+        _, cp, u = _solve(variants, ctx)
+        return tab, cp, u
+    sizes = [len(v) for v in variants]
+    glued, cp, u = _solve(variants, ctx)
+    wtab = glued.copy()
+    wtab[:, _WIN] += np.repeat(n_win * np.arange(len(variants)), sizes)
+    pot_all = _window_potentials(wtab, cp, u, n_win * len(variants)).reshape(len(variants), n_win)
+    pot = np.full((3, n_win), np.inf)
+    pot[0] = pot_all[0]
+    vi = 1
+    if len(kills):
+        pot[1, kw] = pot_all[vi, kw]
+        vi += 1
+    if len(spairs):
+        pot[2, sw] = pot_all[vi, sw]
+    choice = np.argmin(pot, axis=0)  # ties keep X0
+    take_kill = choice[kw] == 1
+    take_spawn = choice[sw] == 2
+    ctx.count("kills", int(np.count_nonzero(take_kill)))
+    ctx.count("spawns", int(np.count_nonzero(take_spawn)))
+    if not (np.any(take_kill) or np.any(take_spawn)):
+        vi = 0
+    elif len(kills) and np.all(take_kill) and not np.any(take_spawn):
+        vi = 1
+    elif len(spairs) and np.all(take_spawn) and not np.any(take_kill):
+        vi = len(variants) - 1
+    else:
+        final = _variant(tab, kills[take_kill], spairs[take_spawn])
+        _, cp, u = _solve([final], ctx)
+        return final, cp, u
+    lo = int(np.sum(sizes[:vi]))
+    hi = lo + sizes[vi]
+    sub = ChainProblem(
+        t=cp.t[lo:hi], frame=cp.frame[lo:hi], lo=cp.lo[lo:hi], hi=cp.hi[lo:hi], weight=cp.weight[lo:hi],
+        link=cp.link[lo : hi - 1], radial=cp.radial[lo : hi - 1], target=cp.target[lo : hi - 1],
+    )
+    return variants[vi], sub, u[2 * lo : 2 * hi]
 
 
 def step(st: SwarmState, ctx: Context) -> tuple[SwarmState, Points2, Ints, Floats, Points2]:
@@ -555,69 +618,45 @@ def step(st: SwarmState, ctx: Context) -> tuple[SwarmState, Points2, Ints, Float
     last_pitch = np.full(len(last), ctx.pitch)
     if st.n == 0:
         return st, last, last_pid, last_pitch, last
-    ext = _extend(st, t, sdir, mass, ctx)
-    kw, kills, sw, spairs = _propose(ext, ctx)
-    variants = [ext]
-    if len(kills):
-        variants.append(_variant(ext, kills, np.zeros(0, np.int64), ctx))
-    if len(spairs):
-        variants.append(_variant(ext, np.zeros(0, np.int64), spairs, ctx))
-    sols = _solve_many(variants, ctx)
-    final, (cp, u) = ext, sols[0]
-    if len(variants) > 1:
-        n_win = int(ext.win.max()) + 1
-        pot = np.full((3, n_win), np.inf)
-        pot[0] = _window_potential(ext, *sols[0], n_win)
-        vi = 1
-        if len(kills):
-            pk = _window_potential(variants[vi], *sols[vi], n_win)
-            pot[1, kw] = pk[kw]
-            vi += 1
-        if len(spairs):
-            ps = _window_potential(variants[vi], *sols[vi], n_win)
-            pot[2, sw] = ps[sw]
-        choice = np.argmin(pot, axis=0)  # ties keep X0
-        take_kill = np.isin(kw, np.flatnonzero(choice == 1))
-        take_spawn = np.isin(sw, np.flatnonzero(choice == 2))
-        ctx.count("kills", int(np.count_nonzero(take_kill)))
-        ctx.count("spawns", int(np.count_nonzero(take_spawn)))
-        if np.any(take_kill) or np.any(take_spawn):
-            if np.all(take_kill) and len(kills) and not np.any(take_spawn):
-                final, (cp, u) = variants[1], sols[1]
-            elif np.all(take_spawn) and len(spairs) and not np.any(take_kill):
-                final, (cp, u) = variants[-1], sols[-1]
-            else:
-                final = _variant(ext, kills[take_kill], spairs[take_spawn], ctx)
-                cp, u = _solve_many([final], ctx)[0]
+    tab = _extend(st, t, sdir, mass, ctx)
+    kw, kills, sw, spairs = _propose(tab, ctx)
+    final, cp, u = _choose(tab, kills, kw, spairs, sw, ctx)
     x = positions(cp, u) * ctx.pitch
     # boundary agents: tangent step done in the QP, now back onto the boundary
-    bnd = final.kind < 0
+    bnd = final[:, _KIND] < 0
     if np.any(bnd):
-        x[bnd] = ctx.domain.project(x[bnd])[0]
-    alive = _safety(final, x, ctx)
-    final = final.take(alive)
-    x = x[alive]
+        x[bnd] = ctx.domain.project_local(x[bnd], final[bnd, _SEG].astype(np.int64))
+    alive, cells, samples = _safety(final, x, ctx)
+    if not np.all(alive):
+        final = final[alive]
+        x = x[alive]
+        cells = cells[alive]
+        samples = samples[alive]
     pitch = _local_pitch(final, x, ctx)
-    mv = final.moving
-    fresh = final.pid[mv] == -3
-    pid = final.pid[mv].copy()
-    pid[fresh] = ctx.new_pids(int(np.count_nonzero(fresh)))
+    mv = final[:, _KIND] >= 0
+    fm = final[mv]
+    pid = fm[:, _PID].astype(np.int64)
+    fresh = pid == -3
+    if np.any(fresh):
+        pid[fresh] = ctx.new_pids(int(np.count_nonzero(fresh)))
     xm = x[mv]
-    prev = np.where((final.kind[mv] == 1)[:, None], xm, final.pos[mv])
+    spawned = (fm[:, _KIND] == 1)[:, None]
+    prev = np.where(spawned, xm, fm[:, _P])
     moved = xm - prev
-    head = np.where(
-        (np.linalg.norm(moved, axis=1) > 0.1 * ctx.pitch)[:, None], _unit(moved), final.head[mv]
-    )
-    chain = final.chain[mv]
+    step_len2 = np.sum(moved * moved, axis=1)
+    head = np.where((step_len2 > (0.1 * ctx.pitch) ** 2)[:, None], _unit(moved), fm[:, _H])
+    chain = fm[:, _CHAIN]
     start = np.ones(len(chain), dtype=bool)
     start[1:] = chain[1:] != chain[:-1]
     new = SwarmState(pos=xm, head=head, pid=pid, start=start)
-    ctx.grid.mark(prev, xm, pid)
+    ctx.grid.mark_cells(cells[mv], samples[mv], pid)  # the trails prev -> xm
     new = _merge(new, ctx)
-    return (
-        new,
-        np.concatenate([xm, last]),
-        np.concatenate([pid, last_pid]),
-        np.concatenate([pitch[mv], last_pitch]),
-        np.concatenate([prev, last]),
-    )
+    if len(last):
+        return (
+            new,
+            np.concatenate([xm, last]),
+            np.concatenate([pid, last_pid]),
+            np.concatenate([pitch[mv], last_pitch]),
+            np.concatenate([prev, last]),
+        )
+    return new, xm, pid, pitch[mv], prev
