@@ -37,6 +37,14 @@ class Tolerances:
         field's normalising stress.
     arc_chord_mm : float
         G2/G3 arcs read from G-code are sampled into chords that deviate from the arc by at most this.
+    loop_close_rel : float
+        A perimeter chain whose two ends are closer than this many bead widths is a closed loop
+        (PrusaSlicer clips every loop end by 0.15 x the nozzle diameter, 0.06 mm on a 0.4 nozzle; the
+        beads of a gap narrower than one bead width touch, so the wall is closed).
+    region_check_rel : float
+        An infill block's centre lines must lie inside its derived region within this many flow widths
+        (slicers run infill lines into the innermost perimeter: PrusaSlicer's ``infill_overlap``,
+        Cura's ``infill_overlap`` / ``skin_overlap``, up to about a third of a bead).
     """
 
     length_mm: float = 1e-6
@@ -49,6 +57,8 @@ class Tolerances:
     fea_residual: float = 1e-8
     anisotropy_rel: float = 1e-3
     arc_chord_mm: float = 0.005
+    loop_close_rel: float = 1.0
+    region_check_rel: float = 0.5
 
 
 TOL = Tolerances()

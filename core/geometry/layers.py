@@ -1,0 +1,243 @@
+"""Build the layer geometry of a parsed G-code program.
+
+For each layer and each object: the part outline and the infill domain from the perimeters
+(:mod:`.walls`), split into islands; each infill block's lines assigned to the islands, its pitch
+(:mod:`.pitch`), footprint and region (:mod:`.regions`); then, with the layers below and above known,
+each block's kind (:mod:`.classify`); finally every region is checked against its block's own
+extrusions.
+
+Widths: the **flow width** of a move is its extruded cross-section over its height,
+``e * (pi D^2 / 4) / (length * height)`` with ``e`` in mm of filament and ``D`` the filament diameter
+from the slicer configuration (1.75 mm when the file carries none, e.g. CuraEngine run on its own);
+the **bead width** is the slicer's ``;WIDTH:`` (the flow width when there is none).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+
+import numpy as np
+import shapely
+from loadpath.errors import GeometryError
+from loadpath.gcode.flavors import Role
+from loadpath.gcode.model import Program
+from loadpath.geometry.classify import classify, exposed_fraction
+from loadpath.geometry.model import InfillBlock, Island, LayerGeometry, ObjectGeometry, PrintGeometry
+from loadpath.geometry.ops import EMPTY, as_region, polygons_of
+from loadpath.geometry.pitch import estimate_pitch
+from loadpath.geometry.regions import BlockLines, check_tolerance, footprints, outside_distance, regions
+from loadpath.geometry.walls import walls
+
+__all__ = ["layer_geometry", "filament_diameter", "flow_widths", "object_names", "DEFAULT_FILAMENT"]
+
+DEFAULT_FILAMENT = 1.75
+"""Filament diameter assumed when the file does not say (mm)."""
+
+_PERIMETER = np.array([Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER])
+_INSIDE = np.array([r for r in Role if r.is_infill] + [Role.GAP_FILL, Role.IRONING])
+_FIX = ("slice with at least one perimeter (PrusaSlicer: perimeters >= 1; Cura: wall_line_count >= 1); "
+        "loadpath finds the infill domain from the perimeters")
+
+
+def filament_diameter(program: Program) -> float:
+    """Filament diameter from the embedded configuration (first extruder), else 1.75 mm."""
+    for key in ("filament_diameter", "material_diameter"):
+        raw = program.config.get(key)
+        if raw:
+            try:
+                d = float(str(raw).split(",")[0].split(";")[0].strip())
+            except ValueError:
+                continue
+            if d > 0:
+                return d
+    return DEFAULT_FILAMENT
+
+
+def flow_widths(moves: np.ndarray, diameter: float) -> np.ndarray:
+    """Flow width of every move, mm (NaN for moves that do not extrude).
+
+    Parameters
+    ----------
+    moves : structured array (MOVE_DTYPE)
+    diameter : float, mm
+        Filament diameter.
+    """
+    length = np.hypot(moves["x1"] - moves["x0"], moves["y1"] - moves["y0"])
+    ok = moves["extrude"] & (length > 0) & (moves["height"] > 0)
+    area = np.pi * diameter ** 2 / 4
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fw = moves["e"] * area / (length * moves["height"])
+    return np.where(ok, fw, np.nan)
+
+
+def object_names(labels: Iterable[str]) -> list[str]:
+    """Short, unique names for object labels (``"bracket.stl id:1 copy 0"`` -> ``"bracket.stl"``)."""
+    labels = list(labels)
+    bare = [re.sub(r"\s+id:\d+\s+copy\s+\d+\s*$", "", lb).strip() for lb in labels]
+    short = [re.split(r"[\\/]", b)[-1] or lb for b, lb in zip(bare, labels, strict=True)]
+    return [s if short.count(s) == 1 else lb for s, lb in zip(short, labels, strict=True)]
+
+
+def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
+    """Derive the layer geometry of every object of a program.
+
+    Parameters
+    ----------
+    program : Program
+        From :func:`loadpath.gcode.read` / :func:`~loadpath.gcode.parse`.
+    check : bool
+        Raise when a block's extrusions leave its derived region (see :mod:`.regions`).
+
+    Returns
+    -------
+    PrintGeometry
+
+    Raises
+    ------
+    GeometryError
+        A layer with infill but no perimeters; a region its own block's lines leave (``check``).
+    """
+    m = program.moves
+    diameter = filament_diameter(program)
+    fw_all = flow_widths(m, diameter)
+    bead_all = np.where(np.isfinite(m["width"]) & (m["width"] > 0), m["width"], fw_all)
+    work = m["extrude"] & (m["layer"] >= 0) & np.isfinite(fw_all) & (fw_all > 0)
+    peri = work & np.isin(m["role"], _PERIMETER)
+    inside = work & np.isin(m["role"], _INSIDE)
+    rows = np.flatnonzero(peri | inside)
+    block_of = np.full(len(m), -1, dtype=np.int64)
+    for i, (a, b) in enumerate(zip(program.blocks["move_start"], program.blocks["move_stop"], strict=True)):
+        block_of[a:b] = i
+
+    codes = sorted({int(c) for c in np.unique(m["object"][rows])})
+    names = object_names([program.objects[c] if c >= 0 else "part" for c in codes])
+    per_object: dict[int, list[LayerGeometry]] = {c: [] for c in codes}
+    layer_rows = np.split(rows, np.searchsorted(m["layer"][rows], np.arange(1, len(program.layers))))
+    for li, lr in enumerate(layer_rows):
+        if len(lr) == 0:
+            continue
+        layer = program.layers[li]
+        for code, name in zip(codes, names, strict=True):
+            r = lr[m["object"][lr] == code]
+            if len(r) == 0:
+                continue
+            p_rows, i_rows = r[peri[r]], r[inside[r]]
+            where = f"layer {li + 1} (z = {layer.z:g} mm), object {name!r}"
+            if len(p_rows) == 0:
+                raise GeometryError(f"{where} has infill but no perimeters; {_FIX}")
+            height = float(np.median(m["height"][p_rows]))
+            islands = _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
+            per_object[code].append(LayerGeometry(li, float(layer.z), height, name, islands))
+
+    objects = []
+    for code, name in zip(codes, names, strict=True):
+        layers = _classified(per_object[code])
+        if check:
+            _check(layers, program)
+        objects.append(ObjectGeometry(name, program.objects[code] if code >= 0 else "", code, tuple(layers)))
+    return PrintGeometry(tuple(objects), program.dialect, len(program.layers), diameter)
+
+
+def _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program) -> tuple[Island, ...]:
+    """Islands of one object in one layer, with their (unclassified) blocks."""
+    x0, y0, x1, y1 = (m[k] for k in ("x0", "y0", "x1", "y1"))
+    mx, my = (x0[i_rows] + x1[i_rows]) / 2, (y0[i_rows] + y1[i_rows]) / 2
+    w = walls(x0[p_rows], y0[p_rows], x1[p_rows], y1[p_rows], bead_all[p_rows], fw_all[p_rows],
+              m["role"][p_rows] == Role.EXTERNAL_PERIMETER, mx, my)
+    polys = sorted(polygons_of(w.outline), key=lambda p: (round(p.bounds[0], 3), round(p.bounds[1], 3)))
+    if not polys:
+        return ()
+    # the island of every inside row: containing outline, else the nearest one
+    owner = np.full(len(i_rows), -1, dtype=np.int64)
+    for k, poly in enumerate(polys):
+        shapely.prepare(poly)
+        owner[(owner < 0) & shapely.contains_xy(poly, mx, my)] = k
+    lost = owner < 0
+    if lost.any():
+        pts = shapely.points(mx[lost], my[lost])
+        d = shapely.distance(np.array(polys, dtype=object)[:, None], pts[None, :])
+        owner[lost] = np.argmin(d, axis=0)
+    blk = block_of[i_rows]
+    out = []
+    for k, poly in enumerate(polys):
+        domain = as_region(shapely.intersection(w.domain, poly)) if not w.domain.is_empty else EMPTY
+        mine = i_rows[owner == k]
+        ids = list(dict.fromkeys(blk[owner == k].tolist()))  # blocks in file order
+        lines, meta = [], []
+        for b in ids:
+            r = mine[block_of[mine] == b]
+            fw = float(np.sum(fw_all[r] * _len(m, r)) / np.sum(_len(m, r)))
+            est = estimate_pitch(x0[r], y0[r], x1[r], y1[r], fw)
+            lines.append(BlockLines(x0[r], y0[r], x1[r], y1[r], fw, est.pitch))
+            total = float(program.blocks["length"][b]) if b >= 0 else float(np.sum(_len(m, r)))
+            meta.append((b, r, fw, est, float(np.sum(_len(m, r))), total))
+        lines = [_with_pitch(bl, domain) for bl in lines]
+        walls_k = as_region(shapely.difference(poly, domain)) if not domain.is_empty else poly
+        prints = footprints(lines, domain, walls_k)
+        regs = regions(domain, prints) if lines else []
+        blocks = []
+        for (b, r, fw, est, length, total), bl, fp, reg in zip(meta, lines, prints, regs, strict=True):
+            feat = int(m["feature"][r[0]])
+            role = Role(int(m["role"][r[0]]))
+            density = float(length * fw / reg.area) if reg.area > (4 * fw) ** 2 else float("nan")
+            blocks.append(InfillBlock(
+                block_index=int(b), feature=program.features[feat] if feat >= 0 else "", role=role,
+                kind="", region=reg, footprint=fp, flow_width=fw,
+                bead_width=float(np.median(bead_all[r])), height=float(np.median(m["height"][r])),
+                pitch=bl.pitch, angle=est.angle, density=density, length=length,
+                share=min(1.0, length / total) if total > 0 else 1.0, outside=outside_distance(bl, reg)))
+        out.append(Island(k, poly, domain, tuple(blocks)))
+    return tuple(out)
+
+
+def _len(m, r):
+    return np.hypot(m["x1"][r] - m["x0"][r], m["y1"][r] - m["y0"][r])
+
+
+def _with_pitch(bl: BlockLines, domain) -> BlockLines:
+    """Fill in the pitch of curved patterns: ``area / length`` of the area its lines span."""
+    if np.isfinite(bl.pitch):
+        return bl
+    length = float(np.sum(np.hypot(bl.x1 - bl.x0, bl.y1 - bl.y0)))
+    span = shapely.intersection(as_region(shapely.buffer(bl.beads(grow=2.5), -2.5)), domain) \
+        if not domain.is_empty else bl.beads()
+    pitch = max(span.area / length, bl.flow_width) if length > 0 else bl.flow_width
+    return BlockLines(bl.x0, bl.y0, bl.x1, bl.y1, bl.flow_width, float(pitch))
+
+
+def _classified(layers: list[LayerGeometry]) -> list[LayerGeometry]:
+    """Set every block's kind from its density and its exposure to the object's neighbouring layers."""
+    from dataclasses import replace
+
+    outlines = [g.outline for g in layers]
+    out = []
+    for i, g in enumerate(layers):
+        below = outlines[i - 1] if i > 0 else None
+        above = outlines[i + 1] if i + 1 < len(layers) else None
+        islands = []
+        for isl in g.islands:
+            blocks = []
+            for b in isl.blocks:
+                down = exposed_fraction(b.region, below, b.bead_width) if i > 0 else 1.0
+                up = exposed_fraction(b.region, above, b.bead_width)
+                kind = classify(b.role, b.density, i == 0, down, up)
+                blocks.append(replace(b, kind=kind, exposed_down=down, exposed_up=up))
+            islands.append(replace(isl, blocks=tuple(blocks)))
+        out.append(replace(g, islands=tuple(islands)))
+    return out
+
+
+def _check(layers: list[LayerGeometry], program: Program) -> None:
+    """Every block's centre lines lie inside its region (within the stated tolerance)."""
+    for g in layers:
+        for isl in g.islands:
+            for b in isl.blocks:
+                tol = check_tolerance(b.flow_width)
+                if b.outside > tol:
+                    line = int(program.blocks["start"][b.block_index]) + 1 if b.block_index >= 0 else 0
+                    raise GeometryError(
+                        f"layer {g.layer_index + 1} (z = {g.z:g} mm), object {g.object!r}: the {b.feature!r} "
+                        f"block at line {line} runs {b.outside:.3f} mm outside the infill region derived for "
+                        f"it (tolerance {tol:.3f} mm); the perimeters do not enclose the infill: re-slice "
+                        "with closed perimeters, or report the file")
