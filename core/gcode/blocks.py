@@ -77,7 +77,10 @@ def line_kinds(cmd: np.ndarray, motion: np.ndarray, moved_xy: np.ndarray, de: np
     n = len(cmd)
     kind = np.full(n, BARRIER, dtype=np.int8)
     kind[cmd == NO_COMMAND] = NEUTRAL
-    kind[np.isin(cmd, NEUTRAL_COMMANDS)] = NEUTRAL
+    m_code = cmd - M
+    lut = np.zeros(1000, dtype=bool)
+    lut[[c - M for c in NEUTRAL_COMMANDS]] = True
+    kind[(m_code >= 0) & (m_code < 1000) & lut[np.clip(m_code, 0, 999)]] = NEUTRAL
     kind[motion & ~has_axes] = NEUTRAL  # G1 F8640
     kind[np.asarray(barrier_comment, dtype=np.int64)] = BARRIER
     mv = motion & has_axes
@@ -90,6 +93,13 @@ def line_kinds(cmd: np.ndarray, motion: np.ndarray, moved_xy: np.ndarray, de: np
     kind[fw_unretract] = UNRETRACT
     kind[np.asarray(wipe_marker, dtype=np.int64)] = WIPE
     return kind
+
+
+def _kinds_in(kind: np.ndarray, wanted: tuple[int, ...]) -> np.ndarray:
+    """Lines whose kind is one of ``wanted`` (a lookup table instead of ``np.isin``)."""
+    lut = np.zeros(len(KINDS), dtype=bool)
+    lut[list(wanted)] = True
+    return np.flatnonzero(lut[kind])
 
 
 def _last_before(sorted_lines: Ints, at: Ints) -> Ints:
@@ -144,14 +154,14 @@ def find_blocks(kind: np.ndarray, layer: np.ndarray, feature: np.ndarray, obj: n
     stop_enter = np.flatnonzero(kind != NEUTRAL)  # core start: go back over neutral lines only
     start = _last_before(stop_enter, first_x) + 1
     start = np.minimum(start, first_x)
-    hard_enter = np.flatnonzero(np.isin(kind, (EXTRUDE, WIPE, RETRACT, BARRIER)))
+    hard_enter = _kinds_in(kind, (EXTRUDE, WIPE, RETRACT, BARRIER))
     p = _last_before(hard_enter, start)
     tu = np.flatnonzero((kind == TRAVEL) | (kind == UNRETRACT))
     q = _first_from(tu, p + 1, n)
     span_start = np.where(q < start, q, start)
 
     stop = last_x + 1
-    exit_hard = np.flatnonzero(np.isin(kind, (EXTRUDE, TRAVEL, UNRETRACT)))
+    exit_hard = _kinds_in(kind, (EXTRUDE, TRAVEL, UNRETRACT))
     h = _first_from(exit_hard, stop, n)
     wr = np.flatnonzero((kind == WIPE) | (kind == RETRACT))
     f = _first_from(wr, stop, n)
@@ -159,7 +169,7 @@ def find_blocks(kind: np.ndarray, layer: np.ndarray, feature: np.ndarray, obj: n
     has_exit = f < h
     exit_start = np.where(has_exit, f, stop)
     exit_stop = np.where(has_exit, last_wr_before_h + 1, stop)
-    any_stop = np.flatnonzero(np.isin(kind, (EXTRUDE, TRAVEL, UNRETRACT, BARRIER)))
+    any_stop = _kinds_in(kind, (EXTRUDE, TRAVEL, UNRETRACT, BARRIER))
     b = _first_from(any_stop, stop, n)
     last_wr_before_b = _last_before(wr, b)
     span_stop = np.where(last_wr_before_b >= stop, last_wr_before_b + 1, stop)

@@ -34,9 +34,6 @@ _PAIRS = {
 }
 
 
-_THUMB = re.compile(rb"^; thumbnail(?:_[A-Z]+)? (begin|end)\b", re.M)
-
-
 def _version_at_least(version: str, major: int, minor: int) -> bool:
     m = re.match(r"(\d+)\.(\d+)", version)
     return bool(m) and (int(m.group(1)), int(m.group(2))) >= (major, minor)
@@ -65,10 +62,9 @@ def _truncation(program: Program, mk: Markers) -> str | None:
         opened, closed = pairs.get("open:" + name, []), pairs.get("close:" + name, [])
         if opened and (not closed or closed[-1] < opened[-1]):
             return f"the closing {closing} line"
-    if b"; thumbnail" in program.data:
-        marks = _THUMB.findall(program.data)
-        if marks and marks[-1] == b"begin":
-            return "the '; thumbnail end' line of its last thumbnail"
+    opened, closed = pairs.get("open:thumbnail", []), pairs.get("close:thumbnail", [])
+    if opened and (not closed or closed[-1] < opened[-1]):
+        return "the '; thumbnail end' line of its last thumbnail"
     d = program.dialect
     if d.slicer == "PrusaSlicer" and _version_at_least(d.version, 2, 4) and not pairs.get("close:config"):
         return "PrusaSlicer's closing '; prusaslicer_config = end' line"

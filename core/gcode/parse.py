@@ -17,7 +17,7 @@ from loadpath.gcode.flavors import Dialect, detect_slicer, role_of
 from loadpath.gcode.lines import check_text, index_lines
 from loadpath.gcode.markers import Markers, read_markers
 from loadpath.gcode.model import MOVE_DTYPE, Layer, Program
-from loadpath.gcode.state import MOTION, LineState, ffill, machine_state
+from loadpath.gcode.state import LineState, ffill, is_motion, machine_state
 from loadpath.gcode.words import BIT, G, Tokens, tokenize
 
 __all__ = ["parse_bytes"]
@@ -64,16 +64,16 @@ def parse_bytes(data: bytes, strict: bool = True) -> Program:
     unset = np.isnan(height_of_line) & (layer_of_line >= 0)
     height_of_line[unset] = height[layer_of_line[unset]]
 
-    moves = _moves(tok, st, arc_lines, feature, width, height_of_line, layer_of_line, obj, in_wipe,
-                   _role_table(mk.features))
+    moves, cols = _moves(tok, st, arc_lines, feature, width, height_of_line, layer_of_line, obj, in_wipe,
+                         _role_table(mk.features))
 
     has_axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
-    motion = np.isin(cmd, MOTION)
+    motion = is_motion(cmd)
     fw_ok = ~tok.other_words
     kinds = line_kinds(cmd, motion, st.moved_xy, st.de, in_wipe, mk.wipe_lines, mk.barrier_lines,
                        (cmd == G + 10) & fw_ok, (cmd == G + 11) & fw_ok, has_axes | arc_lines)
     blocks = find_blocks(kinds, layer_of_line, feature, obj, type_line)
-    _fill_blocks(blocks, moves, _role_table(mk.features))
+    _fill_blocks(blocks, cols, _role_table(mk.features))
 
     layers = _layers(layer_starts, print_end, numbers, z, height, moves, blocks, family)
     program = Program(
@@ -163,11 +163,11 @@ def _layer_geometry(mk: Markers, family: str, starts: np.ndarray, print_end: int
 
 def _moves(tok: Tokens, st: LineState, arc_lines: np.ndarray, feature: np.ndarray, width: np.ndarray,
            height: np.ndarray, layer: np.ndarray, obj: np.ndarray, in_wipe: np.ndarray,
-           role_table: np.ndarray) -> np.ndarray:
-    """All moves as a MOVE_DTYPE array (arcs sampled into chords)."""
+           role_table: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """All moves as a MOVE_DTYPE array (arcs sampled into chords), and the same as columns."""
     cmd = tok.cmd
     axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
-    motion = np.isin(cmd, MOTION)
+    motion = is_motion(cmd)
     fw_ok = ~tok.other_words
     g10 = (cmd == G + 10) & fw_ok
     g11 = (cmd == G + 11) & fw_ok
@@ -212,7 +212,7 @@ def _moves(tok: Tokens, st: LineState, arc_lines: np.ndarray, feature: np.ndarra
         "unretract": (~moved & (e > 0)) | g11[line], "wipe": wipe, "lift": (z1 > z0) & not_extr,
         "lower": (z1 < z0) & not_extr, "arc": is_arc,
     }
-    return to_records(cols, MOVE_DTYPE)
+    return to_records(cols, MOVE_DTYPE), cols
 
 
 def to_records(cols: dict[str, np.ndarray], dtype: np.dtype, chunk: int = 4096) -> np.ndarray:
@@ -226,7 +226,8 @@ def to_records(cols: dict[str, np.ndarray], dtype: np.dtype, chunk: int = 4096) 
     return out
 
 
-def _fill_blocks(blocks: np.ndarray, moves: np.ndarray, role_table: np.ndarray) -> None:
+def _fill_blocks(blocks: np.ndarray, moves: dict[str, np.ndarray], role_table: np.ndarray) -> None:
+    """Move ranges, extruded filament and length, and role of each block (``moves``: move columns)."""
     lines = moves["line"]
     blocks["move_start"] = np.searchsorted(lines, blocks["start"], "left")
     blocks["move_stop"] = np.searchsorted(lines, blocks["stop"], "left")

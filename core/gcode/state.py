@@ -24,10 +24,15 @@ import numpy as np
 from loadpath._typing import Bools, Floats, Ints
 from loadpath.gcode.words import BIT, G, M, T, Tokens
 
-__all__ = ["LineState", "ffill", "machine_state", "MOTION"]
+__all__ = ["LineState", "ffill", "machine_state", "MOTION", "is_motion"]
 
 MOTION = (G + 0, G + 1, G + 2, G + 3)
 """Commands that move the machine (and may extrude)."""
+
+
+def is_motion(cmd: np.ndarray) -> np.ndarray:
+    """``cmd`` is one of :data:`MOTION` (G0-G3)."""
+    return (cmd >= G) & (cmd <= G + 3)
 
 
 @dataclass(frozen=True)
@@ -134,7 +139,7 @@ def machine_state(tok: Tokens, arc_lines: Bools, volumetric_area: float | None =
     cmd = tok.cmd
     n = len(cmd)
     v, present = tok.values, tok.present
-    motion = np.isin(cmd, MOTION)
+    motion = is_motion(cmd)
     g92 = cmd == G + 92
     g28 = cmd == G + 28
     has = {c: (present & np.uint16(BIT[c])) != 0 for c in "XYZEF"}
@@ -153,8 +158,12 @@ def machine_state(tok: Tokens, arc_lines: Bools, volumetric_area: float | None =
         mv = motion & has[c]
         set_mask = (mv & absolute) | (g92 & (has[c] | no_axes)) | (g28 & (has[c] | no_axes))
         set_val = np.where(mv | (g92 & has[c]), v[c], 0.0)
-        add = np.where(mv & ~absolute, v[c], 0.0)
-        pos[c] = _segmented(set_mask, set_val, add, 0.0)
+        rel = mv & ~absolute
+        if rel.any():
+            pos[c] = _segmented(set_mask, set_val, np.where(rel, v[c], 0.0), 0.0)
+        else:  # absolute positioning throughout: a forward fill
+            ev = np.flatnonzero(set_mask)
+            pos[c] = ffill(n, ev, set_val[ev], 0.0)
     me = motion & has["E"]
     e_set = (me & ~e_rel) | (g92 & (has["E"] | no_axes))
     e_set_val = np.where(me | (g92 & has["E"]), v["E"], 0.0)

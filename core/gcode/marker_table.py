@@ -1,0 +1,140 @@
+"""The frequent slicer markers, matched and read for all comment lines at once with numpy.
+
+A layer carries a dozen markers (``;LAYER_CHANGE``, ``;Z:``, ``;HEIGHT:``, ``;TYPE:``, ``;WIDTH:``,
+``;WIPE_START`` ...), about a tenth of a PrusaSlicer file's lines: too many for a Python pass at a
+million lines per second.  Here each comment line's first bytes are compared with every known
+prefix in one vectorized step, numbers after a prefix go through :func:`parse_numbers`, and feature
+names are grouped with ``np.unique`` so only the distinct names are decoded.  Lines this table does
+not settle (object labels, config blocks, headers, unusual spellings) go to the Python pass of
+:mod:`loadpath.gcode.markers`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from loadpath._typing import Ints
+from loadpath.gcode.numbers import parse_numbers
+
+__all__ = ["MarkerTable", "match_markers", "PREFIXES"]
+
+PREFIXES: tuple[tuple[bytes, str, bool], ...] = (
+    # (prefix, kind, whole line)
+    (b";LAYER_CHANGE", "layer_prusa", True),
+    (b"; CHANGE_LAYER", "layer_bambu", True),
+    (b";Z:", "z", False),
+    (b"; Z_HEIGHT:", "z", False),
+    (b";HEIGHT:", "height", False),
+    (b"; LAYER_HEIGHT:", "height", False),
+    (b";WIDTH:", "width", False),
+    (b"; LINE_WIDTH:", "width", False),
+    (b";TYPE:", "feature", False),
+    (b"; FEATURE:", "feature", False),
+    (b";WIPE_START", "wipe_start", True),
+    (b"; WIPE_START", "wipe_start", True),
+    (b";WIPE_END", "wipe_end", True),
+    (b"; WIPE_END", "wipe_end", True),
+    (b";LAYER:", "layer_cura", False),
+    (b";TIME_ELAPSED:", "time_elapsed", False),
+    (b";BEFORE_LAYER_CHANGE", "barrier", False),
+    (b";AFTER_LAYER_CHANGE", "barrier", False),
+    (b"; printing object ", "object_start", False),
+    (b"; stop printing object", "object_stop", False),
+    (b";MESH:", "mesh", False),
+)
+"""Prefixes read here, with the kind of marker they start."""
+
+_NUMERIC = ("z", "height", "width", "layer_cura")
+_NAMED = {"feature": 48, "object_start": 128, "mesh": 128}  # kind -> longest name read here
+_PREFIX_WINDOW = 24
+
+
+@dataclass
+class MarkerTable:
+    """Lines (sorted, 0-based) and values of the markers matched here, per kind.
+
+    ``lines[kind]`` for every kind of :data:`PREFIXES`; ``values[kind]`` for the numeric kinds;
+    for the named kinds (features, object labels, Cura meshes) ``names[kind]`` the distinct names in
+    order of first appearance and ``codes[kind]`` the index of each line's name in it; ``handled``
+    the comment lines settled here.
+    """
+
+    lines: dict[str, Ints] = field(default_factory=dict)
+    values: dict[str, np.ndarray] = field(default_factory=dict)
+    names: dict[str, list[str]] = field(default_factory=dict)
+    codes: dict[str, Ints] = field(default_factory=dict)
+    handled: Ints = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+
+def match_markers(buf: np.ndarray, first: Ints, ends: Ints, lines: Ints) -> MarkerTable:
+    """Match and read the :data:`PREFIXES` on ``lines`` (comment-only lines).
+
+    Parameters
+    ----------
+    buf : (n_bytes + pad,) uint8
+    first, ends : (n_lines,) int
+        Offset of each line's first non-blank byte and of its content end.
+    lines : (k,) int
+        Candidate lines, sorted.
+    """
+    out = MarkerTable()
+    k = len(lines)
+    s, e = first[lines], ends[lines]
+    clen = e - s
+    head = sliding_window_view(buf, _PREFIX_WINDOW)[s]  # (k, 24)
+    kind_of = np.full(k, -1, dtype=np.int64)
+    for code, (prefix, _kind, whole) in enumerate(PREFIXES):
+        n = len(prefix)
+        m = (head[:, :n] == np.frombuffer(prefix, np.uint8)).all(axis=1) & (clen >= n) & (kind_of < 0)
+        if whole:
+            after = head[:, min(n, _PREFIX_WINDOW - 1)]
+            m &= (clen == n) | (after == 32) | (after == 9)
+        kind_of[m] = code
+    handled = kind_of >= 0
+    kinds = sorted({kind for _, kind, _ in PREFIXES})
+    for kind in kinds:
+        codes = [c for c, (_, kk, _) in enumerate(PREFIXES) if kk == kind]
+        sel = np.flatnonzero(np.isin(kind_of, codes))
+        plen = np.array([len(PREFIXES[c][0]) for c in range(len(PREFIXES))])[kind_of[sel]] if len(sel) else sel
+        if kind in _NUMERIC and len(sel):
+            start = s[sel] + plen
+            for _ in range(2):  # '; Z_HEIGHT: 0.2' puts a blank after the colon
+                start = start + ((buf[start] == 32) & (start < e[sel]))
+            val, length = parse_numbers(buf, start, e[sel])
+            ok = length > 0
+            handled[sel[~ok]] = False
+            sel, val = sel[ok], val[ok]
+            out.values[kind] = val
+        elif kind in _NAMED and len(sel):
+            start = s[sel] + plen
+            for _ in range(2):
+                start = start + ((buf[start] == 32) & (start < e[sel]))
+            room = e[sel] - start
+            fits = room <= _NAMED[kind]
+            handled[sel[~fits]] = False  # very long names: the Python pass reads them
+            sel, start, room = sel[fits], start[fits], room[fits]
+            out.names[kind], out.codes[kind] = _names(buf, start, room, _NAMED[kind])
+        out.lines[kind] = lines[sel]
+    out.handled = lines[handled]
+    return out
+
+
+def _names(buf: np.ndarray, start: Ints, room: Ints, width: int) -> tuple[list[str], Ints]:
+    """Distinct names (decoded, stripped, in order of first appearance) and each line's index."""
+    if len(start) == 0:
+        return [], np.zeros(0, dtype=np.int64)
+    items = np.ndarray(shape=(len(buf) - width,), dtype=f"V{width}", buffer=buf, strides=(1,))
+    win = items[start].view(np.uint8).reshape(len(start), width)
+    win = np.where(np.arange(width) < room[:, None], win, np.uint8(0))
+    raw = np.ascontiguousarray(win).view(f"S{width}").ravel()
+    uniq, first_at, inverse = np.unique(raw, return_index=True, return_inverse=True)
+    order = np.argsort(first_at)
+    rank = np.zeros(len(order), dtype=np.int64)
+    rank[order] = np.arange(len(order))
+    names = [uniq[i].decode("utf-8", "replace").strip() for i in order]
+    canon: dict[str, int] = {}  # two spellings that differ only in trailing blanks are one name
+    remap = np.array([canon.setdefault(nm, len(canon)) for nm in names], dtype=np.int64)
+    return list(canon), remap[rank[inverse.ravel()]]
