@@ -2,19 +2,25 @@
 
 Usage::
 
-    python benchmarks/bench_swarm.py OUT_DIR [--repeats 3] [--quick]
+    python benchmarks/bench_swarm.py OUT_DIR [--repeats 5] [--quick]
 
-Prints, for one slice of the open-hole specimen (150 x 36 mm, 6 mm hole, tension along x,
-l = 0.4 mm) and K = 0.5, 5, 50: beta (Eq. 14) overall and where the field curves, the spacing
-variance (both definitions of loadpath.metrics), time per slice (median of the repeats, one core),
-coverage and overlap (flow-width beads = local pitch), beside the paper's Table 1 and the slicer's own
-rectilinear infill at the same pitch.  Then the time of a 200 x 200 mm layer with three holes, and
-coverage / overlap / crossings on the other test regions.  PNGs (paths around the hole, spacing
-histograms) go to OUT_DIR.
+Prints, for one slice of the open-hole specimen (150 x 36 x 2 mm, 6 mm hole, 1000 N tension at
+x_max, clamped at x_min, l = 0.4 mm) and K = 0.5, 5, 50: beta (Eq. 14) overall and where the field
+curves, the spacing variance (both definitions of loadpath.metrics), time per slice (median of the
+repeats, one core), coverage and overlap (flow-width beads = local pitch), beside the paper's Table 1
+and the slicer's own rectilinear infill at the same pitch.  Two stress fields:
 
-Stress field: Kirsch's closed form (infinite plate with a hole) restricted to the specimen, and
-analytic fields for the other regions (a radial 1/r compression from the bolt hole stands in for the
-bearing load of the L-bracket); see the printed header.
+* ``fea``: the in-house FEA (loadpath.fea, plane stress, quadratic triangles) of the load case
+  ``examples/ohs.toml``; virtual mass normalised by the largest principal stress away from the
+  supports and loads (the paper's footnote 1: ``m = |s| / max |s|``, here the peak at the hole);
+* ``kirsch``: Kirsch's closed form (infinite plate with a hole) restricted to the specimen.
+
+Time per slice is given cold (the field's raster built inside the call, as for the first layer of
+a body) and warm (raster reused, as for every further layer of a 2D analysis).  Then: a K sweep
+for the "beyond the paper" item, the 200 x 200 mm layer with three holes (real FEA), and coverage /
+overlap / crossings on the other test regions (an L-bracket with a real bearing load on its bolt
+hole, fixed at the other leg).  PNGs (paths around the hole, spacing histograms, the L-bracket) go
+to OUT_DIR.
 """
 
 from __future__ import annotations
@@ -33,19 +39,62 @@ import numpy as np  # noqa: E402
 import shapely  # noqa: E402
 from loadpath import metrics as M  # noqa: E402
 from loadpath.engines.swarm import generate  # noqa: E402
+from loadpath.engines.swarm.entry import load_entry  # noqa: E402
+from loadpath.engines.swarm.raster import clear_cache  # noqa: E402
+from loadpath.fea import analyze  # noqa: E402
 from loadpath.field import AnalyticField, kirsch_tensor  # noqa: E402
+from loadpath.loadcase import Body, parse, read, resolve  # noqa: E402
 from loadpath.toolpath import EngineInput  # noqa: E402
 from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box  # noqa: E402
 
 PITCH = 0.4
 PAPER = {0.5: (0.981, 6.1e-3), 5.0: (0.993, 12.9e-3), 50.0: (0.998, 16.4e-3)}
 PAPER_TIME_S = 0.198
+REPO = Path(__file__).resolve().parent.parent
+
+BRACKET_CASE = """
+version = 1
+[[supports]]
+name = "wall"
+where = { side = "y_max", within = 1.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "bolt"
+where = { hole_near = [52.5, 7.5], radius = 5.0 }
+force = [0.0, -300.0, 0.0]
+"""
+
+PLATE_CASE = """
+version = 1
+[[supports]]
+name = "clamp"
+where = { side = "x_min", within = 5.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "pull"
+where = { side = "x_max", within = 5.0 }
+force = [5000.0, 0.0, 0.0]
+"""
 
 
-def specimen():
-    region = box(0, 0, 150, 36).difference(Point(75, 18).buffer(3, quad_segs=64))
+def specimen_region():
+    return box(0, 0, 150, 36).difference(Point(75, 18).buffer(3, quad_segs=64))
+
+
+def fea_case(name, region, case_text, thickness, scale_percentile=99.0, case_path=None):
+    """Region, FE stress field of its middle layer, load entry, FEA seconds."""
+    t0 = time.perf_counter()
+    lc = read(case_path) if case_path is not None else parse(case_text)
+    (rb,) = resolve(lc, [Body.from_layers(name, [(0.0, thickness, region)])])
+    an = analyze(rb, pitch=PITCH, scale_percentile=scale_percentile)
+    z = 0.5 * thickness
+    return region, an.field(z), load_entry(rb, z), time.perf_counter() - t0
+
+
+def kirsch_specimen():
+    region = specimen_region()
     field = AnalyticField(lambda p: kirsch_tensor(p, (75, 18), 3.0, 1.0), region, scale=3.0)
-    return region, field, LineString([(0, 0), (0, 36)])
+    return region, field, LineString([(150, 0), (150, 36)])
 
 
 def uniform(angle_deg):
@@ -54,30 +103,24 @@ def uniform(angle_deg):
     return lambda p: np.tile([c * c, s * s, c * s], (len(p), 1))
 
 
-def radial(center):
-    def func(p):
-        d = p - np.asarray(center)
-        r = np.maximum(np.linalg.norm(d, axis=1), 0.5)
-        c, s = d[:, 0] / r, d[:, 1] / r
-        srr, stt = -1.0 / r, -0.2 / r
-        return np.stack([srr * c * c + stt * s * s, srr * s * s + stt * c * c, (srr - stt) * s * c], 1)
-
-    return func
-
-
-def timed(inp, K, repeats):
-    times, tp = [], None
-    for _ in range(repeats):
+def timed(inp, K, repeats, **kw):
+    """Cold time (raster built in the call), median warm time, the paths of the last run."""
+    clear_cache()
+    t0 = time.perf_counter()
+    tp = generate(inp, K=K, **kw)
+    cold = time.perf_counter() - t0
+    warm = []
+    for _ in range(max(0, repeats - 1)):
         t0 = time.perf_counter()
-        tp = generate(inp, K=K)
-        times.append(time.perf_counter() - t0)
-    return tp, statistics.median(times)
+        tp = generate(inp, K=K, **kw)
+        warm.append(time.perf_counter() - t0)
+    return tp, cold, statistics.median(warm) if warm else cold
 
 
 def fmt_row(name, m, t=None, paper=None):
     r = m.row()
     pb, pv = paper if paper else (float("nan"), float("nan"))
-    ts = f"{t * 1e3:8.0f}" if t is not None else "       -"
+    ts = "         -" if t is None else f"{t[0] * 1e3:5.0f}/{t[1] * 1e3:4.0f}"
     return (
         f"{name:<16} {r['beta']:.4f} ({pb:.3f})  {r['beta_curved']:.4f}  {r['next_var'] * 1e3:6.2f} ({pv * 1e3:5.1f})"
         f"  {r['spacing_var'] * 1e3:6.2f}  {r['spacing_min']:.2f}  {ts}  {r['coverage'] * 100:6.2f}"
@@ -87,11 +130,11 @@ def fmt_row(name, m, t=None, paper=None):
 
 HEADER = (
     f"{'paths':<16} {'beta (paper)':<15} {'beta_c':<7} {'var_next e-3 (paper)':<20} {'var_near':<7} "
-    f"{'min':<5} {'ms':>8}  {'cov %':>6}  {'ovl %':>5}  {'x':>3}  {'n':>4}"
+    f"{'min':<5} {'ms cold/warm':>10}  {'cov %':>6}  {'ovl %':>5}  {'x':>3}  {'n':>4}"
 )
 
 
-def plot(out: Path, runs, region):
+def plot_specimen(out: Path, runs, region, tag):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -108,8 +151,8 @@ def plot(out: Path, runs, region):
         ax.set_ylim(6, 30)
         ax.set_aspect("equal")
         ax.set_title(f"K = {K:g}")
-    fig.suptitle("Swarm paths around the hole (paper Fig. 6)")
-    fig.savefig(out / "fig6_paths.png", dpi=120)
+    fig.suptitle(f"Swarm paths around the hole (paper Fig. 6), {tag} field")
+    fig.savefig(out / f"fig6_paths_{tag}.png", dpi=120)
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(7, 4))
     for K, tp in runs.items():
@@ -117,63 +160,99 @@ def plot(out: Path, runs, region):
         ax.hist(v, bins=np.linspace(0.4, 1.6, 61), histtype="step", density=True, label=f"K = {K:g}")
     ax.set_xlabel("distance to the following path / l")
     ax.legend()
-    ax.set_title("Distribution of distances (paper Fig. 7)")
-    fig.savefig(out / "fig7_spacing.png", dpi=120)
+    ax.set_title(f"Distribution of distances (paper Fig. 7), {tag} field")
+    fig.savefig(out / f"fig7_spacing_{tag}.png", dpi=120)
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(16, 4.5))
     for p in runs[5.0].paths:
         ax.plot(p.points[:, 0], p.points[:, 1], lw=0.4)
     ax.set_aspect("equal")
-    ax.set_title("K = 5, whole specimen (paper Fig. 8)")
-    fig.savefig(out / "fig8_specimen.png", dpi=120)
+    ax.set_title(f"K = 5, whole specimen (paper Fig. 8), {tag} field")
+    fig.savefig(out / f"fig8_specimen_{tag}.png", dpi=120)
     plt.close(fig)
+
+
+def plot_paths(out: Path, tp, region, name):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(10, 7))
+    for p in tp.paths:
+        ax.plot(p.points[:, 0], p.points[:, 1], lw=0.5)
+    for g in shapely.get_parts(region):
+        for ring in [g.exterior, *g.interiors]:
+            ax.plot(*ring.xy, "k", lw=0.8)
+    ax.set_aspect("equal")
+    fig.savefig(out / name, dpi=120)
+    plt.close(fig)
+
+
+def table1(args, tag, region, field, load):
+    inp = EngineInput(region=region, field=field, pitch=PITCH, load_entry=load)
+    runs = {}
+    print(HEADER)
+    for K in (0.5, 5.0, 50.0):
+        tp, cold, warm = timed(inp, K, args.repeats)
+        runs[K] = tp
+        print(fmt_row(f"swarm K={K:g}", M.evaluate(tp, region, field, PITCH), (cold, warm), PAPER[K]))
+    for name, m in M.baselines(region, field, PITCH).items():
+        print(fmt_row(f"slicer {name}", m))
+    st = runs[5.0].stats
+    print(
+        f"K = 5 last run: raster {st['time_raster_s'] * 1e3:.0f} ms, first swarm {st['time_first_swarm_s'] * 1e3:.0f} ms,"
+        f" fill {st['time_fill_s'] * 1e3:.0f} ms; {st['steps']} steps, {st['qp_solves']} banded QP solves"
+        f" ({st.get('qp_exact', 0)} exact, {st['qp_solves'] - st.get('qp_exact', 0)} OSQP fallbacks),"
+        f" {st.get('kills', 0)} kills, {st.get('spawns', 0)} spawns, {st.get('swarms', 0)} swarms"
+    )
+    plot_specimen(args.out, runs, region, tag)
+    return runs
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path, help="folder for the PNG plots")
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--quick", action="store_true", help="skip the 200 x 200 mm layer")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--quick", action="store_true", help="skip the 200 x 200 mm layer and the K sweep")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
 
-    print("Stress field: Kirsch closed form (infinite plate with a hole) on the 150 x 36 mm specimen;")
     print("spacing: var_next = distance to the following path (the paper's), var_near = nearest other path;")
-    print("coverage/overlap with beads of each path's local pitch (flow width); x = crossing pairs.\n")
-    region, field, load = specimen()
-    inp = EngineInput(region=region, field=field, pitch=PITCH, load_entry=load)
-    runs = {}
-    print("Open-hole specimen, one slice, l = 0.4 mm (paper Table 1 in brackets; paper time 198 ms)")
-    print(HEADER)
-    for K in (0.5, 5.0, 50.0):
-        tp, t = timed(inp, K, args.repeats)
-        runs[K] = tp
-        print(fmt_row(f"swarm K={K:g}", M.evaluate(tp, region, field, PITCH), t, PAPER[K]))
-    for name, m in M.baselines(region, field, PITCH).items():
-        print(fmt_row(f"slicer {name}", m))
-    st = runs[5.0].stats
-    print(
-        f"\nK = 5 time split: first swarm {st['time_first_swarm_s'] * 1e3:.0f} ms, fill {st['time_fill_s'] * 1e3:.0f} ms;"
-        f" {st['steps']} steps, {st['qp_solves']} banded QP solves ({st.get('qp_exact', 0)} exact,"
-        f" {st['qp_solves'] - st.get('qp_exact', 0)} OSQP fallbacks), {st.get('kills', 0)} kills,"
-        f" {st.get('spawns', 0)} spawns, {st.get('swarms', 0)} swarms"
+    print("coverage/overlap with beads of each path's local pitch (flow width); x = crossing pairs;")
+    print("ms cold/warm: field raster built in the call / reused (median of the repeats).\n")
+    region, field, load, t_fea = fea_case(
+        "ohs", specimen_region(), None, 2.0, scale_percentile=100.0, case_path=REPO / "examples" / "ohs.toml"
     )
-    plot(args.out, runs, region)
-    print(f"plots: {args.out}/fig6_paths.png, fig7_spacing.png, fig8_specimen.png")
+    print(
+        f"Open-hole specimen, real FEA field ({t_fea:.2f} s for mesh + solve; mass scale {field.scale:.1f} MPa = "
+        f"max |s| away from supports/loads), load entry {load}; l = 0.4 mm (paper Table 1 in brackets; paper 198 ms)"
+    )
+    fea_runs = table1(args, "fea", region, field, load)
+    print("\nOpen-hole specimen, Kirsch closed-form field")
+    table1(args, "kirsch", *kirsch_specimen())
 
     if not args.quick:
-        big = box(0, 0, 200, 200).difference(
+        print("\nBeyond the paper (target beta >= 0.993 with var_next <= 6e-3), FEA field:")
+        print(HEADER)
+        inp = EngineInput(region=region, field=field, pitch=PITCH, load_entry=load)
+        for K, kw in ((0.1, {}), (0.2, {}), (0.3, {}), (1.0, {}), (2.0, {})):
+            tp, cold, warm = timed(inp, K, 1, **kw)
+            print(fmt_row(f"swarm K={K:g}", M.evaluate(tp, region, field, PITCH), (cold, warm)))
+        big_region = box(0, 0, 200, 200).difference(
             shapely.union_all([Point(50, 60).buffer(8), Point(120, 140).buffer(12), Point(150, 50).buffer(6)])
         )
-        bf = AnalyticField(uniform(0.0), big)
-        binp = EngineInput(region=big, field=bf, pitch=PITCH, load_entry=LineString([(0, 0), (0, 200)]))
-        tp, t = timed(binp, 5.0, 1)
-        cov = M.coverage(tp, big)
+        breg, bfield, bload, bt = fea_case("plate", big_region, PLATE_CASE, 2.0)
+        tp, cold, warm = timed(EngineInput(region=breg, field=bfield, pitch=PITCH, load_entry=bload), 5.0, 2)
+        cov = M.coverage(tp, breg)
         print(
-            f"\n200 x 200 mm layer, three holes, l = 0.4 mm, K = 5: {t:.1f} s, {len(tp.paths)} paths,"
-            f" coverage {cov.coverage * 100:.2f} %, overlap {cov.overlap * 100:.2f} %"
+            f"\n200 x 200 mm layer, three holes, tension along x (real FEA, {bt:.1f} s), l = 0.4 mm, K = 5: "
+            f"{cold:.2f} s cold, {warm:.2f} s warm, {tp.stats['steps']} steps, {tp.stats['swarms']} swarms, "
+            f"{len(tp.paths)} paths, coverage {cov.coverage * 100:.2f} %, overlap {cov.overlap * 100:.2f} %"
         )
 
+    print("\nOther regions (K = 5; uniform analytic fields, and the L-bracket with a real bearing-load FEA)")
+    print(HEADER)
     cases = {
         "two islands": (MultiPolygon([box(0, 0, 20, 10), Point(35, 5).buffer(6)]), uniform(0), LineString([(0, 0), (0, 10)])),
         "concave": (Polygon([(0, 0), (30, 0), (30, 30), (20, 30), (20, 10), (10, 10), (10, 30), (0, 30)]), uniform(90), None),
@@ -184,21 +263,21 @@ def main(argv=None) -> int:
             uniform(0),
             LineString([(0, 0), (0, 30)]),
         ),
-        "L-bracket bolt": (
-            Polygon([(0, 0), (40, 0), (40, 12), (12, 12), (12, 40), (0, 40)]).difference(Point(6, 34).buffer(2.5)),
-            radial((6, 34)),
-            Point(6, 34).buffer(2.5).exterior,
-        ),
     }
-    print("\nOther regions (K = 5; analytic fields: uniform, radial 1/r bearing approximation for the L-bracket)")
-    print(HEADER)
     for name, (reg, func, ld) in cases.items():
         f = AnalyticField(func, reg, scale=1.0)
-        tp, t = timed(EngineInput(region=reg, field=f, pitch=PITCH, load_entry=ld), 5.0, 1)
-        print(fmt_row(name, M.evaluate(tp, reg, f, PITCH), t))
-        if name == "L-bracket bolt":
-            best = M.baselines(reg, f, PITCH)["best"]
-            print(fmt_row("  slicer best", best))
+        tp, cold, warm = timed(EngineInput(region=reg, field=f, pitch=PITCH, load_entry=ld), 5.0, 1)
+        print(fmt_row(name, M.evaluate(tp, reg, f, PITCH), (cold, warm)))
+    bracket = Polygon([(0, 0), (60, 0), (60, 15), (15, 15), (15, 40), (0, 40)]).difference(
+        Point(52.5, 7.5).buffer(2.5, quad_segs=32)
+    )
+    reg, f, ld, _ = fea_case("bracket", bracket, BRACKET_CASE, 3.0)
+    tp, cold, warm = timed(EngineInput(region=reg, field=f, pitch=PITCH, load_entry=ld), 5.0, 1)
+    print(fmt_row("L-bracket bolt", M.evaluate(tp, reg, f, PITCH), (cold, warm)))
+    print(fmt_row("  slicer best", M.baselines(reg, f, PITCH)["best"]))
+    plot_paths(args.out, tp, reg, "bracket_paths.png")
+    plot_paths(args.out, fea_runs[5.0], specimen_region(), "specimen_fea_k5.png")
+    print(f"plots: {args.out}/fig6_paths_*.png, fig7_spacing_*.png, fig8_specimen_*.png, bracket_paths.png")
     return 0
 
 

@@ -57,10 +57,14 @@ class Domain:
     region : Polygon or MultiPolygon
     margin : float, mm
         Moving agents keep at least this far inside.
+    edge_of : Polygon or MultiPolygon, optional
+        The layer's whole region, for a fill swarm's domain: :attr:`edge` tells which boundary
+        segments lie on the layer's boundary (the others run along beads already laid).
     """
 
     region: Region
     margin: float
+    edge_of: Region | None = None
 
     def __post_init__(self) -> None:
         self.inner = self.region.buffer(-self.margin) if self.margin > 0 else self.region
@@ -73,6 +77,11 @@ class Domain:
         counts = np.diff(np.append(starts, len(ring)))
         self.ring_start = np.repeat(starts, counts)
         self.ring_len = np.repeat(counts, counts)
+        if self.edge_of is None:
+            self.edge = np.ones(len(self.seg_a), dtype=bool)
+        else:
+            mid = shapely.points(0.5 * (self.seg_a + self.seg_b))
+            self.edge = shapely.distance(self.edge_of.boundary, mid) <= 1e-3 * max(self.margin, 1e-3)
         d = self.seg_b - self.seg_a
         self.seg_len = np.linalg.norm(d, axis=1)
         self.seg_dir = d / self.seg_len[:, None]

@@ -28,6 +28,7 @@ from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.swarm.boundary import Domain
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.raster import raster_for
+from loadpath.engines.swarm.widths import local_pitch
 from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, step
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
@@ -148,9 +149,14 @@ def _dominant(field: StressField, pts: Points2) -> Floats | None:
     return np.array([np.cos(th), np.sin(th)])
 
 
-def _fill_seeds(piece: Region, field: StressField, pitch: float) -> tuple[Points2, Points2] | None:
-    """Seeds on a line across an uncovered piece, perpendicular to the stress at its deepest point."""
-    core = piece.buffer(-0.5 * pitch)
+def _fill_seeds(
+    piece: Region, field: StressField, pitch: float, inset: float
+) -> tuple[Points2, Points2] | None:
+    """Seeds on a line across an uncovered piece, perpendicular to the stress at its deepest point.
+
+    ``inset`` (mm): seeds keep this far inside the piece (a little more than the domain margin).
+    """
+    core = piece.buffer(-inset)
     if core.is_empty:
         return None
     circle = shapely.maximum_inscribed_circle(piece, 0.05 * pitch)
@@ -180,8 +186,13 @@ def _fill_seeds(piece: Region, field: StressField, pitch: float) -> tuple[Points
     return _order_chain(seeds, head)
 
 
-def _uncovered(region: Region, lines: list[Points2], pitch: float) -> list[Region]:
-    """Pieces of the region beads of the nominal pitch leave uncovered, wide enough for a path."""
+def _uncovered(region: Region, lines: list[Points2], pitch: float, min_width: float) -> list[Region]:
+    """Pieces of the region beads of the nominal pitch leave uncovered, at least ``min_width`` wide (mm).
+
+    A path in the middle of a gap of width ``w`` between nominal beads is ``(w + pitch) / 2`` from
+    the paths on either side, so any gap keeps the half-pitch rule; ``min_width`` only has to leave
+    room for a moving agent inside the swarm's margin.
+    """
     if lines:
         coords = np.concatenate(lines)
         idx = np.repeat(np.arange(len(lines)), [len(x) for x in lines])
@@ -193,8 +204,8 @@ def _uncovered(region: Region, lines: list[Points2], pitch: float) -> list[Regio
         left = region
     parts = shapely.get_parts(left)
     # a piece wide enough for a path has at least the area of a 0.9-pitch disc: test only those
-    big = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= 0.6 * pitch * pitch)]
-    pieces = list(big[~shapely.is_empty(shapely.buffer(big, -0.45 * pitch))])
+    big = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= 0.5 * min_width * min_width)]
+    pieces = list(big[~shapely.is_empty(shapely.buffer(big, -0.5 * min_width))])
     pieces.sort(key=lambda g: (-round(g.area, 6), round(g.centroid.x, 6), round(g.centroid.y, 6)))
     return pieces
 
@@ -220,7 +231,10 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         Fields of :class:`SwarmParams` (``window``, ``kill_below``, ``spawn_above``, ...), and
         ``coverage_target`` (default 0.995: stop starting swarms above this nominal-bead
         coverage), ``max_swarms`` (default 400), ``fill`` (default True: start further swarms on
-        uncovered pieces).
+        uncovered pieces), ``fill_min_width`` (default 0.6: the narrowest uncovered piece, in
+        pitches, that gets a fill swarm), ``widths`` (default ``"geometric"``: each point's local
+        pitch measured on the finished layer, :mod:`.widths`; ``"swarm"``: from its chain
+        neighbours during the step), ``width_cap`` (default 1.5: the widest bead, in pitches).
 
     Returns
     -------
@@ -234,11 +248,16 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     coverage_target = float(opts.pop("coverage_target", 0.995))  # type: ignore[arg-type]
     max_swarms = int(opts.pop("max_swarms", 400))  # type: ignore[call-overload]
     fill = bool(opts.pop("fill", True))
+    fill_min_width = float(opts.pop("fill_min_width", 0.6))  # type: ignore[arg-type]
+    widths = str(opts.pop("widths", "geometric"))
+    width_cap = float(opts.pop("width_cap", 1.5))  # type: ignore[arg-type]
+    if widths not in ("geometric", "swarm"):
+        raise SettingsError(f"widths = {widths!r}; use 'geometric' (from the finished layer) or 'swarm' (from the chains)")
     params_kw = {k: opts.pop(k) for k in list(opts) if k in _PARAM_NAMES}
     if opts:
         raise SettingsError(
             f"unknown swarm option(s) {', '.join(sorted(opts))}; known: "
-            f"{', '.join(sorted(_PARAM_NAMES | {'coverage_target', 'max_swarms', 'fill'}))}"
+            f"{', '.join(sorted(_PARAM_NAMES | {'coverage_target', 'max_swarms', 'fill', 'fill_min_width', 'widths', 'width_cap'}))}"
         )
     params = SwarmParams(K=float(K), **params_kw)  # type: ignore[arg-type]
     t0 = time.perf_counter()
@@ -259,7 +278,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     def run_swarm(domain_region: Region, chains: list[tuple[Points2, Points2]], both_ways: bool) -> None:
         """One swarm from the seed chains (and, for a fill swarm, its twin heading the other way)."""
         nonlocal next_pid, swarms
-        domain = Domain(domain_region, params.margin * pitch)
+        domain = Domain(domain_region, params.margin * pitch, None if domain_region is region else region)
         seeds0 = np.concatenate([c[0] for c in chains])
         head0 = np.concatenate([c[1] for c in chains])
         start0 = np.concatenate([np.arange(len(c[0])) == 0 for c in chains])
@@ -270,7 +289,11 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
             if sign < 0:  # the twin: reversed heading, so reversed chain order (Eq. 5)
                 seeds, head, pid = seeds[::-1], -head[::-1], pid[::-1]
                 start = np.roll(start[::-1], 1)
-            ok = domain.inside(seeds) & grid.free_for(seeds, pid)
+            ok = (
+                domain.inside(seeds)
+                & grid.free_for(seeds, pid)
+                & grid.clear_of(seeds, pid, (params.min_gap + 1.0 / 12.0) * pitch)
+            )
             if not np.any(ok):
                 continue
             gone = np.zeros(len(seeds), dtype=bool)
@@ -300,7 +323,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     given_up: list[Region] = []
     while fill and swarms < max_swarms:
         lines = rec.lines()
-        pieces = _uncovered(region, lines, pitch)
+        pieces = _uncovered(region, lines, pitch, fill_min_width * pitch)
         if given_up:
             pieces = [p for p in pieces if not any(p.equals_exact(g, 1e-9) for g in given_up)]
         covered = 1.0 - sum(p.area for p in pieces) / area
@@ -312,7 +335,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         for piece in pieces:
             if swarms >= max_swarms:
                 break
-            seeds = _fill_seeds(piece, inp.field, pitch)
+            seeds = _fill_seeds(piece, inp.field, pitch, (params.margin + 0.05) * pitch)
             if seeds is None:
                 given_up.append(piece)
                 continue
@@ -328,6 +351,11 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     stats["fill_rounds"] = rounds
     stats["swarms"] = swarms
     paths = rec.paths()
+    if widths == "geometric" and paths:
+        t_w = time.perf_counter()
+        w = local_pitch([p.points for p in paths], region, pitch, cap=width_cap)
+        paths = [Path(points=p.points, pitch=wi, kind=p.kind) for p, wi in zip(paths, w, strict=True)]
+        stats["time_widths_s"] = time.perf_counter() - t_w
     stats["time_s"] = time.perf_counter() - t0
     stats["K"] = params.K
     return Toolpaths(paths=tuple(paths), stats=stats)

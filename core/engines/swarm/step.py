@@ -80,6 +80,8 @@ class SwarmParams:
         fill swarms cover what a front does not reach, more evenly than a front growing sideways).
     field_cell : float
         Node spacing of the stress-field raster the steps sample (:mod:`.raster`), in pitches.
+    edge_gap : float
+        A path that runs into the layer's edge ends this many pitches from it (across the edge).
     """
 
     K: float = 5.0
@@ -92,6 +94,7 @@ class SwarmParams:
     merge_reach: float = 2.5
     grow_free_ends: bool = False
     field_cell: float = 0.5
+    edge_gap: float = 0.25
 
 
 @dataclass
@@ -292,8 +295,14 @@ def _remove_blocked(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx
     last = none
     ends = np.flatnonzero(~in_dom)
     if len(ends):
-        dist, _, _, _ = ctx.domain.ray(st.pos[ends], sdir[ends], 2.0 * ctx.pitch)
-        reach = np.where(np.isfinite(dist), dist - 0.5 * ctx.pitch, 0.0)
+        dist, _, tangent, seg = ctx.domain.ray(st.pos[ends], sdir[ends], 2.0 * ctx.pitch)
+        # the end point keeps `edge_gap` pitches from the layer's edge (like the slicer's infill,
+        # whose beads overlap the perimeters a little) and half a pitch from beads laid before,
+        # both measured across the boundary, so an end that meets the edge obliquely still reaches it
+        hit = seg >= 0
+        gap = np.where(hit & ctx.domain.edge[np.maximum(seg, 0)], ctx.params.edge_gap, 0.5) * ctx.pitch
+        cos = np.abs(sdir[ends, 0] * tangent[:, 1] - sdir[ends, 1] * tangent[:, 0])
+        reach = np.where(hit, dist - gap / np.maximum(np.where(hit, cos, 1.0), 0.5), 0.0)
         go = (reach > 0.1 * ctx.pitch) & (reach <= ctx.pitch)
         q = st.pos[ends[go]] + reach[go, None] * sdir[ends[go]]
         fine = ctx.grid.free_path(st.pos[ends[go]], q, st.pid[ends[go]]) & ctx.grid.clear_of(
@@ -472,7 +481,11 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
     pid = tab[:, _PID].astype(np.int64)
     start = np.where((kind == 0)[:, None], tab[:, _P], x)
     min_gap = ctx.params.min_gap * ctx.pitch
-    clear = ctx.grid.clear_of(x, pid, min_gap + ctx.pitch / 12.0)
+    # the new point and the middle of the move, so no part of the new trail comes within half a
+    # pitch of another path (the vertex alone would let the middle of a move pass closer)
+    m = len(x)
+    clear = ctx.grid.clear_of(np.concatenate([x, 0.5 * (start + x)]), np.concatenate([pid, pid]), min_gap + ctx.pitch / 12.0)
+    clear = clear[:m] & clear[m:]
     cells, samples = ctx.grid.cells(start, x)
     alive = ~moving | (ctx.domain.inside(x) & ctx.grid.free_cells(cells, pid) & clear)
     chain = tab[:, _CHAIN]
@@ -505,8 +518,11 @@ def _local_pitch(tab: np.ndarray, x: Points2, ctx: Context) -> Floats:
     link = np.zeros(m + 1, dtype=bool)
     link[1:-1] = chain[1:] == chain[:-1]
     gap = np.full(m + 1, np.nan)
+    # the radial distance (Eq. 8: across the mean travel of the pair), not the straight one, so a
+    # front that runs oblique to its paths does not read as wider spacing
     d = x[1:] - x[:-1]
-    gap[1:-1] = np.sqrt(np.sum(d * d, axis=1))
+    radial = _unit(_right(tab[1:, _H] + tab[:-1, _H]))
+    gap[1:-1] = np.abs(np.sum(d * radial, axis=1))
     left_b = np.zeros(m, dtype=bool)
     right_b = np.zeros(m, dtype=bool)
     left_b[1:] = bnd[:-1]

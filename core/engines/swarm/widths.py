@@ -1,0 +1,103 @@
+"""The local pitch of every path point from the finished layer: the flow width that tiles.
+
+During a step the swarm knows only the agents of its own chain, so its pitch estimate misses the
+paths of other chains and of later swarms (fill swarms laid in the gaps next to it).  Once all
+paths of the layer are laid, :func:`local_pitch` measures at every point the distance to the
+neighbouring paths along the normal, to the left ``L`` and to the right ``R`` (the first other
+path hit by the ray, within ``cap`` pitches), and sets the bead width to ``(L + R) / 2``: in one
+dimension, beads of that width centred on the paths tile the gap exactly.  Where a side has no
+path within reach the bead reaches the region's boundary (twice the distance to it), up to
+``cap`` pitches.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from loadpath._typing import Floats, Points2, Region
+from scipy.spatial import cKDTree
+
+__all__ = ["local_pitch"]
+
+
+def _tangents(points: Points2, starts: np.ndarray) -> Points2:
+    """Unit tangent at every vertex of ragged paths (central differences, one-sided at ends)."""
+    n = len(points)
+    nxt = np.arange(1, n + 1)
+    prv = np.arange(-1, n - 1)
+    ends = np.append(starts[1:], n) - 1
+    nxt[ends] = ends
+    prv[starts] = starts
+    t = points[nxt] - points[prv]
+    norm = np.sqrt(np.sum(t * t, axis=1))
+    return t / np.where(norm > 0, norm, 1.0)[:, None]
+
+
+def local_pitch(
+    paths: list[Points2], region: Region, pitch: float, cap: float = 1.5, k: int = 24
+) -> list[Floats]:
+    """Flow width at every point of the layer's paths (mm).
+
+    Parameters
+    ----------
+    paths : list of (n_i, 2) float, mm
+    region : Polygon or MultiPolygon, mm
+    pitch : float, mm
+    cap : float
+        Largest width, in pitches; also how far the rays look.
+    k : int
+        Nearest segments examined per point.
+
+    Returns
+    -------
+    list of (n_i,) float, mm
+        In ``[pitch / 4, cap * pitch]``.
+    """
+    if not paths:
+        return []
+    counts = np.array([len(p) for p in paths])
+    pts = np.concatenate(paths)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    pid = np.repeat(np.arange(len(paths)), counts)
+    tan = _tangents(pts, starts)
+    nrm = np.stack([-tan[:, 1], tan[:, 0]], axis=1)
+    # segments of all paths, split so none is longer than half a pitch (midpoints find them)
+    last = np.zeros(len(pts), dtype=bool)
+    last[np.cumsum(counts) - 1] = True
+    a, b, sid = pts[:-1][~last[:-1]], pts[1:][~last[:-1]], pid[:-1][~last[:-1]]
+    reach = cap * pitch
+    out = np.full(len(pts), reach)
+    if len(a):
+        seg = np.sqrt(np.sum((b - a) ** 2, axis=1))
+        parts = np.maximum(1, np.ceil(seg / (0.5 * pitch)).astype(np.int64))
+        rep = np.repeat(np.arange(len(a)), parts)
+        frac = np.arange(len(rep)) - np.repeat(np.cumsum(parts) - parts, parts)
+        s0 = (frac / parts[rep])[:, None]
+        s1 = ((frac + 1) / parts[rep])[:, None]
+        e = b[rep] - a[rep]
+        a2, b2, sid2 = a[rep] + s0 * e, a[rep] + s1 * e, sid[rep]
+        tree = cKDTree(0.5 * (a2 + b2))
+        kk = min(k, len(a2))
+        _, idx = tree.query(pts, k=kk, distance_upper_bound=reach + 0.5 * pitch)
+        idx = idx.reshape(len(pts), kk)
+        ok = idx < len(a2)
+        idx = np.where(ok, idx, 0)
+        ok &= sid2[idx] != pid[:, None]
+        sa, se = a2[idx], b2[idx] - a2[idx]
+        w = sa - pts[:, None, :]
+        hits = []
+        for d in (nrm, -nrm):
+            dd = d[:, None, :]
+            den = dd[..., 0] * se[..., 1] - dd[..., 1] * se[..., 0]
+            good = ok & (np.abs(den) > 1e-12)
+            den = np.where(good, den, 1.0)
+            s = (w[..., 0] * se[..., 1] - w[..., 1] * se[..., 0]) / den  # along the ray
+            r = (w[..., 0] * dd[..., 1] - w[..., 1] * dd[..., 0]) / den  # along the segment
+            good &= (s > 0) & (r >= 0) & (r <= 1)
+            hits.append(np.min(np.where(good, s, np.inf), axis=1))
+        to_edge = 2.0 * shapely.distance(region.boundary, shapely.points(pts))
+        left = np.where(np.isfinite(hits[0]), hits[0], to_edge)
+        right = np.where(np.isfinite(hits[1]), hits[1], to_edge)
+        out = 0.5 * (np.minimum(left, reach) + np.minimum(right, reach))
+    out = np.clip(out, 0.25 * pitch, reach)
+    return np.split(out, np.cumsum(counts)[:-1])
