@@ -30,8 +30,7 @@ def _psd2(px, py, ax, ay, bx, by):  # type: ignore[no-untyped-def]
     apx = px - ax
     apy = py - ay
     den = abx * abx + aby * aby
-    u = (apx * abx + apy * aby) / np.where(den > 0, den, 1.0)
-    np.clip(u, 0.0, 1.0, out=u)
+    u = np.clip((apx * abx + apy * aby) / np.where(den > 0, den, 1.0), 0.0, 1.0)
     dx = apx - u * abx
     dy = apy - u * aby
     return dx * dx + dy * dy

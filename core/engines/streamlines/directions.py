@@ -109,23 +109,25 @@ class DirectionGrid:
         p = np.asarray(points, dtype=float)
         fx = (p[:, 0] - self.x0) * self._inv
         fy = (p[:, 1] - self.y0) * self._inv
-        ix = np.clip(fx.astype(np.int64), 0, self.nx - 2)
-        iy = np.clip(fy.astype(np.int64), 0, self.ny - 2)
-        tx = np.clip(fx - ix, 0.0, 1.0)
-        ty = np.clip(fy - iy, 0.0, 1.0)
+        ix = np.minimum(np.maximum(fx.astype(np.int64), 0), self.nx - 2)
+        iy = np.minimum(np.maximum(fy.astype(np.int64), 0), self.ny - 2)
+        tx = np.minimum(np.maximum(fx - ix, 0.0), 1.0)
+        ty = np.minimum(np.maximum(fy - iy, 0.0), 1.0)
         flat = iy * self.nx + ix
         qc = self._qc
         nx = self.nx
-        q = (qc[flat] * (1 - tx) + qc[flat + 1] * tx) * (1 - ty)
-        q += (qc[flat + nx] * (1 - tx) + qc[flat + nx + 1] * tx) * ty
+        lo = qc[flat] + (qc[flat + 1] - qc[flat]) * tx
+        hi = qc[flat + nx] + (qc[flat + nx + 1] - qc[flat + nx]) * tx
+        q = lo + (hi - lo) * ty
         mag = np.abs(q)
         ok = mag >= Q_MIN
         # half-angle of q without trigonometry: (cos t, sin t) ~ (|q| + Re q, Im q), t in (-90, 90]
-        h = mag + q.real + 1j * q.imag
+        h = q + mag
         hn = np.abs(h)
         bad = hn <= 1e-12 * np.maximum(mag, 1e-300)  # q points along -x: t = 90 degrees
-        h = np.where(bad, 1j, h)
-        hn = np.where(bad, 1.0, hn)
+        if np.any(bad):
+            h = np.where(bad, 1j, h)
+            hn = np.where(bad, 1.0, hn)
         h = h / hn
         return np.stack([h.real, h.imag], axis=1), ok
 

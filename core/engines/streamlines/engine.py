@@ -90,6 +90,7 @@ def generate(inp: EngineInput, mode: str = "default", **options: Any) -> Toolpat
             params.width_max,
             params.min_spacing,
             grid.inside,
+            params.max_turn_deg,
         )
         lines = packed.to_list()
         widths = [pitch[packed.offsets[i] : packed.offsets[i + 1]] for i in range(len(lines))]

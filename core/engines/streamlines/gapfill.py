@@ -170,7 +170,7 @@ def fill_rounds(
         approx = dist.ravel()[flat]
         unsure = approx - 0.25 * raster.cell - slack < fill_spacing
         exact = approx.copy()
-        exact[unsure] = index.point_distance(pts[unsure], 4.0 * fill_spacing)
+        exact[unsure] = index.point_distance(pts[unsure], 1.25 * fill_spacing)
         ok = exact >= fill_spacing
         # cells that are not gaps after all will never become gaps again (paths only get added)
         exhausted.ravel()[flat[~ok]] = True

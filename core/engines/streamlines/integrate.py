@@ -67,7 +67,7 @@ END_NAMES = {
 }
 
 _BISECT_BOUNDARY = 14  # step / 2^14: well under a micrometre
-_BISECT_SPACING = 8
+_BISECT_SPACING = 5  # step / 32
 
 
 @dataclass(frozen=True)
@@ -135,6 +135,18 @@ def _boundary_crossing(grid: DirectionGrid, a: Points2, b: Points2) -> Points2:
     return a + lo[:, None] * (b - a)
 
 
+def _defined_fraction(grid: DirectionGrid, x: Points2, step: Points2) -> np.ndarray:
+    """Largest ``t`` (bisection) such that the direction is defined at ``x + t step``."""
+    lo = np.zeros(len(x))
+    hi = np.ones(len(x))
+    for _ in range(_BISECT_SPACING):
+        mid = 0.5 * (lo + hi)
+        _, ok = grid(x + mid[:, None] * step)
+        lo = np.where(ok, mid, lo)
+        hi = np.where(ok, hi, mid)
+    return lo
+
+
 def _clear_fraction(obstacles: SegmentIndex, a: Points2, b: Points2, clearance: float) -> np.ndarray:
     """Largest ``t`` (bisection) such that ``[a, a + t (b - a)]`` keeps ``clearance`` from obstacles."""
     lo = np.zeros(len(a))
@@ -179,6 +191,7 @@ def trace(
     n = len(seeds)
     h = float(settings.step)
     cos_turn = float(np.cos(settings.max_turn))
+    cos_half = float(np.cos(0.5 * settings.max_turn))
     d0, ok0 = grid(seeds)
     ok0 &= grid.inside(seeds)
     if obstacles is not None and n:
@@ -201,16 +214,35 @@ def trace(
             break
         x = pos[active]
         v = vel[active]
-        d1, ok = grid(x)
-        k = _align(d1, v)
+        d1, ok1 = grid(x)
+        k1 = _align(d1, v)
+        k = k1
+        ok = ok1.copy()
+        ended_here = np.zeros(len(active), dtype=bool)
         if settings.method == "rk2":
-            d2, ok2 = grid(x + 0.5 * h * k)
-            k = _align(d2, k)
+            d2, ok2 = grid(x + 0.5 * h * k1)
+            k = _align(d2, k1)
             ok &= ok2
-        turn_ok = np.sum(k * v, axis=1) >= cos_turn
+        # the first step of each branch may turn only half as much: the two branches meet at the
+        # seed, where the path turns by the sum of both first turns
+        first = travelled[active] == 0.0
+        turn_ok = np.sum(k * v, axis=1) >= np.where(first, cos_half, cos_turn)
         go = ok & turn_ok
         stop_reason = np.where(ok, END_TURN, END_DEGENERATE)
         new = x + h * k
+        if settings.method == "rk2":
+            # a branch that runs into an undefined zone ends on its edge, as it ends on the boundary
+            lim = np.where(first, cos_half, cos_turn)
+            edge = np.flatnonzero(ok1 & ~ok2 & (np.sum(k1 * v, axis=1) >= lim))
+            if len(edge):
+                t_edge = _defined_fraction(grid, x[edge], h * k1[edge])
+                part = edge[t_edge > 0.05]
+                if len(part):
+                    go[part] = True
+                    new[part] = x[part] + (t_edge[t_edge > 0.05, None] * h) * k1[part]
+                    k[part] = k1[part]
+                    stop_reason[part] = END_DEGENERATE
+                    ended_here[part] = True
         inside = np.ones(len(active), dtype=bool)
         gi = np.flatnonzero(go)
         inside[gi] = grid.inside(new[gi])
@@ -227,10 +259,12 @@ def trace(
         pos[active[add]] = new[add]
         vel[active[add]] = k[add]
         travelled[active] += np.where(add, step_len, 0.0)
-        cont = go & inside & ~back & (travelled[active] < settings.max_length)
+        cont = go & inside & ~back & ~ended_here & (travelled[active] < settings.max_length)
         stopped = ~cont
         reason[active[stopped]] = np.where(
-            go[stopped] & inside[stopped] & ~back[stopped], END_LENGTH, stop_reason[stopped]
+            go[stopped] & inside[stopped] & ~back[stopped] & ~ended_here[stopped],
+            END_LENGTH,
+            stop_reason[stopped],
         )
         alive[active[stopped]] = False
         active = active[cont]

@@ -128,10 +128,18 @@ def boundary_seeds(
         d, ok = grid(pts)
         sin_phi = np.abs(cross2(tan, d))
         density = np.where(ok, np.maximum(sin_phi / pitch, 1.0 / max_gap), 1.0 / max_gap)
+        # count the streamlines crossing the curve; the count restarts at every corner of the
+        # curve, where a seed sits (a rectangle's first line is then half a pitch from the side)
+        turn = np.abs(cross2(np.roll(tan, 1, axis=0), tan)) > np.sin(np.radians(30.0))
+        turn |= np.sum(np.roll(tan, 1, axis=0) * tan, axis=1) < 0
+        run = np.cumsum(turn)
         count = np.cumsum(density * ds)
-        # a seed where the running count passes k + 1/2, so seeds sit mid-way between crossings
-        marks = np.floor(count + 0.5)
-        first = np.concatenate([[marks[0] >= 1], np.diff(marks) > 0])
+        base = np.zeros(run.max() + 1)
+        starts = np.flatnonzero(np.concatenate([[True], run[1:] != run[:-1]]))
+        base[run[starts]] = count[starts] - density[starts] * ds
+        local = count - base[run] - density * ds  # 0 at the first sample of each run
+        marks = np.floor(local + 1e-9)
+        first = np.concatenate([[True], (np.diff(marks) > 0) | (run[1:] != run[:-1])])
         sel = first & ok
         p, t, dd = pts[sel], tan[sel], d[sel]
         nrm = np.stack([-t[:, 1], t[:, 0]], axis=1)

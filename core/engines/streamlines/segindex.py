@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 __all__ = ["SegmentIndex"]
 
-_K = 32
+_K = 16
 
 
 class SegmentIndex:
@@ -47,25 +47,30 @@ class SegmentIndex:
     def _pairs(self, q: Points2, bound: float) -> tuple[np.ndarray, np.ndarray]:
         """(query row, indexed segment) pairs whose midpoints are within ``bound``; rows sorted."""
         assert self.tree is not None
-        k = min(_K, self.n)
-        dist, idx = self.tree.query(q, k=k, distance_upper_bound=bound)
-        if k == 1:
-            dist, idx = dist[:, None], idx[:, None]
-        found = np.isfinite(dist)
-        rows, cols = np.nonzero(found)
-        segs = idx[rows, cols]
-        if k == _K and self.n > _K:
-            # rows whose k-th neighbour was still inside the bound may miss segments: search fully
-            full = np.flatnonzero(found[:, -1])
-            if len(full):
-                extra = self.tree.query_ball_point(q[full], bound, return_sorted=False)
-                cnt = np.array([len(e) for e in extra])
-                rows = np.concatenate([rows[~np.isin(rows, full)], np.repeat(full, cnt)])
-                segs = np.concatenate([segs[~np.isin(np.nonzero(found)[0], full)]]
-                                      + [np.asarray(e, dtype=np.int64) for e in extra])
-                order = np.argsort(rows, kind="stable")
-                rows, segs = rows[order], segs[order]
-        return rows, segs
+        rows_out, segs_out = [], []
+        todo = np.arange(len(q))
+        for k in (_K, 4 * _K):
+            k = min(k, self.n)
+            dist, idx = self.tree.query(q[todo], k=k, distance_upper_bound=bound)
+            if k == 1:
+                dist, idx = dist[:, None], idx[:, None]
+            found = np.isfinite(dist)
+            full = found[:, -1] if k < self.n else np.zeros(len(todo), dtype=bool)
+            done = ~full
+            r, c = np.nonzero(found & done[:, None])
+            rows_out.append(todo[r])
+            segs_out.append(idx[r, c])
+            todo = todo[full]
+            if len(todo) == 0:
+                break
+        if len(todo):  # still more than 4 K segments within the bound: search those rows fully
+            extra = self.tree.query_ball_point(q[todo], bound, return_sorted=False)
+            rows_out.append(np.repeat(todo, [len(e) for e in extra]))
+            segs_out.append(np.concatenate([np.asarray(e, dtype=np.int64) for e in extra]))
+        rows = np.concatenate(rows_out)
+        segs = np.concatenate(segs_out).astype(np.int64)
+        order = np.argsort(rows, kind="stable")
+        return rows[order], segs[order]
 
     def segment_distance(self, p0: Points2, p1: Points2, radius: float) -> Floats:
         """Distance from each query segment to the nearest indexed segment, capped at ``radius``.

@@ -129,6 +129,7 @@ def tile(
     width_max: float,
     min_spacing: float,
     inside: object,
+    max_turn_deg: float = 180.0,
 ) -> tuple[Lines, Floats]:
     """Bead cells: moved centre lines and local pitch (module docstring).
 
@@ -140,6 +141,9 @@ def tile(
     min_spacing : float, mm
     inside : callable
         ``inside(points (n, 2)) -> (n,) bool``.
+    max_turn_deg : float, degrees
+        A vertex whose move would turn the path by more than this (or more than it already
+        turns) keeps its streamline position.
 
     Returns
     -------
@@ -160,6 +164,21 @@ def tile(
     moved = lines.points + shift[:, None] * nrm
     ok = inside(moved)
     pts = np.where(ok[:, None], moved, lines.points)
+    limit = np.maximum(_turns(lines.points, lines), np.radians(max_turn_deg))
+    for _ in range(4):
+        sharp = _turns(pts, lines) > limit + 1e-9
+        if not np.any(sharp):
+            break
+        vl = lines.vertex_line
+        spread = sharp.copy()
+        spread[:-1] |= sharp[1:] & (vl[:-1] == vl[1:])
+        spread[1:] |= sharp[:-1] & (vl[1:] == vl[:-1])
+        pts = np.where(spread[:, None], lines.points, pts)
+    else:
+        sharp = _turns(pts, lines) > limit + 1e-9
+        if np.any(sharp):
+            involved = np.isin(lines.vertex_line, np.unique(lines.vertex_line[sharp]))
+            pts = np.where(involved[:, None], lines.points, pts)
     out = Lines(pts, lines.offsets)
     # keep the spacing guarantee: vertices of segments that now violate it go back
     for _ in range(6):
@@ -176,6 +195,23 @@ def tile(
         if np.any(_violating_vertices(out, min_spacing)):
             out = lines
     return out, width
+
+
+def _turns(points: Points2, lines: Lines) -> Floats:
+    """Return the turning angle at every vertex (0 at path ends, next to zero-length segments), rad."""
+    n = len(points)
+    vl = lines.vertex_line
+    ar = np.arange(n)
+    nxt = np.minimum(ar + 1, n - 1)
+    prv = np.maximum(ar - 1, 0)
+    interior = (vl[nxt] == vl) & (vl[prv] == vl) & (nxt != ar) & (prv != ar)
+    a = points - points[prv]
+    b = points[nxt] - points
+    na = np.linalg.norm(a, axis=1)
+    nb = np.linalg.norm(b, axis=1)
+    good = interior & (na > 1e-12) & (nb > 1e-12)
+    c = np.sum(a * b, axis=1) / np.where(good, na * nb, 1.0)
+    return np.where(good, np.arccos(np.clip(c, -1.0, 1.0)), 0.0)
 
 
 def _violating_vertices(lines: Lines, min_spacing: float) -> np.ndarray:
