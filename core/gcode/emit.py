@@ -1,0 +1,237 @@
+"""Writing G-code the way the slicer that made the file writes it: numbers, word order, markers.
+
+:class:`Style` holds what differs between the marker families (``slicer-conventions.md`` §2-§4):
+
+===========  ====================  ==========================  ===============================
+family       travel                extrusion                   markers
+===========  ====================  ==========================  ===============================
+prusa        ``G1 X.. Y.. F10800`` ``G1 F4800`` then           ``;TYPE:`` ``;WIDTH:`` ``;HEIGHT:``
+                                   ``G1 X.. Y.. E.03085``      ``;WIPE_START`` ``;WIPE_END``
+bambu        same                  same                        ``; FEATURE:`` ``; LINE_WIDTH:``
+                                                               ``; LAYER_HEIGHT:`` ``; WIPE_START``
+cura         ``G0 F7200 X.. Y..``  ``G1 F3600 X.. Y.. E..``    ``;TYPE:`` only
+===========  ====================  ==========================  ===============================
+
+PrusaSlicer drops the leading zero (``Z.6``, ``E-.04``) and trailing zeros; Cura keeps the leading
+zero.  XYZ are written with 3 decimals, E with 5, F with up to 3.
+
+:class:`Writer` accumulates lines and tracks the machine state it leaves (position, E, feedrate,
+retraction).  E is written in the file's mode: relative values carry their rounding error to the next
+move, absolute values are the rounded running total, so the sum written equals the sum asked for.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["Style", "STYLES", "Writer", "fmt"]
+
+
+def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
+    """A number as slicers write it: fixed decimals, trailing zeros dropped.
+
+    Examples
+    --------
+    >>> fmt(0.6, 3), fmt(-0.04, 5), fmt(199.3680001, 3), fmt(0.0, 5), fmt(0.8, 3, leading_zero=True)
+    ('.6', '-.04', '199.368', '0', '0.8')
+    """
+    s = f"{value:.{decimals}f}"
+    if "." in s:
+        s = s.rstrip("0").rstrip(".")
+    if s in ("-0", ""):
+        s = "0"
+    if not leading_zero:
+        if s.startswith("0."):
+            s = s[1:]
+        elif s.startswith("-0."):
+            s = "-" + s[2:]
+    return s
+
+
+@dataclass(frozen=True)
+class Style:
+    """How one marker family writes moves and markers (see the module docstring).
+
+    Attributes
+    ----------
+    family : {"prusa", "bambu", "cura"}
+    travel_cmd : str
+        ``"G1"`` or ``"G0"``.
+    f_first : bool
+        F is the first word of a move (Cura) instead of the last (PrusaSlicer travel).
+    feed_line : bool
+        A feedrate change before extrusions is its own ``G1 F..`` line (PrusaSlicer).
+    leading_zero : bool
+    feature, width, height : str or None
+        Marker prefixes (None: the family has no such marker).
+    wipe_start, wipe_end : str or None
+    """
+
+    family: str
+    travel_cmd: str
+    f_first: bool
+    feed_line: bool
+    leading_zero: bool
+    feature: str
+    width: str | None
+    height: str | None
+    wipe_start: str | None
+    wipe_end: str | None
+
+
+STYLES = {
+    "prusa": Style("prusa", "G1", False, True, False, ";TYPE:", ";WIDTH:", ";HEIGHT:", ";WIPE_START", ";WIPE_END"),
+    "bambu": Style("bambu", "G1", False, True, False, "; FEATURE: ", "; LINE_WIDTH: ", "; LAYER_HEIGHT: ",
+                   "; WIPE_START", "; WIPE_END"),
+    "cura": Style("cura", "G0", True, False, True, ";TYPE:", None, None, None, None),
+}
+
+
+class Writer:
+    """Accumulates G-code lines and the machine state they leave.
+
+    Parameters
+    ----------
+    style : Style
+    x, y, z : float, mm
+        Position the lines start from.
+    e : float, file units
+        Logical E the lines start from (what the firmware counts).
+    f : float, mm/min
+        Modal feedrate in effect (NaN: unknown).
+    e_relative : bool
+        E words are relative (``M83``).
+    volumetric_area : float or None, mm^2
+        Set when E words are mm^3: filament millimetres are multiplied by it when written.
+    """
+
+    def __init__(self, style: Style, x: float, y: float, z: float, e: float, f: float, e_relative: bool,
+                 volumetric_area: float | None = None) -> None:
+        self.style = style
+        self.lines: list[str] = []
+        self.x, self.y, self.z = x, y, z
+        self.e = e  # logical E after the last line written (rounded as written)
+        self._e_exact = e  # running total as asked for (absolute mode)
+        self._carry = 0.0  # rounding carry (relative mode)
+        self.f = f
+        self.e_relative = e_relative
+        self.scale = volumetric_area or 1.0
+        self.retracted = 0.0  # filament mm held back by this writer's retractions
+        self.filament = 0.0  # filament mm pushed by extrusions (positive moves with XY)
+        self.seconds = 0.0  # kinematic time of the moves written (distance / feedrate, no acceleration)
+        self.width = math.nan  # ;WIDTH: in effect (as the viewer reads it)
+        self.height = math.nan  # ;HEIGHT: in effect
+
+    # ------------------------------------------------------------------ numbers
+
+    def _n(self, v: float, decimals: int = 3) -> str:
+        return fmt(v, decimals, self.style.leading_zero)
+
+    def _e_word(self, de_filament: float) -> str | None:
+        """E word for ``de`` mm of filament; None when it rounds to nothing."""
+        de = de_filament * self.scale
+        if self.e_relative:
+            self._carry += de
+            val = round(self._carry, 5)
+            if val == 0.0:
+                return None
+            self._carry -= val
+            self.e = self.e + val
+            return "E" + fmt(val, 5, self.style.leading_zero)
+        self._e_exact += de
+        val = round(self._e_exact, 5)
+        if val == round(self.e, 5):
+            return None
+        self.e = val
+        return "E" + fmt(val, 5, self.style.leading_zero)
+
+    def _f_word(self, f: float | None) -> str | None:
+        if f is None or (not math.isnan(self.f) and abs(f - self.f) < 1e-9):
+            return None
+        self.f = f
+        return "F" + fmt(f, 3, True)
+
+    # ------------------------------------------------------------------ lines
+
+    def raw(self, line: str) -> None:
+        """Append a line as is (no state change)."""
+        self.lines.append(line)
+
+    def marker(self, prefix: str | None, value: str) -> None:
+        """Append a marker comment (nothing when the family has no such marker)."""
+        if prefix is not None:
+            self.lines.append(f"{prefix}{value}")
+
+    def feed(self, f: float) -> None:
+        """Set the feedrate with its own line (``G1 F4800``) when it changes."""
+        w = self._f_word(f)
+        if w is not None:
+            self.lines.append(f"G1 {w}")
+
+    def _move(self, cmd: str, words: list[str], f: float | None, dist: float = 0.0) -> None:
+        fw = self._f_word(f)
+        if fw is not None:
+            words = [fw, *words] if self.style.f_first else [*words, fw]
+        self.lines.append(" ".join([cmd, *words]))
+        if dist > 0 and self.f > 0:
+            self.seconds += dist / self.f * 60.0
+
+    def _dist(self, x: float, y: float) -> float:
+        return math.hypot(x - self.x, y - self.y)
+
+    def travel(self, x: float, y: float, f: float, z: float | None = None) -> None:
+        """Move without extruding to ``(x, y[, z])`` at feedrate ``f`` (mm/min)."""
+        words = [f"X{self._n(x)}", f"Y{self._n(y)}"]
+        if z is not None:
+            words.append(f"Z{self._n(z)}")
+            self.z = z
+        self._move(self.style.travel_cmd, words, f, self._dist(x, y))
+        self.x, self.y = x, y
+
+    def extrude(self, x: float, y: float, de: float, f: float | None = None) -> None:
+        """Extrude ``de`` mm of filament (> 0) along a straight line to ``(x, y)``."""
+        words = [f"X{self._n(x)}", f"Y{self._n(y)}"]
+        ew = self._e_word(de)
+        if ew is not None:
+            words.append(ew)
+        if f is not None and self.style.feed_line and not (not math.isnan(self.f) and abs(f - self.f) < 1e-9):
+            self.feed(f)
+            f = None
+        self._move("G1", words, f, self._dist(x, y))
+        self.x, self.y = x, y
+        self.filament += de
+        self.retracted = 0.0
+
+    def wipe(self, x: float, y: float, de: float) -> None:
+        """Move to ``(x, y)`` while pulling ``de`` mm of filament back (``de`` > 0)."""
+        words = [f"X{self._n(x)}", f"Y{self._n(y)}"]
+        ew = self._e_word(-de)
+        if ew is not None:
+            words.append(ew)
+        self._move("G1", words, None, self._dist(x, y))
+        self.x, self.y = x, y
+        self.retracted += de
+
+    def e_move(self, de: float, f: float) -> None:
+        """Retract (``de`` < 0) or unretract (``de`` > 0) without moving."""
+        ew = self._e_word(de)
+        if ew is None:
+            return
+        self._move("G1", [ew], f, abs(de))
+        self.retracted -= de
+
+    def z_move(self, z: float, f: float) -> None:
+        """Lift or lower to ``z``."""
+        self._move("G1", [f"Z{self._n(z)}"], f, abs(z - self.z))
+        self.z = z
+
+    def set_e(self, e: float) -> None:
+        """``G92 E<e>``: make the logical E what the following lines expect (absolute E)."""
+        self.lines.append(f"G92 E{fmt(e, 5, True)}")
+        self.e = self._e_exact = e
+        self._carry = 0.0
+
+    def text(self, newline: str = "\n") -> str:
+        """The lines written so far, each with ``newline``."""
+        return "".join(line + newline for line in self.lines)

@@ -1,0 +1,297 @@
+"""Plan a new infill block: print order, printed links, and per-segment width, E and feedrate.
+
+Input: the paths an engine made for one replaced block (:class:`loadpath.toolpath.Path`, with the
+local pitch at each vertex), the block's layer height and feedrate, the slicer's flow model.
+Output: :class:`BlockPlan`, a list of **chains** (polylines printed without travel), each segment with
+its bead width, filament and feedrate.  :mod:`loadpath.gcode.splice` writes it.
+
+Steps
+-----
+1. Drop vertices closer than ``min_segment`` to the previous one (G-code prints 3 decimals; a
+   segment must carry a visible amount of E).
+2. Order the paths greedily: from the current nozzle position, the nearest free path end next,
+   reversing the path when its far end is nearer (what slicers do for infill).
+3. Join consecutive paths into one chain with a printed **link** when the gap is at most
+   ``link_max`` and the straight link lies inside the replace region (PrusaSlicer links its
+   rectilinear lines the same way); otherwise the splicer travels.
+4. Flow width per segment: the mean local pitch of its two vertices (variable width, solid infill),
+   or a fixed flow width (sparse infill keeps the slicer's width).  Bead width from the flow model,
+   clamped to ``width_range`` times the nozzle diameter.  With a target E (the replaced block's own),
+   the flow widths are scaled by one factor, bounded by ``max_correction``, so the block extrudes
+   the volume the slicer extruded (coverage gaps of the engine are filled by slightly wider beads).
+5. Feedrate: the block's own, lowered per segment where the volumetric rate
+   ``area * multiplier * v`` would exceed ``max_volumetric_speed``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from loadpath._typing import Floats, Points2, Region
+from loadpath.gcode.flow import FlowModel
+from loadpath.toolpath import Path
+from shapely.geometry import LineString
+
+__all__ = ["PlanOptions", "Chain", "BlockPlan", "plan_block", "simplify", "order_paths"]
+
+
+@dataclass(frozen=True)
+class PlanOptions:
+    """How new paths become G-code moves.
+
+    Attributes
+    ----------
+    nozzle_diameter : float, mm
+    width_range : (2,) float
+        Smallest and largest bead width, as multiples of the nozzle diameter.
+    link_max : float
+        Longest printed link between neighbouring path ends, in nominal pitches.
+    min_segment : float, mm
+        Vertices closer than this to the previous one are dropped.
+    max_volumetric_speed : float, mm^3/s
+        0: no limit.
+    match_volume : bool
+        Scale the flow so the block extrudes the replaced block's volume.
+    max_correction : float
+        Largest relative change of the flow that volume matching may apply.
+    order : bool
+        Reorder the paths (False: print them as given, each in its own direction).
+    """
+
+    nozzle_diameter: float = 0.4
+    width_range: tuple[float, float] = (0.6, 1.6)
+    link_max: float = 2.0
+    min_segment: float = 0.05
+    max_volumetric_speed: float = 0.0
+    match_volume: bool = True
+    max_correction: float = 0.15
+    order: bool = True
+
+
+@dataclass(frozen=True)
+class Chain:
+    """A polyline printed in one go.
+
+    Attributes
+    ----------
+    points : (n, 2) float, mm
+    filament : (n - 1,) float, mm
+        Filament pushed on each segment.
+    width : (n - 1,) float, mm
+        Bead width of each segment (``;WIDTH:``).
+    feedrate : (n - 1,) float, mm/min
+    """
+
+    points: Points2
+    filament: Floats
+    width: Floats
+    feedrate: Floats
+
+    @property
+    def length(self) -> float:
+        """Printed length, mm."""
+        return float(np.sum(np.hypot(*np.diff(self.points, axis=0).T)))
+
+
+@dataclass(frozen=True)
+class BlockPlan:
+    """The planned block.
+
+    Attributes
+    ----------
+    chains : tuple of Chain
+        In print order.
+    n_paths, n_links : int
+        Paths printed and printed links between them.
+    correction : float
+        Flow factor applied by volume matching (1.0 when off).
+    raw_filament : float, mm
+        Filament the flow model gives before volume matching.
+    stats : dict
+    """
+
+    chains: tuple[Chain, ...]
+    n_paths: int
+    n_links: int
+    correction: float
+    raw_filament: float
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def filament(self) -> float:
+        """Filament extruded by the block, mm."""
+        return float(sum(c.filament.sum() for c in self.chains))
+
+    @property
+    def length(self) -> float:
+        """Printed length, mm."""
+        return float(sum(c.length for c in self.chains))
+
+
+def simplify(points: Points2, pitch: Floats, min_segment: float) -> tuple[Points2, Floats]:
+    """Drop vertices closer than ``min_segment`` to the previous kept one (ends kept).
+
+    Vectorized: vertices are binned by arc length in bins of ``min_segment``; the first vertex of each
+    bin is kept, then any kept vertex still closer than ``min_segment / 2`` to its predecessor goes.
+    """
+    pts = np.asarray(points, dtype=float)
+    if len(pts) <= 2:
+        return pts, np.asarray(pitch, dtype=float)
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    b = np.floor(s / min_segment).astype(np.int64)
+    keep = np.ones(len(pts), dtype=bool)
+    keep[1:] = b[1:] != b[:-1]
+    keep[-1] = True
+    idx = np.flatnonzero(keep)
+    d = np.diff(s[idx])
+    drop = np.zeros(len(idx), dtype=bool)
+    drop[1:-1] = d[:-1] < min_segment / 2
+    if len(idx) > 2 and d[-1] < min_segment / 2:
+        drop[-2] = True
+    idx = idx[~drop]
+    return pts[idx], np.asarray(pitch, dtype=float)[idx]
+
+
+def order_paths(paths: Sequence[tuple[Points2, Floats]], start: Points2) -> list[tuple[Points2, Floats]]:
+    """Greedy nearest-neighbour print order from ``start`` (paths reversed where that is nearer).
+
+    Parameters
+    ----------
+    paths : sequence of (points (n, 2), pitch (n,))
+    start : (2,) float, mm
+        Nozzle position before the first path.
+    """
+    m = len(paths)
+    if m == 0:
+        return []
+    heads = np.array([p[0][0] for p in paths])
+    tails = np.array([p[0][-1] for p in paths])
+    free = np.ones(m, dtype=bool)
+    pos = np.asarray(start, dtype=float)
+    out = []
+    for _ in range(m):
+        dh = np.where(free, np.hypot(*(heads - pos).T), np.inf)
+        dt = np.where(free, np.hypot(*(tails - pos).T), np.inf)
+        ih, it = int(np.argmin(dh)), int(np.argmin(dt))
+        if dh[ih] <= dt[it]:
+            k, rev = ih, False
+        else:
+            k, rev = it, True
+        free[k] = False
+        pts, pitch = paths[k]
+        if rev:
+            pts, pitch = pts[::-1], pitch[::-1]
+        out.append((pts, pitch))
+        pos = pts[-1]
+    return out
+
+
+def _segment_values(v: Floats) -> Floats:
+    return 0.5 * (v[:-1] + v[1:])
+
+
+def plan_block(paths: Sequence[Path], start: Points2, height: float, feedrate: float, flow: FlowModel,
+               options: PlanOptions, region: Region | None = None, nominal_pitch: float | None = None,
+               flow_width: float | None = None, target_filament: float | None = None) -> BlockPlan:
+    """Plan one replaced block (see the module docstring).
+
+    Parameters
+    ----------
+    paths : sequence of Path
+    start : (2,) float, mm
+        Nozzle position before the block.
+    height : float, mm
+        Bead height (the block's layer height).
+    feedrate : float, mm/min
+        The replaced block's extrusion feedrate (it includes the slicer's cooling slowdown).
+    flow : FlowModel
+    options : PlanOptions
+    region : shapely Polygon or MultiPolygon, optional
+        Replace region: links must lie inside it.  None: no links.
+    nominal_pitch : float, mm, optional
+        Pitch of the links' beads and the unit of ``link_max``; default the median path pitch.
+    flow_width : float, mm, optional
+        Fixed flow width for every segment (sparse infill); None: each segment's local pitch.
+    target_filament : float, mm, optional
+        Filament of the replaced block, for volume matching.
+
+    Returns
+    -------
+    BlockPlan
+    """
+    prepared = []
+    for p in paths:
+        pts, pitch = simplify(p.points, p.pitch, options.min_segment)
+        if len(pts) >= 2 and np.hypot(*(pts[-1] - pts[0])) + np.sum(np.hypot(*np.diff(pts, axis=0).T)) > 0:
+            prepared.append((pts, pitch))
+    if options.order:
+        prepared = order_paths(prepared, start)
+    if not prepared:
+        return BlockPlan((), 0, 0, 1.0, 0.0)
+    all_pitch = np.concatenate([pp for _, pp in prepared])
+    nominal = float(nominal_pitch) if nominal_pitch else float(np.median(all_pitch))
+    link_max = options.link_max * nominal
+    inner = None
+    if region is not None and options.link_max > 0:
+        inner = region.buffer(0.05 * nominal)
+        shapely.prepare(inner)
+
+    # chains: consecutive paths joined by printed links
+    groups: list[list[tuple[Points2, Floats]]] = [[prepared[0]]]
+    n_links = 0
+    for pts, pitch in prepared[1:]:
+        prev_end = groups[-1][-1][0][-1]
+        gap = float(np.hypot(*(pts[0] - prev_end)))
+        if inner is not None and gap <= link_max and inner.covers(LineString([prev_end, pts[0]])):
+            groups[-1].append((pts, pitch))
+            n_links += 1
+        else:
+            groups.append([(pts, pitch)])
+    chains_pts, chains_fw = [], []
+    for g in groups:
+        pts = np.concatenate([p for p, _ in g])
+        seg_fw = []
+        for j, (p, pp) in enumerate(g):
+            if j > 0:
+                seg_fw.append(np.array([nominal if flow_width is None else flow_width]))  # the link
+            seg_fw.append(_segment_values(pp) if flow_width is None else np.full(len(p) - 1, flow_width))
+        chains_pts.append(pts)
+        chains_fw.append(np.concatenate(seg_fw))
+    lengths = [np.hypot(*np.diff(p, axis=0).T) for p in chains_pts]
+    fw = np.concatenate(chains_fw)
+    ln = np.concatenate(lengths)
+
+    wmin, wmax = (r * options.nozzle_diameter for r in options.width_range)
+
+    def areas(scale: float) -> tuple[Floats, Floats]:
+        bead = np.clip(flow.bead_width(fw * scale, height), wmin, wmax)
+        return bead, flow.area(bead, height)
+
+    bead, area = areas(1.0)
+    raw = float(np.sum(flow.filament_mm(flow.e_for_area(area)) * ln))
+    scale = 1.0
+    if options.match_volume and target_filament and raw > 0:
+        lo, hi = 1.0 - options.max_correction, 1.0 + options.max_correction
+        for _ in range(4):  # clamping makes the total non-linear in the scale: a few fixed-point steps
+            got = float(np.sum(flow.filament_mm(flow.e_for_area(area)) * ln))
+            scale = float(np.clip(scale * target_filament / got, lo, hi)) if got > 0 else scale
+            bead, area = areas(scale)
+    filament = flow.filament_mm(flow.e_for_area(area)) * ln
+    f = np.full(len(ln), float(feedrate))
+    if options.max_volumetric_speed > 0:
+        limit = options.max_volumetric_speed * 60.0 / (area * flow.multiplier)
+        f = np.minimum(f, np.floor(limit))
+    chains = []
+    a = 0
+    for pts in chains_pts:
+        k = len(pts) - 1
+        chains.append(Chain(points=pts, filament=filament[a:a + k], width=bead[a:a + k], feedrate=f[a:a + k]))
+        a += k
+    stats = {"width_min": float(bead.min()), "width_max": float(bead.max()),
+             "width_clamped": float(np.mean((bead <= wmin + 1e-9) | (bead >= wmax - 1e-9))),
+             "slowed": float(np.mean(f < feedrate))}
+    return BlockPlan(tuple(chains), len(prepared), n_links, scale, raw, stats)

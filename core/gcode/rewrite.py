@@ -1,0 +1,329 @@
+"""Rewrite one feature block with new chains, leaving the machine as the next original line expects.
+
+Called by :func:`loadpath.gcode.splice.splice` for each replaced block.  The block's lines
+(``span_start:span_stop``, plus a detached leaving wipe ``exit_start:exit_stop``; see
+:mod:`loadpath.gcode.blocks`) are rewritten as follows (``slicer-conventions.md`` §5):
+
+entering part (``span_start:start``)
+    Lift, lower and unretract lines are kept verbatim (they do not depend on XY); the XY travel is
+    replaced by a travel to the first new chain.  If the original did not retract but the new travel
+    has to (it leaves the region, or is longer than ``retract_before_travel``), the travel gets its
+    own retraction, lift and unretraction.
+core (``start:stop``)
+    Moves, feature/width/height markers, ``G1 F`` lines and ``G92 E`` lines are dropped; every other
+    line (``M204``, fan, temperature, comments) is kept in order at the block start; ``M73`` progress
+    lines are spread over the new block at the same fraction of its printed length.  Then the new
+    chains, with the family's markers (``;TYPE:`` the replaced block's own feature name, ``;WIDTH:``
+    when the width changes, ``;HEIGHT:``), joined by travels that retract, wipe and lift the way the
+    slicer is set up to.
+leaving part (``stop:span_stop`` and the detached exit)
+    Wipe moves are regenerated backwards along the new last chain, with the same total E (the same
+    retraction); retraction lines and markers are kept verbatim.
+afterwards
+    ``;WIDTH:``/``;HEIGHT:`` re-emitted as the original had them, Z and feedrate restored,
+    ``G92 E<original>`` in absolute E mode, and a travel back to the original end point when the next
+    original move depends on the position (an extrusion, a relative or partial move, an arc).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from loadpath._typing import Points2, Region
+from loadpath.gcode.blocks import BARRIER, NEUTRAL, TRAVEL, WIPE
+from loadpath.gcode.emit import Style, Writer, fmt
+from loadpath.gcode.model import Block, Program
+from loadpath.gcode.plan import BlockPlan, Chain
+from loadpath.gcode.travel import Motion, TravelState, travel, unretract, wipe_back
+from loadpath.gcode.words import G, M, T
+
+__all__ = ["Rewritten", "rewrite_block", "refusal"]
+
+_MOTION_RE = re.compile(r"^\s*G([0-3])(?![0-9.])([^;]*)", re.I)
+_WORD_RE = re.compile(r"([XYZEF])\s*[-+.0-9]", re.I)
+_G92_E_ONLY = re.compile(r"^\s*G92(\s+E\s*[-+.0-9]+)?\s*(;.*)?$", re.I)
+_M73 = re.compile(r"^\s*M73\b", re.I)
+_REFUSE_CMDS = {G + 90: "G90", G + 91: "G91", M + 82: "M82", M + 83: "M83", G + 28: "G28"}
+
+
+def refusal(program: Program, b: Block) -> str | None:
+    """Why a block must be kept as it is (mode or tool change inside its lines), else None."""
+    ranges = [(b.span_start, b.span_stop)]
+    if b.exit_start >= b.span_stop and b.exit_stop > b.exit_start:
+        ranges.append((b.exit_start, b.exit_stop))
+    for a, z in ranges:
+        cmd = program.state.cmd[a:z]
+        for code, name in _REFUSE_CMDS.items():
+            if np.any(cmd == code):
+                return f"{name} inside the block changes the machine mode"
+        if np.any((cmd >= T) & (cmd < T + 10_000)):
+            return "a tool change inside the block"
+        for i in np.flatnonzero(cmd == G + 92):
+            if not _G92_E_ONLY.match(program.line(a + int(i))):
+                return "G92 on X/Y/Z inside the block"
+    return None
+
+
+def _sets_f(text: str) -> bool:
+    m = _MOTION_RE.match(text)
+    return bool(m) and any(w.upper() == "F" for w in _WORD_RE.findall(m.group(2)))
+
+
+def _next_needs_position(program: Program, after: int) -> bool:
+    """Does the next XY-moving original line from ``after`` on depend on where the nozzle is?"""
+    s = program.state
+    for j in range(after, program.n_lines):
+        cmd = int(s.cmd[j])
+        if cmd not in (G + 0, G + 1, G + 2, G + 3):
+            continue
+        m = _MOTION_RE.match(program.line(j))
+        if not m:
+            continue
+        words = {x.upper() for x in _WORD_RE.findall(m.group(2))}
+        if not ({"X", "Y"} & words) and cmd in (G + 0, G + 1):
+            continue  # Z, E or F only: position-independent
+        return cmd in (G + 2, G + 3) or not bool(s.absolute_xyz[j]) or not {"X", "Y"} <= words \
+            or float(s.de[j]) != 0.0
+    return False
+
+
+def _marker_lines(style: Style) -> tuple[str, ...]:
+    out = [style.feature]
+    out += [p for p in (style.width, style.height, ";TYPE:", ";WIDTH:", ";HEIGHT:") if p]
+    return tuple(p.strip() for p in out)
+
+
+def _width_text(v: float) -> str:
+    return fmt(v, 6, True)
+
+
+def _verbatim(w: Writer, st: TravelState, i: int) -> None:
+    """Copy original line ``i`` and apply its (position-independent) effect to the writer."""
+    p = st.program
+    s = p.state
+    text = p.line(i)
+    w.raw(text)
+    prev = i - 1
+    dz = float(s.z[i] - (s.z[prev] if prev >= 0 else 0.0))
+    de = float(s.e[i] - (s.e[prev] if prev >= 0 else 0.0))
+    w.z += dz
+    if s.cmd[i] == G + 92:
+        w.e = w._e_exact = float(s.e[i])
+    else:
+        w.e += de
+        w._e_exact += de
+    w.retracted += float(s.retracted[i] - (s.retracted[prev] if prev >= 0 else 0.0))
+    st.fw = bool(s.fw_retracted[i])
+    if _sets_f(text):
+        w.f = float(s.f[i])
+    mv = p.moves[p.move_rows(i, i + 1)]
+    if len(mv):
+        d = np.sqrt((mv["z1"] - mv["z0"]) ** 2 + (mv["x1"] - mv["x0"]) ** 2 + (mv["y1"] - mv["y0"]) ** 2)
+        d = np.where(d > 0, d, np.abs(mv["e"]))
+        ok = np.isfinite(mv["f"]) & (mv["f"] > 0)
+        w.seconds += float(np.sum(d[ok] / mv["f"][ok]) * 60.0)
+
+
+
+# ---------------------------------------------------------------------------------------------- block
+
+
+@dataclass
+class Rewritten:
+    """Text of a rewritten block: the span and, when detached, the exit."""
+
+    span: str
+    exit: str | None
+    n_travels: int
+    n_retracts: int
+    end_xy: tuple[float, float]
+    seconds: float
+
+
+def _core_fraction(program: Program, b: Block) -> tuple[np.ndarray, np.ndarray]:
+    """Cumulative extruded length fraction after each core line (for placing M73 lines)."""
+    mv = program.moves[b.moves]
+    seg = np.where(mv["extrude"], np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"]), 0.0)
+    cum = np.cumsum(seg)
+    total = cum[-1] if len(cum) and cum[-1] > 0 else 1.0
+    return mv["line"], cum / total
+
+
+def _leaving(w: Writer, st: TravelState, a: int, z: int, last: Points2) -> None:
+    """Lines ``[a, z)`` of a leaving wipe/retraction: wipe moves regenerated, the rest verbatim."""
+    p = st.program
+    kind = p.kind_of_line
+    wipes = [i for i in range(a, z) if kind[i] == WIPE and p.state.moved_xy[i]]
+    total = -float(np.sum(p.state.de[wipes])) if wipes else 0.0
+    rows = p.move_rows(a, z)
+    mv = p.moves[rows]
+    mv = mv[mv["wipe"]]
+    dist = float(np.sum(np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"])))
+    w._carry = 0.0
+    for i in range(a, z):
+        if wipes and i == wipes[0]:
+            if _sets_f(p.line(i)):
+                w.feed(float(p.state.f[i]))
+            pulled = wipe_back(w, last, dist, total)
+            if pulled < total - 1e-12:  # no path to wipe along: the same retraction without moving
+                w.e_move(-(total - pulled), float(p.state.f[i]))
+        elif i in wipes:
+            continue
+        else:
+            _verbatim(w, st, i)
+
+
+def _restore(w: Writer, st: TravelState, end: int, style: Style, keep_position: bool = False) -> None:
+    """Leave the machine as the original was after line ``end - 1`` (position too, unless
+    ``keep_position``: a detached wipe continues from here).
+    """
+    p = st.program
+    s = p.state
+    i = end - 1
+    if style.width and not math.isnan(p.width_of_line[i]) and w.width != float(p.width_of_line[i]):
+        w.marker(style.width, _width_text(float(p.width_of_line[i])))
+    if style.height and not math.isnan(p.height_of_line[i]) and w.height != float(p.height_of_line[i]):
+        w.marker(style.height, _width_text(float(p.height_of_line[i])))
+    if not keep_position and _next_needs_position(p, end) and (abs(w.x - s.x[i]) > 1e-6
+                                                               or abs(w.y - s.y[i]) > 1e-6):
+        w.travel(float(s.x[i]), float(s.y[i]), st.motion.travel_f)
+    if abs(w.z - float(s.z[i])) > 1e-9:
+        w.z_move(float(s.z[i]), st.motion.lift_f)
+    if not math.isnan(s.f[i]) and (math.isnan(w.f) or abs(w.f - float(s.f[i])) > 1e-9):
+        w.feed(float(s.f[i]))
+    if not bool(s.e_relative[i]) and round(w.e, 5) != round(float(s.e[i]), 5):
+        w.set_e(float(s.e[i]))
+
+
+def rewrite_block(program: Program, b: Block, plan: BlockPlan, region: Region | None, motion: Motion,
+                  style: Style, volumetric_area: float | None) -> Rewritten:
+    """The new text of one block (see the module docstring).
+
+    Parameters
+    ----------
+    program : Program
+    b : Block
+    plan : BlockPlan
+        The new chains (may be empty: the block is then only removed, the machine state kept).
+    region : shapely geometry or None
+        Replace region: travels that leave it always retract.
+    motion : Motion
+    style : Style
+    volumetric_area : float or None
+        Filament cross-section when E words are mm^3.
+    """
+    p = program
+    s = p.state
+    s0 = p.state_before(b.span_start)
+    layer_z = float(s.z[b.stop - 1])
+    w = Writer(style, s0.x, s0.y, s0.z, s0.e, s0.f, s0.e_relative, volumetric_area)
+    w.width = s0.width
+    w.height = s0.height
+    st = TravelState(p, region, motion, layer_z)
+    st.fw = s0.fw_retracted
+    w.retracted = s0.retracted
+    chains = plan.chains
+    first = chains[0].points[0] if chains else None
+
+    # entering part
+    travelled = False
+    kind = p.kind_of_line
+    for i in range(b.span_start, b.start):
+        if kind[i] == TRAVEL and s.moved_xy[i]:
+            if not travelled and first is not None:
+                z = float(s.z[i]) if s.z[i] != (s.z[i - 1] if i > 0 else 0.0) else None
+                f = float(s.f[i]) if _sets_f(p.line(i)) else None
+                travel(w, st, first, None, f, z)
+            travelled = True
+            continue
+        _verbatim(w, st, i)
+
+    # core: kept lines first, M73 spread, then the chains
+    markers = _marker_lines(style)
+    lines, frac = _core_fraction(p, b)
+    m73: list[tuple[float, str]] = []
+    for i in range(b.start, b.stop):
+        k = kind[i]
+        text = p.line(i)
+        if k == NEUTRAL:
+            t = text.strip()
+            if t.startswith(markers) or (int(s.cmd[i]) in (G + 0, G + 1) and _MOTION_RE.match(text)):
+                continue
+            if _M73.match(text):
+                j = int(np.searchsorted(lines, i, "left")) - 1
+                m73.append((float(frac[j]) if j >= 0 else 0.0, text))
+                continue
+            w.raw(text)
+        elif k == BARRIER:
+            if int(s.cmd[i]) == G + 92 and _G92_E_ONLY.match(text):
+                continue
+            w.raw(text)
+    if first is not None and not travelled:
+        travel(w, st, first, None)
+    if chains and (w.retracted > 1e-9 or st.fw):
+        unretract(w, st)
+    w.marker(style.feature, b.feature)
+    h = float(p.height_of_line[b.stop - 1])
+    if chains and style.height and not math.isnan(h):
+        w.marker(style.height, _width_text(h))
+        w.height = h
+    w.width = math.nan  # the first chain states its width
+    total_len = sum(c.length for c in chains) or 1.0
+    done_len = 0.0
+    m73.sort(key=lambda t: t[0])
+    mi = 0
+    last: Points2 | None = None
+    for ci, c in enumerate(chains):
+        if ci > 0:
+            travel(w, st, c.points[0], last)
+            if w.retracted > 1e-9 or st.fw:
+                unretract(w, st)
+        mi, done_len = _extrude_chain(w, c, style, m73, mi, done_len, total_len)
+        last = c.points
+    for _, text in m73[mi:]:
+        w.raw(text)
+
+    # leaving part
+    exit_detached = b.exit_start >= b.span_stop and b.exit_stop > b.exit_start
+    if b.span_stop > b.stop:
+        _leaving(w, st, b.stop, b.span_stop, last if last is not None else np.array([[w.x, w.y]] * 2))
+    end_xy = (w.x, w.y)
+    if not exit_detached:
+        _restore(w, st, b.span_stop, style)
+        return Rewritten(w.text(_nl(p)), None, st.n_travels, st.n_retracts, end_xy, w.seconds)
+    _restore(w, st, b.span_stop, style, keep_position=True)
+    span_text = w.text(_nl(p))
+    # detached exit: start from the original state there, at our position
+    e0 = p.state_before(b.exit_start)
+    w2 = Writer(style, w.x, w.y, e0.z, e0.e, e0.f, e0.e_relative, volumetric_area)
+    w2.width, w2.height = e0.width, e0.height
+    w2.retracted = e0.retracted
+    st.fw = e0.fw_retracted
+    _leaving(w2, st, b.exit_start, b.exit_stop, last if last is not None else np.array([[w.x, w.y]] * 2))
+    _restore(w2, st, b.exit_stop, style)
+    return Rewritten(span_text, w2.text(_nl(p)), st.n_travels, st.n_retracts, end_xy, w.seconds + w2.seconds)
+
+
+def _nl(p: Program) -> str:
+    return p.newline.decode("ascii")
+
+
+def _extrude_chain(w: Writer, c: Chain, style: Style, m73: list[tuple[float, str]], mi: int, done_len: float,
+                   total_len: float) -> tuple[int, float]:
+    """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
+    pts = c.points
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    wq = np.round(c.width, 2)
+    for k in range(len(seg)):
+        if style.width and (math.isnan(w.width) or abs(wq[k] - round(w.width, 2)) > 1e-9):
+            w.marker(style.width, _width_text(float(wq[k])))
+            w.width = float(wq[k])
+        w.extrude(float(pts[k + 1, 0]), float(pts[k + 1, 1]), float(c.filament[k]), float(c.feedrate[k]))
+        done_len += float(seg[k])
+        while mi < len(m73) and m73[mi][0] * total_len <= done_len + 1e-9:
+            w.raw(m73[mi][1])
+            mi += 1
+    return mi, done_len

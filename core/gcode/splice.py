@@ -1,0 +1,328 @@
+"""Splice new infill into a slicer's G-code: replace chosen blocks, keep every other line exactly.
+
+>>> from loadpath import gcode
+>>> from loadpath.gcode.splice import BlockFill, SpliceOptions, splice
+>>> program = gcode.read("examples/ohs.gcode")                       # doctest: +SKIP
+>>> result = splice(program, [BlockFill(block=17, paths=paths, region=region)], options)  # doctest: +SKIP
+>>> open("out.gcode", "wb").write(result.data)                        # doctest: +SKIP
+
+For each :class:`BlockFill` the block's span (entering travel .. leaving wipe/retraction) and its
+detached exit are rewritten by :func:`loadpath.gcode.rewrite.rewrite_block` from a plan made by
+:func:`loadpath.gcode.plan.plan_block`; :meth:`Program.replace_lines` then builds the file, so every
+line outside the replaced ranges stays byte for byte where it was.  Blocks that cannot be replaced
+safely (a mode or tool change inside them) are kept and reported in :attr:`SpliceResult.skipped`.
+
+Time and material in the footer: the kinematic time (distance / feedrate) of every replaced range
+is measured before and after.  PrusaSlicer's footer lines (``; estimated printing time (...) = ``,
+``; filament used [mm] = ``) are kept verbatim and followed by a line with loadpath's updated value
+(``; estimated printing time after loadpath (normal mode) = ...``); Cura's ``;TIME:`` header line is
+followed by a comment with the change.  ``M73`` progress lines inside a replaced block are spread
+over the new block at the same fraction of its length, so they stay in order and monotone.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+from loadpath._typing import Region
+from loadpath.errors import SettingsError
+from loadpath.gcode.emit import STYLES, Style
+from loadpath.gcode.flow import FlowModel
+from loadpath.gcode.model import Block, Program
+from loadpath.gcode.plan import PlanOptions, plan_block
+from loadpath.gcode.rewrite import refusal, rewrite_block
+from loadpath.gcode.travel import Motion, Retraction
+from loadpath.toolpath import Path
+
+__all__ = [
+    "SpliceOptions",
+    "BlockFill",
+    "BlockReport",
+    "SpliceResult",
+    "splice",
+    "block_feedrate",
+    "block_height",
+    "kinematic_time",
+    "Motion",
+    "Retraction",
+    "PlanOptions",
+]
+
+
+@dataclass(frozen=True)
+class SpliceOptions:
+    """Everything the splicer needs to know about the machine and the slicer's habits.
+
+    Attributes
+    ----------
+    flow : FlowModel
+    motion : Motion
+        Travel speed and retraction.
+    plan : PlanOptions
+        Widths, links, volumetric limit, volume matching.
+    notes : bool
+        Add the updated time / filament estimate after the slicer's footer lines.
+    """
+
+    flow: FlowModel
+    motion: Motion = Motion()
+    plan: PlanOptions = PlanOptions()
+    notes: bool = True
+
+
+@dataclass(frozen=True)
+class BlockFill:
+    """New paths for one feature block.
+
+    Attributes
+    ----------
+    block : int
+        Row of ``Program.blocks``.
+    paths : tuple of Path
+        The new paths (reordered for printing unless ``PlanOptions.order`` is off).
+    region : shapely Polygon or MultiPolygon, optional
+        The block's replace region: links stay inside it and travels that leave it retract.
+    flow_width : float, mm, optional
+        Fixed flow width (sparse infill at the slicer's width); None: the paths' local pitch.
+    nominal_pitch : float, mm, optional
+        Pitch of printed links; default the median pitch of the paths.
+    feedrate : float, mm/min, optional
+        Default: the replaced block's own (:func:`block_feedrate`).
+    """
+
+    block: int
+    paths: tuple[Path, ...]
+    region: Region | None = None
+    flow_width: float | None = None
+    nominal_pitch: float | None = None
+    feedrate: float | None = None
+
+
+@dataclass(frozen=True)
+class BlockReport:
+    """What happened to one replaced block (filament in mm, lengths in mm, times in s)."""
+
+    block: int
+    layer: int
+    feature: str
+    object: str | None
+    filament_old: float
+    filament_new: float
+    filament_model: float
+    length_old: float
+    length_new: float
+    seconds_old: float
+    seconds_new: float
+    n_paths: int
+    n_links: int
+    n_travels: int
+    n_retracts: int
+    correction: float
+    feedrate: float
+    height: float
+    width_min: float
+    width_max: float
+
+    @property
+    def volume_ratio(self) -> float:
+        """New over old extruded material."""
+        return self.filament_new / self.filament_old if self.filament_old > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class SpliceResult:
+    """The spliced file and what was done.
+
+    Attributes
+    ----------
+    data : bytes
+        The new file.
+    edits : tuple of (start, stop, n_new_lines)
+        Original line ranges replaced (half-open) and how many lines replaced each, in file order
+        (including inserted notes: ``start == stop``).
+    blocks : tuple of BlockReport
+    skipped : tuple of (block, reason)
+    seconds_delta : float, s
+        Change of the kinematic print-time estimate.
+    """
+
+    data: bytes
+    edits: tuple[tuple[int, int, int], ...]
+    blocks: tuple[BlockReport, ...]
+    skipped: tuple[tuple[int, str], ...] = ()
+    seconds_delta: float = 0.0
+    stats: dict = field(default_factory=dict)
+
+    def line_map(self, n_lines: int) -> np.ndarray:
+        """Output line of every original line, -1 for replaced lines; ``(n_lines,) int64``."""
+        shift = np.zeros(n_lines + 1, dtype=np.int64)
+        keep = np.ones(n_lines, dtype=bool)
+        for start, stop, n_new in self.edits:
+            keep[start:stop] = False
+            shift[stop] += n_new - (stop - start)
+        out = np.arange(n_lines, dtype=np.int64) + np.cumsum(shift)[:n_lines]
+        return np.where(keep, out, -1)
+
+
+def kinematic_time(moves: np.ndarray) -> float:
+    """Sum of distance / feedrate over moves (E-only moves: filament distance), s; no acceleration."""
+    if len(moves) == 0:
+        return 0.0
+    d = np.sqrt((moves["x1"] - moves["x0"]) ** 2 + (moves["y1"] - moves["y0"]) ** 2
+                + (moves["z1"] - moves["z0"]) ** 2)
+    d = np.where(d > 0, d, np.abs(moves["e"]))
+    f = moves["f"]
+    ok = np.isfinite(f) & (f > 0)
+    return float(np.sum(d[ok] / f[ok]) * 60.0)
+
+
+def _weighted_median(v: np.ndarray, w: np.ndarray) -> float:
+    order = np.argsort(v)
+    cw = np.cumsum(w[order])
+    return float(v[order][np.searchsorted(cw, cw[-1] / 2)])
+
+
+def block_feedrate(program: Program, b: Block) -> float:
+    """The block's extrusion feedrate (length-weighted median), mm/min: it includes cooling slowdown."""
+    mv = program.moves[b.moves]
+    mv = mv[mv["extrude"] & np.isfinite(mv["f"])]
+    if len(mv) == 0:
+        raise SettingsError(f"block {b.index} (layer {b.layer + 1}, {b.feature}) has no feedrate; "
+                            "the file sets no F before its extrusions")
+    return _weighted_median(mv["f"], np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"]) + 1e-12)
+
+
+def block_height(program: Program, b: Block) -> float:
+    """Bead height of the block's extrusions, mm (``;HEIGHT:``, else the layer height)."""
+    mv = program.moves[b.moves]
+    h = mv["height"][mv["extrude"]]
+    h = h[np.isfinite(h)]
+    if len(h) == 0:
+        return float(program.layers[b.layer].height)
+    return float(np.median(h))
+
+
+def style_of(program: Program) -> Style:
+    """The writing style of the file's marker family."""
+    return STYLES.get(program.dialect.family, STYLES["prusa"])
+
+
+def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions) -> SpliceResult:
+    """Replace blocks with new paths (see the module docstring).
+
+    Parameters
+    ----------
+    program : Program
+    fills : iterable of BlockFill
+        At most one per block.
+    options : SpliceOptions
+
+    Returns
+    -------
+    SpliceResult
+    """
+    fills = sorted(fills, key=lambda f: f.block)
+    seen = [f.block for f in fills]
+    if len(set(seen)) != len(seen):
+        raise SettingsError("a block was given new paths twice; give each block at most one BlockFill")
+    style = style_of(program)
+    vol_area = options.flow.filament_area if options.flow.volumetric else None
+    edits: list[tuple[int, int, bytes]] = []
+    reports, skipped = [], []
+    for fill in fills:
+        b = program.block(fill.block)
+        why = refusal(program, b)
+        if why is not None:
+            skipped.append((fill.block, why))
+            continue
+        feed = fill.feedrate or block_feedrate(program, b)
+        height = block_height(program, b)
+        s0 = program.state_before(b.span_start)
+        plan = plan_block(fill.paths, np.array([s0.x, s0.y]), height, feed, options.flow, options.plan,
+                          region=fill.region, nominal_pitch=fill.nominal_pitch, flow_width=fill.flow_width,
+                          target_filament=b.e)
+        rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area)
+        edits.append((b.span_start, b.span_stop, rw.span.encode("utf-8")))
+        old_rows = [program.move_rows(b.span_start, b.span_stop)]
+        if rw.exit is not None:
+            edits.append((b.exit_start, b.exit_stop, rw.exit.encode("utf-8")))
+            old_rows.append(program.move_rows(b.exit_start, b.exit_stop))
+        secs_old = sum(kinematic_time(program.moves[r]) for r in old_rows)
+        reports.append(BlockReport(
+            block=fill.block, layer=b.layer, feature=b.feature, object=b.object, filament_old=b.e,
+            filament_new=plan.filament, filament_model=plan.raw_filament, length_old=b.length,
+            length_new=plan.length, seconds_old=secs_old, seconds_new=rw.seconds, n_paths=plan.n_paths,
+            n_links=plan.n_links, n_travels=rw.n_travels, n_retracts=rw.n_retracts,
+            correction=plan.correction, feedrate=feed, height=height,
+            width_min=plan.stats.get("width_min", float("nan")),
+            width_max=plan.stats.get("width_max", float("nan"))))
+    delta = sum(r.seconds_new - r.seconds_old for r in reports)
+    dfil = sum(r.filament_new - r.filament_old for r in reports)
+    if options.notes and reports:
+        edits += _notes(program, delta, dfil, options.flow)
+    edits.sort(key=lambda t: (t[0], t[1]))
+    data = program.replace_lines(edits)
+    nl = program.newline
+    counted = tuple((a, z, new.count(nl) if nl == b"\r\n" else new.count(b"\n")) for a, z, new in edits)
+    return SpliceResult(data=data, edits=counted, blocks=tuple(reports), skipped=tuple(skipped),
+                        seconds_delta=delta)
+
+
+# ---------------------------------------------------------------------------------------------- notes
+
+_TIME_RE = re.compile(r"^; estimated printing time \((.+?)\) = (.+?)\s*$")
+_FIL_MM_RE = re.compile(r"^; filament used \[mm\] = ([0-9.]+)\s*$")
+_CURA_TIME_RE = re.compile(r"^;TIME:([0-9.]+)\s*$")
+_DURATION_RE = re.compile(r"(\d+)\s*([dhms])")
+
+
+def parse_duration(text: str) -> float | None:
+    """Seconds of a PrusaSlicer duration (``"1d 2h 47m 41s"``), None when unreadable."""
+    parts = _DURATION_RE.findall(text)
+    if not parts:
+        return None
+    mult = {"d": 86400, "h": 3600, "m": 60, "s": 1}
+    return float(sum(int(v) * mult[u] for v, u in parts))
+
+
+def format_duration(seconds: float) -> str:
+    """``"1d 2h 47m 41s"`` style, as PrusaSlicer writes it."""
+    s = max(0, int(round(seconds)))
+    d, s = divmod(s, 86400)
+    h, s = divmod(s, 3600)
+    m, s = divmod(s, 60)
+    out = [f"{d}d"] * bool(d) + [f"{h}h"] * bool(d or h) + [f"{m}m"] * bool(d or h or m) + [f"{s}s"]
+    return " ".join(out)
+
+
+def _notes(program: Program, delta: float, dfil: float, flow: FlowModel) -> list[tuple[int, int, bytes]]:
+    """Lines with loadpath's updated estimates, inserted after the slicer's own."""
+    nl = program.newline
+    out = []
+    lo = program.print_end if program.dialect.family != "cura" else 0
+    hi = program.n_lines if program.dialect.family != "cura" else min(program.n_lines, 64)
+    sign = "+" if delta >= 0 else "-"
+    for i in range(lo, hi):
+        text = program.line(i)
+        m = _TIME_RE.match(text)
+        if m:
+            old = parse_duration(m.group(2))
+            if old is not None:
+                new = format_duration(old + delta)
+                out.append((i + 1, i + 1, f"; estimated printing time after loadpath ({m.group(1)}) = {new}".encode()
+                            + nl))
+            continue
+        m = _FIL_MM_RE.match(text)
+        if m:
+            out.append((i + 1, i + 1, f"; filament used after loadpath [mm] = {float(m.group(1)) + dfil:.2f}".encode()
+                        + nl))
+            continue
+        m = _CURA_TIME_RE.match(text)
+        if m and program.dialect.family == "cura":
+            out.append((i + 1, i + 1, (f";loadpath: ;TIME: above is the slicer's estimate; the replaced infill changes "
+                                       f"it by about {sign}{format_duration(abs(delta))}").encode() + nl))
+            break
+    return out

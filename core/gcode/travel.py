@@ -1,0 +1,218 @@
+"""Travels between new paths the way the slicer makes them: retraction, wipe, z-hop, and the rule
+that no travel leaves the replace region primed.
+
+Rules (PrusaSlicer's ``GCode::needs_retraction`` and ``Wipe``, Cura's combing/min-travel, as far as
+a post-processor can apply them; ``slicer-conventions.md`` §5):
+
+- a travel that leaves the region (its straight segment is not inside it) always retracts;
+- inside the region, a travel retracts when it is longer than ``retract_before_travel``, unless
+  ``only_retract_when_crossing_perimeters`` (Cura: combing) is on;
+- a retraction wipes first when ``wipe`` is on: it moves back along the path just printed, at
+  0.8 x travel speed, for as long as the retraction takes at ``retract_speed``, pulling 95 % of the
+  length (what is left, and the ``retract_before_wipe`` part, are E-only moves) -- verified on
+  PrusaSlicer 2.5 output (3.29 mm wipe, E -0.76 then -0.04 for a 0.8 mm retraction);
+- then it lifts by ``retract_lift``; after the travel it lowers and primes back what was pulled
+  (plus ``retract_restart_extra``).  Firmware retraction writes ``G10``/``G11``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from loadpath._typing import Points2, Region
+from loadpath.gcode.emit import Writer
+from loadpath.gcode.model import Program
+from shapely.geometry import LineString
+
+__all__ = ["Retraction", "Motion", "TravelState", "travel", "retract", "unretract", "wipe_back", "wipe_points"]
+
+
+@dataclass(frozen=True)
+class Retraction:
+    """How the slicer retracts for a travel (PrusaSlicer names; Cura's equivalents in brackets).
+
+    Attributes
+    ----------
+    length : float, mm
+        ``retract_length`` [``retraction_amount``].
+    speed : float, mm/s
+        ``retract_speed`` [``retraction_retract_speed``].
+    deretract_speed : float, mm/s
+        ``deretract_speed`` (0: ``speed``) [``retraction_prime_speed``].
+    restart_extra : float, mm
+        ``retract_restart_extra`` [``retraction_extra_prime_amount``, in mm of filament].
+    lift : float, mm
+        ``retract_lift`` [``retraction_hop`` when ``retraction_hop_enabled``].
+    lift_speed : float, mm/s
+        ``travel_speed_z`` (0: the travel speed) [``speed_z_hop``].
+    before_travel : float, mm
+        ``retract_before_travel``: shorter travels inside the region do not retract
+        [``retraction_min_travel``].
+    only_when_crossing : bool
+        ``only_retract_when_crossing_perimeters`` [``retraction_combing`` not ``"off"``]: travels
+        inside the region never retract.
+    wipe : bool
+        ``wipe``: retract while moving back along the last path.
+    before_wipe : float
+        ``retract_before_wipe`` as a fraction (0..1).
+    firmware : bool
+        ``use_firmware_retraction``: ``G10`` / ``G11``.
+    """
+
+    length: float = 0.8
+    speed: float = 35.0
+    deretract_speed: float = 0.0
+    restart_extra: float = 0.0
+    lift: float = 0.0
+    lift_speed: float = 0.0
+    before_travel: float = 1.0
+    only_when_crossing: bool = False
+    wipe: bool = False
+    before_wipe: float = 0.0
+    firmware: bool = False
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Speeds and retraction of the machine the file was sliced for.
+
+    Attributes
+    ----------
+    travel_speed : float, mm/s
+    retraction : Retraction
+    """
+
+    travel_speed: float = 150.0
+    retraction: Retraction = Retraction()
+
+    @property
+    def travel_f(self) -> float:
+        """Travel feedrate, mm/min."""
+        return self.travel_speed * 60.0
+
+    @property
+    def lift_f(self) -> float:
+        """Z feedrate for lifts, mm/min."""
+        s = self.retraction.lift_speed or self.travel_speed
+        return s * 60.0
+
+
+class TravelState:
+    """Bookkeeping of a rewrite that the Writer does not hold."""
+
+    def __init__(self, program: Program, region: Region | None, motion: Motion, layer_z: float) -> None:
+        self.program = program
+        self.motion = motion
+        self.layer_z = layer_z
+        self.fw = False
+        self.region = None
+        if region is not None:
+            self.region = region.buffer(1e-3)
+            shapely.prepare(self.region)
+        self.n_travels = 0
+        self.n_retracts = 0
+
+
+def _inside(st: TravelState, a: Points2, b: Points2) -> bool:
+    if st.region is None:
+        return True
+    return bool(st.region.covers(LineString([a, b])))
+
+
+def wipe_points(chain_pts: Points2, distance: float) -> Points2:
+    """Points of a wipe that retraces ``chain_pts`` backwards from its end for ``distance`` mm."""
+    back = chain_pts[::-1]
+    seg = np.hypot(*np.diff(back, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    d = min(distance, float(cum[-1]))
+    k = int(np.searchsorted(cum, d, side="left"))
+    pts = back[1:k]
+    if k < len(back):
+        t = (d - cum[k - 1]) / max(seg[k - 1], 1e-12)
+        end = back[k - 1] + t * (back[k] - back[k - 1])
+        pts = np.vstack([pts, end[None]]) if len(pts) else end[None]
+    return pts
+
+
+def wipe_back(w: Writer, chain_pts: Points2, distance: float, total: float) -> float:
+    """Move back along ``chain_pts`` for up to ``distance`` mm pulling ``total`` mm; returns mm pulled."""
+    if distance <= 0 or total <= 0:
+        return 0.0
+    pts = wipe_points(chain_pts, distance)
+    if len(pts) == 0:
+        return 0.0
+    path = np.vstack([[w.x, w.y], pts])
+    seg = np.hypot(*np.diff(path, axis=0).T)
+    if seg.sum() <= 0:
+        return 0.0
+    share = total * seg / seg.sum()
+    for (x, y), de in zip(pts, share, strict=True):
+        w.wipe(float(x), float(y), float(de))
+    return total
+
+
+def retract(w: Writer, st: TravelState, last: Points2 | None) -> None:
+    """Retract (wipe first when the slicer does) and lift, as the slicer would before a travel."""
+    r = st.motion.retraction
+    st.n_retracts += 1
+    if r.firmware:
+        w.raw("G10")
+        st.fw = True
+    elif r.length > 0:
+        done = 0.0
+        if r.before_wipe > 0 or not (r.wipe and last is not None):
+            first = r.length * (r.before_wipe if (r.wipe and last is not None) else 1.0)
+            w.e_move(-first, r.speed * 60.0)
+            done += first
+        if r.wipe and last is not None and r.length - done > 0:
+            # PrusaSlicer: wipe for the time the retraction takes at retract_speed, at 0.8 x travel
+            # speed, pulling 95 % of what is left; the rest is an E-only move (verified on 2.5 output).
+            wipe_speed = 0.8 * st.motion.travel_speed
+            dist = r.length / r.speed * wipe_speed
+            avail = float(np.sum(np.hypot(*np.diff(last, axis=0).T)))
+            want = 0.95 * (r.length - done) * min(1.0, avail / dist) if dist > 0 else 0.0
+            w.marker(w.style.wipe_start, "")
+            w.feed(wipe_speed * 60.0)
+            done += wipe_back(w, last, dist, want)
+            w.marker(w.style.wipe_end, "")
+        if r.length - done > 1e-9:
+            w.e_move(-(r.length - done), r.speed * 60.0)
+    if r.lift > 0:
+        w.z_move(st.layer_z + r.lift, st.motion.lift_f)
+
+
+def unretract(w: Writer, st: TravelState) -> None:
+    r = st.motion.retraction
+    if abs(w.z - st.layer_z) > 1e-9:
+        w.z_move(st.layer_z, st.motion.lift_f)
+    if st.fw:
+        w.raw("G11")
+        st.fw = False
+    elif w.retracted > 0 or r.restart_extra:
+        w.e_move(w.retracted + r.restart_extra, (r.deretract_speed or r.speed) * 60.0)
+        w.retracted = 0.0
+
+
+def travel(w: Writer, st: TravelState, target: Points2, last: Points2 | None, f: float | None = None,
+            z: float | None = None) -> None:
+    """Travel to ``target``, retracting by the slicer's rules when primed; never leave the region primed."""
+    here = np.array([w.x, w.y])
+    d = float(np.hypot(*(target - here)))
+    if d < 1e-9 and z is None:
+        return
+    st.n_travels += 1
+    primed = w.retracted <= 1e-9 and not st.fw
+    own = False
+    if primed and d > 1e-9:
+        r = st.motion.retraction
+        inside = _inside(st, here, target)
+        if not inside or (d > r.before_travel and not r.only_when_crossing):
+            retract(w, st, last)
+            own = True
+    w.travel(float(target[0]), float(target[1]), f or st.motion.travel_f, z)
+    if own:
+        unretract(w, st)
+
+

@@ -1,0 +1,203 @@
+"""Check a spliced file against the original: what must hold for the printer to print it as intended.
+
+:func:`check_splice` re-reads nothing itself: it takes the original :class:`Program`, the parsed output
+and the :class:`~loadpath.gcode.splice.SpliceResult`, and returns a :class:`SpliceCheck` whose
+``problems`` list is empty when
+
+1. every line outside the replaced ranges is byte for byte the original line, in order;
+2. every kept line runs in the same machine state as before: Z, feedrate of kept moves, E mode,
+   positioning mode, tool, retraction (mm held back, firmware retraction), logical E in absolute
+   mode, and the start and end point of every kept extrusion, wipe and arc;
+3. per replaced block, the filament the output extrudes in the block's new lines is within
+   ``volume_tol`` of what the slicer extruded there (read back from the written text);
+4. new lines never prime more than was retracted, nor retract more than the slicer ever does;
+5. absolute E never goes backwards except on retraction and wipe moves (and ``G92``);
+6. the output has the same dialect, layers, and per-layer feature types as the original;
+7. (given the replace regions) no new extrusion lies outside its block's region by more than half
+   its bead width.
+
+The pipeline runs it before writing anything, so a file that fails is never written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from loadpath._typing import Region
+from loadpath.gcode.blocks import EXTRUDE, RETRACT, WIPE
+from loadpath.gcode.model import Program
+from loadpath.gcode.splice import SpliceResult
+from loadpath.gcode.words import G
+
+__all__ = ["SpliceCheck", "check_splice", "layer_features"]
+
+
+@dataclass(frozen=True)
+class SpliceCheck:
+    """Result of :func:`check_splice`.
+
+    Attributes
+    ----------
+    problems : list of str
+        One line each; empty when everything holds.
+    volume_ratio : dict of int -> float
+        Per replaced block: filament extruded by its new lines / filament of the original block.
+    outside_mm : dict of int -> float
+        Per block with a region: largest distance of a new extrusion point outside the region, mm.
+    """
+
+    problems: list[str] = field(default_factory=list)
+    volume_ratio: dict[int, float] = field(default_factory=dict)
+    outside_mm: dict[int, float] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """True when there is no problem."""
+        return not self.problems
+
+
+def layer_features(program: Program) -> list[set[str]]:
+    """Feature names that extrude, per layer."""
+    m = program.moves
+    ext = m[m["extrude"] & (m["layer"] >= 0)]
+    out: list[set[str]] = [set() for _ in program.layers]
+    for layer, feat in set(zip(ext["layer"].tolist(), ext["feature"].tolist(), strict=True)):
+        out[layer].add(program.features[feat] if feat >= 0 else "")
+    return out
+
+
+def check_splice(original: Program, output: Program, result: SpliceResult, volume_tol: float = 0.03,
+                 regions: Mapping[int, Region] | None = None) -> SpliceCheck:
+    """Check a splice (see the module docstring).
+
+    Parameters
+    ----------
+    original, output : Program
+    result : SpliceResult
+    volume_tol : float
+        Largest accepted relative difference of a block's extruded filament.
+    regions : mapping of block -> region, optional
+        Replace regions; enables check 7.
+    """
+    problems: list[str] = []
+    n = original.n_lines
+    lmap = result.line_map(n)
+    keep = lmap >= 0
+    if int(lmap.max(initial=-1)) >= output.n_lines:
+        return SpliceCheck([f"the output has {output.n_lines} lines, fewer than the kept lines need"])
+    # 1. kept lines byte for byte
+    cuts = sorted({0, n, *(a for a, _, _ in result.edits), *(z for _, z, _ in result.edits)})
+    runs = [(a, z) for a, z in zip(cuts[:-1], cuts[1:], strict=True) if z > a and keep[a]]
+    for a, z in runs:
+        if original.lines_bytes(a, z) != output.lines_bytes(int(lmap[a]), int(lmap[z - 1]) + 1):
+            bad = next(i for i in range(a, z) if original.line(i) != output.line(int(lmap[i])))
+            problems.append(f"kept line {bad + 1} changed: {original.line(bad)!r} -> {output.line(int(lmap[bad]))!r}")
+            break
+    # 2. machine state on kept lines
+    i_k = np.flatnonzero(keep)
+    j_k = lmap[i_k]
+    so, sn = original.state, output.state
+
+    def differ(name: str, a: np.ndarray, b: np.ndarray, tol: float = 0.0, mask: np.ndarray | None = None) -> None:
+        bad = np.abs(a - b) > tol if tol else a != b
+        if a.dtype.kind == "f":
+            bad &= ~(np.isnan(a) & np.isnan(b))
+        if mask is not None:
+            bad &= mask
+        if bad.any():
+            k = int(np.argmax(bad))
+            problems.append(f"{name} differs after kept line {i_k[k] + 1} ({original.line(int(i_k[k]))!r}): "
+                            f"{a[k]!r} in the original, {b[k]!r} in the output")
+
+    differ("Z", so.z[i_k], sn.z[j_k], 1e-6)
+    differ("E mode", so.e_relative[i_k], sn.e_relative[j_k])
+    differ("positioning mode", so.absolute_xyz[i_k], sn.absolute_xyz[j_k])
+    differ("tool", so.tool[i_k], sn.tool[j_k])
+    differ("retraction", so.retracted[i_k], sn.retracted[j_k], 1e-4)
+    differ("firmware retraction", so.fw_retracted[i_k], sn.fw_retracted[j_k])
+    differ("logical E", so.e[i_k], sn.e[j_k], 2e-5, mask=~so.e_relative[i_k])
+    motion = np.isin(so.cmd[i_k], (G + 0, G + 1, G + 2, G + 3))
+    differ("feedrate", so.f[i_k], sn.f[j_k], 1e-6, mask=motion)
+    moving = np.isin(original.kind_of_line[i_k], (EXTRUDE, WIPE)) | np.isin(so.cmd[i_k], (G + 2, G + 3))
+    prev_o, prev_n = np.maximum(i_k - 1, 0), np.maximum(j_k - 1, 0)
+    for axis in ("x", "y"):
+        differ(f"{axis.upper()} (end of a kept extrusion)", getattr(so, axis)[i_k], getattr(sn, axis)[j_k], 1e-6,
+               mask=moving)
+        differ(f"{axis.upper()} (start of a kept extrusion)", getattr(so, axis)[prev_o], getattr(sn, axis)[prev_n],
+               1e-6, mask=moving)
+    # 3. volume per block, read back from the output
+    ratio = {}
+    edits = list(result.edits)
+    out_start, shift = {}, 0
+    for a, z, k in sorted(edits):
+        out_start[(a, z)] = a + shift
+        shift += k - (z - a)
+    spans: dict[int, list[tuple[int, int]]] = {}
+    for rep in result.blocks:
+        b = original.block(rep.block)
+        ranges = [(b.span_start, b.span_stop)]
+        if b.exit_start >= b.span_stop and b.exit_stop > b.exit_start:
+            ranges.append((b.exit_start, b.exit_stop))
+        count = {(a, z): k for a, z, k in edits}
+        spans[rep.block] = [(out_start[r], out_start[r] + count[r]) for r in ranges]
+        got = 0.0
+        for a, z in spans[rep.block]:
+            rows = output.move_rows(a, z)
+            mv = output.moves[rows]
+            got += float(mv["e"][mv["extrude"]].sum())
+        ratio[rep.block] = got / b.e if b.e > 0 else float("nan")
+        if not abs(ratio[rep.block] - 1.0) <= volume_tol:
+            problems.append(f"block {rep.block} (layer {b.layer + 1}, {b.feature}): new infill extrudes "
+                            f"{got:.3f} mm of filament, the original {b.e:.3f} mm ({ratio[rep.block]:.3f}x)")
+    # 4. retraction bounds in new lines
+    new_lines = np.ones(output.n_lines, dtype=bool)
+    new_lines[j_k] = False
+    max_r = max(float(so.retracted.max(initial=0.0)), 0.0) + 1e-4
+    r_new = sn.retracted[new_lines]
+    if len(r_new) and (r_new.min() < -1e-4 or r_new.max() > max_r):
+        problems.append(f"new lines retract {r_new.max():.5f} mm / prime {-r_new.min():.5f} mm beyond what "
+                        f"was retracted (the slicer never holds back more than {max_r:.5f} mm)")
+    # 5. absolute E goes back only by retraction
+    ab = ~sn.e_relative
+    back = ab & (sn.de < -1e-9) & ~np.isin(output.kind_of_line, (RETRACT, WIPE)) & (sn.cmd != G + 92)
+    if back.any():
+        k = int(np.argmax(back))
+        problems.append(f"output line {k + 1} moves absolute E backwards without retracting: {output.line(k)!r}")
+    # 6. dialect, layers, features
+    if (output.dialect.family, output.dialect.slicer) != (original.dialect.family, original.dialect.slicer):
+        problems.append(f"dialect changed: {original.dialect} -> {output.dialect}")
+    if len(output.layers) != len(original.layers):
+        problems.append(f"{len(original.layers)} layers in the original, {len(output.layers)} in the output")
+    else:
+        fo, fn = layer_features(original), layer_features(output)
+        for k, (a, b) in enumerate(zip(fo, fn, strict=True)):
+            if a != b:
+                problems.append(f"layer {k + 1}: feature types {sorted(a)} became {sorted(b)}")
+                break
+    # 7. inside the regions
+    outside = {}
+    for block, region in (regions or {}).items():
+        if block not in spans or region is None:
+            continue
+        pts, half = [], []
+        for a, z in spans[block]:
+            mv = output.moves[output.move_rows(a, z)]
+            mv = mv[mv["extrude"]]
+            for t in (0.0, 0.5, 1.0):
+                pts.append(np.stack([mv["x0"] + t * (mv["x1"] - mv["x0"]), mv["y0"] + t * (mv["y1"] - mv["y0"])], 1))
+                half.append(np.where(np.isfinite(mv["width"]), mv["width"], 0.4) / 2)
+        if not pts:
+            continue
+        p = np.concatenate(pts)
+        h = np.concatenate(half)
+        d = shapely.distance(region, shapely.points(p))
+        outside[block] = float(d.max(initial=0.0))
+        bad = d > h + 1e-3
+        if bad.any():
+            k = int(np.argmax(d - h))
+            problems.append(f"block {block}: new extrusion at ({p[k, 0]:.3f}, {p[k, 1]:.3f}) lies {d[k]:.3f} mm "
+                            f"outside the replace region (more than half its bead width)")
+    return SpliceCheck(problems, ratio, outside)

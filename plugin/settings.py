@@ -1,0 +1,566 @@
+"""Settings: one dataclass and its schema, the single source for every front end.
+
+:class:`Settings` holds what a run needs: the toolpath options a user chooses (engine, pitch, K,
+principal stress, which infill kinds are replaced, ...) and the machine facts the splicer must match
+(flow model, filament, retraction, speeds).  :data:`SCHEMA` describes every field once (type, unit,
+default, bounds, help); the command line (:func:`add_cli_options`), the load case's ``[toolpath]``
+table and the Cura plugin's settings list (:func:`cura_setting_definitions`) are generated from it.
+
+Where values come from, in rising precedence (:func:`resolve`):
+
+1. built-in defaults (:data:`SCHEMA`);
+2. the slicer: PrusaSlicer-family files carry their configuration (``; prusaslicer_config`` block,
+   read by the parser), and PrusaSlicer's post-processing hook exports every option as
+   ``SLIC3R_<KEY>`` (read case-insensitively; they win over the file's block when present).  Cura's
+   saved files and post-processing scripts carry almost no settings, so the Cura plugin passes its
+   resolved settings as a JSON file (``--slicer-settings FILE.json``, Cura's own keys, see
+   :func:`from_cura_settings`); without it, values are inferred from the file's own moves
+   (:func:`infer_from_moves`: travel feedrate, retraction length and speeds, z-hop);
+3. the load case's ``[toolpath]`` table (engine, pitch, K, principal, replace);
+4. the command line (``--engine``, ``--pitch``, ``--K``, ``--replace``, ... and ``--set KEY=VALUE``
+   for any field).
+
+:attr:`Settings.sources` records where each field's value came from, for the report.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from loadpath.errors import SettingsError
+
+__all__ = [
+    "Field",
+    "SCHEMA",
+    "Settings",
+    "REPLACE_KINDS",
+    "ENGINES",
+    "PRINCIPALS",
+    "resolve",
+    "from_prusa_config",
+    "from_slic3r_env",
+    "from_cura_settings",
+    "read_cura_settings",
+    "infer_from_moves",
+    "add_cli_options",
+    "cli_values",
+    "cura_setting_definitions",
+    "splice_options",
+]
+
+ENGINES = ("swarm", "streamlines")
+PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
+REPLACE_KINDS = ("solid", "sparse", "top", "bottom")
+
+
+@dataclass(frozen=True)
+class Field:
+    """One setting in the schema.
+
+    Attributes
+    ----------
+    name : str
+        Attribute of :class:`Settings`.
+    kind : {"str", "float", "int", "bool", "kinds", "optional_float"}
+    default : Any
+    unit : str
+    help : str
+    choices : tuple of str
+        Allowed values (``str`` and ``kinds``).
+    minimum, maximum : float or None
+        Bounds (inclusive) for numbers.
+    cli : str or None
+        Command-line flag of its own (``--pitch``); every field is also reachable with ``--set``.
+    toolpath : bool
+        Allowed in the load case's ``[toolpath]`` table.
+    group : {"toolpath", "machine", "run"}
+        ``machine`` fields normally come from the slicer.
+    """
+
+    name: str
+    kind: str
+    default: Any
+    unit: str = ""
+    help: str = ""
+    choices: tuple[str, ...] = ()
+    minimum: float | None = None
+    maximum: float | None = None
+    cli: str | None = None
+    toolpath: bool = False
+    group: str = "toolpath"
+
+
+SCHEMA: tuple[Field, ...] = (
+    # ---------------------------------------------------------------- toolpath (the user's choice)
+    Field("engine", "str", "swarm", "", "path engine", ENGINES, cli="--engine", toolpath=True),
+    Field("pitch", "optional_float", None, "mm",
+          "centre-to-centre distance of the new paths; default: the pitch the slicer used for the replaced infill",
+          minimum=0.05, maximum=50.0, cli="--pitch", toolpath=True),
+    Field("K", "float", 5.0, "", "swarm: weight of stress alignment against even spacing", minimum=0.0,
+          maximum=1000.0, cli="--K", toolpath=True),
+    Field("principal", "str", "max_abs", "",
+          "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers)",
+          PRINCIPALS, cli="--principal", toolpath=True),
+    Field("replace", "kinds", ("solid",), "", "infill kinds replaced (comma-separated)", REPLACE_KINDS,
+          cli="--replace", toolpath=True),
+    Field("width_min", "float", 0.6, "x nozzle", "narrowest bead, as a multiple of the nozzle diameter",
+          minimum=0.2, maximum=1.0),
+    Field("width_max", "float", 1.6, "x nozzle", "widest bead, as a multiple of the nozzle diameter",
+          minimum=1.0, maximum=3.0),
+    Field("link_max", "float", 2.0, "pitches", "longest printed link between neighbouring path ends",
+          minimum=0.0, maximum=10.0),
+    Field("match_volume", "bool", True, "", "scale the flow so each block extrudes the volume the slicer did"),
+    Field("max_correction", "float", 0.15, "", "largest relative flow change volume matching may apply",
+          minimum=0.0, maximum=0.5),
+    Field("stagger", "bool", True, "",
+          "layers that reuse the paths of an identical layer are shifted by half a pitch every other layer"),
+    # ---------------------------------------------------------------- run
+    Field("jobs", "int", 0, "", "worker processes for the per-layer work (0: one per core, at most 4)",
+          minimum=0, maximum=256, cli="--jobs", group="run"),
+    Field("on_failure", "str", "fail", "", "on failure: 'fail' (exit non-zero) or 'keep' the slicer's G-code",
+          ("fail", "keep"), cli="--on-failure", group="run"),
+    Field("check", "bool", True, "", "re-read the result and check it before writing", group="run"),
+    # ---------------------------------------------------------------- machine (from the slicer)
+    Field("flow_model", "str", "rounded", "", "bead cross-section: PrusaSlicer's rounded rectangle or Cura's "
+          "rectangle", ("rounded", "rectangle"), group="machine"),
+    Field("nozzle_diameter", "float", 0.4, "mm", "nozzle diameter", minimum=0.05, maximum=3.0, group="machine"),
+    Field("filament_diameter", "float", 1.75, "mm", "filament diameter", minimum=0.5, maximum=5.0, group="machine"),
+    Field("extrusion_multiplier", "float", 1.0, "", "extrusion multiplier / material flow", minimum=0.1,
+          maximum=3.0, group="machine"),
+    Field("volumetric_e", "bool", False, "", "E words are mm^3 (use_volumetric_e)", group="machine"),
+    Field("travel_speed", "float", 150.0, "mm/s", "travel speed", minimum=1.0, maximum=2000.0, group="machine"),
+    Field("travel_speed_z", "float", 0.0, "mm/s", "z-hop speed (0: travel speed)", minimum=0.0, maximum=500.0,
+          group="machine"),
+    Field("retract_length", "float", 0.8, "mm", "retraction length", minimum=0.0, maximum=50.0, group="machine"),
+    Field("retract_speed", "float", 35.0, "mm/s", "retraction speed", minimum=0.1, maximum=500.0,
+          group="machine"),
+    Field("deretract_speed", "float", 0.0, "mm/s", "unretraction speed (0: retraction speed)", minimum=0.0,
+          maximum=500.0, group="machine"),
+    Field("retract_restart_extra", "float", 0.0, "mm", "extra filament primed after a retraction", minimum=-10.0,
+          maximum=10.0, group="machine"),
+    Field("retract_lift", "float", 0.0, "mm", "z-hop on retraction", minimum=0.0, maximum=10.0, group="machine"),
+    Field("retract_before_travel", "float", 1.0, "mm", "shorter travels inside the region do not retract",
+          minimum=0.0, maximum=100.0, group="machine"),
+    Field("only_retract_when_crossing_perimeters", "bool", False, "", "travels inside the region never retract",
+          group="machine"),
+    Field("wipe", "bool", False, "", "wipe while retracting", group="machine"),
+    Field("retract_before_wipe", "float", 0.0, "", "part of the retraction done before the wipe (0..1)",
+          minimum=0.0, maximum=1.0, group="machine"),
+    Field("use_firmware_retraction", "bool", False, "", "G10/G11 retraction", group="machine"),
+    Field("max_volumetric_speed", "float", 0.0, "mm^3/s", "volumetric flow limit (0: none)", minimum=0.0,
+          maximum=1000.0, group="machine"),
+)
+_FIELDS = {f.name: f for f in SCHEMA}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Every setting of a run, with where each value came from (see the module docstring).
+
+    The attributes are the :data:`SCHEMA` fields (units there); ``sources`` maps a field name to
+    ``"default"``, ``"slicer config"``, ``"SLIC3R_* environment"``, ``"Cura settings"``,
+    ``"inferred from the G-code"``, ``"load case"`` or ``"command line"``.
+    """
+
+    engine: str = "swarm"
+    pitch: float | None = None
+    K: float = 5.0  # noqa: N815 (the paper's symbol)
+    principal: str = "max_abs"
+    replace: tuple[str, ...] = ("solid",)
+    width_min: float = 0.6
+    width_max: float = 1.6
+    link_max: float = 2.0
+    match_volume: bool = True
+    max_correction: float = 0.15
+    stagger: bool = True
+    jobs: int = 0
+    on_failure: str = "fail"
+    check: bool = True
+    flow_model: str = "rounded"
+    nozzle_diameter: float = 0.4
+    filament_diameter: float = 1.75
+    extrusion_multiplier: float = 1.0
+    volumetric_e: bool = False
+    travel_speed: float = 150.0
+    travel_speed_z: float = 0.0
+    retract_length: float = 0.8
+    retract_speed: float = 35.0
+    deretract_speed: float = 0.0
+    retract_restart_extra: float = 0.0
+    retract_lift: float = 0.0
+    retract_before_travel: float = 1.0
+    only_retract_when_crossing_perimeters: bool = False
+    wipe: bool = False
+    retract_before_wipe: float = 0.0
+    use_firmware_retraction: bool = False
+    max_volumetric_speed: float = 0.0
+    sources: Mapping[str, str] = field(default_factory=dict, compare=False)
+
+    def with_values(self, values: Mapping[str, Any], source: str) -> Settings:
+        """A copy with ``values`` (validated) applied, recording ``source`` for each."""
+        unknown = sorted(set(values) - set(_FIELDS))
+        if unknown:
+            raise SettingsError(f"unknown setting(s) {', '.join(unknown)} ({source}); known: {', '.join(_FIELDS)}")
+        clean = {k: _convert(_FIELDS[k], v, source) for k, v in values.items() if v is not None}
+        src = dict(self.sources)
+        src.update({k: source for k in clean})
+        return dataclasses.replace(self, **clean, sources=src)
+
+    def source(self, name: str) -> str:
+        """Where the value of ``name`` came from."""
+        return self.sources.get(name, "default")
+
+    def as_dict(self) -> dict[str, Any]:
+        """The values as plain JSON-able data."""
+        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in SCHEMA}
+
+
+def _convert(f: Field, value: Any, source: str) -> Any:
+    """Validate and convert one value of field ``f``."""
+    where = f"{f.name} ({source})"
+    try:
+        if f.kind == "optional_float" and (value is None or str(value).strip().lower() in ("", "none", "auto")):
+            return None
+        if f.kind in ("float", "optional_float"):
+            v = float(str(value).strip().rstrip("%")) / (100.0 if str(value).strip().endswith("%") else 1.0)
+            if not math.isfinite(v):
+                raise ValueError
+        elif f.kind == "int":
+            v = int(float(str(value)))
+        elif f.kind == "bool":
+            v = _bool(value)
+        elif f.kind == "kinds":
+            items = value.split(",") if isinstance(value, str) else list(value)
+            v = tuple(dict.fromkeys(str(x).strip().lower() for x in items if str(x).strip()))
+            bad = [x for x in v if x not in f.choices]
+            if bad or not v:
+                raise SettingsError(f"{where}: {', '.join(bad) or 'nothing'} is not an infill kind; use any of "
+                                    f"{', '.join(f.choices)}")
+            return v
+        else:
+            v = str(value).strip()
+    except (TypeError, ValueError):
+        raise SettingsError(f"{where} = {value!r} is not a valid {f.kind.replace('optional_', '')}"
+                            f"{' (' + f.unit + ')' if f.unit else ''}; {f.help}") from None
+    if f.choices and v not in f.choices:
+        raise SettingsError(f"{where} = {v!r} is not one of {', '.join(f.choices)}")
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        if (f.minimum is not None and v < f.minimum) or (f.maximum is not None and v > f.maximum):
+            raise SettingsError(f"{where} = {v} {f.unit} is outside {f.minimum}..{f.maximum} {f.unit}; {f.help}")
+    return v
+
+
+def _bool(value: Any) -> bool:
+    if isinstance(value, bool):
+        return value
+    s = str(value).strip().lower()
+    if s in ("1", "true", "yes", "on"):
+        return True
+    if s in ("0", "false", "no", "off", ""):
+        return False
+    raise ValueError(value)
+
+
+# ---------------------------------------------------------------------------------------------- slicers
+
+_PRUSA_KEYS = {  # Settings field -> PrusaSlicer option (per-extruder options: first value)
+    "nozzle_diameter": "nozzle_diameter",
+    "filament_diameter": "filament_diameter",
+    "extrusion_multiplier": "extrusion_multiplier",
+    "volumetric_e": "use_volumetric_e",
+    "travel_speed": "travel_speed",
+    "travel_speed_z": "travel_speed_z",
+    "retract_length": "retract_length",
+    "retract_speed": "retract_speed",
+    "deretract_speed": "deretract_speed",
+    "retract_restart_extra": "retract_restart_extra",
+    "retract_lift": "retract_lift",
+    "retract_before_travel": "retract_before_travel",
+    "only_retract_when_crossing_perimeters": "only_retract_when_crossing_perimeters",
+    "wipe": "wipe",
+    "retract_before_wipe": "retract_before_wipe",
+    "use_firmware_retraction": "use_firmware_retraction",
+}
+
+
+def _first(value: str) -> str:
+    return str(value).split(",")[0].strip()
+
+
+def from_prusa_config(config: Mapping[str, str], tool: int = 0) -> dict[str, Any]:
+    """Machine values from a PrusaSlicer-family configuration (keys case-insensitive).
+
+    Per-extruder options (``"0.4,0.4"``) take the value of ``tool``.  The volumetric limit is the
+    smaller non-zero of ``max_volumetric_speed`` and ``filament_max_volumetric_speed``.
+    """
+    cfg = {k.lower(): v for k, v in config.items()}
+    out: dict[str, Any] = {}
+
+    def pick(key: str) -> str | None:
+        if key not in cfg:
+            return None
+        parts = [p.strip() for p in str(cfg[key]).split(",")]
+        return parts[tool] if tool < len(parts) else parts[0]
+
+    for name, key in _PRUSA_KEYS.items():
+        v = pick(key)
+        if v is not None and v != "":
+            out[name] = v
+    if "retract_before_wipe" in out:
+        rbw = str(out["retract_before_wipe"])
+        out["retract_before_wipe"] = float(rbw.rstrip("%")) / 100.0 if rbw.endswith("%") else float(rbw)
+    limits = [float(x) for x in (pick("max_volumetric_speed"), pick("filament_max_volumetric_speed"))
+              if x not in (None, "") and float(x) > 0]
+    if limits:
+        out["max_volumetric_speed"] = min(limits)
+    elif "max_volumetric_speed" in cfg or "filament_max_volumetric_speed" in cfg:
+        out["max_volumetric_speed"] = 0.0
+    if cfg:
+        out["flow_model"] = "rounded"
+    return out
+
+
+def from_slic3r_env(env: Mapping[str, str] | None = None) -> dict[str, str]:
+    """PrusaSlicer's options from ``SLIC3R_*`` environment variables, as a config dict (lower-case keys).
+
+    PrusaSlicer upper-cases the whole name (``SLIC3R_FILL_DENSITY``); the help article shows mixed
+    case (``SLIC3R_Fill_density``): both are read.  Multi-line values keep their literal ``\\n``.
+    """
+    env = os.environ if env is None else env
+    skip = {"slic3r_pp_host", "slic3r_pp_output_name"}
+    return {k[7:].lower(): v for k, v in env.items() if k.lower().startswith("slic3r_") and k.lower() not in skip}
+
+
+_CURA_KEYS = {  # Settings field -> Cura setting keys, first present wins (extruder values over global)
+    "nozzle_diameter": ("machine_nozzle_size",),
+    "filament_diameter": ("material_diameter",),
+    "travel_speed": ("speed_travel",),
+    "retract_length": ("retraction_amount",),
+    "retract_speed": ("retraction_retract_speed", "retraction_speed"),
+    "deretract_speed": ("retraction_prime_speed", "retraction_speed"),
+    "retract_before_travel": ("retraction_min_travel",),
+    "travel_speed_z": ("speed_z_hop",),
+}
+
+
+def read_cura_settings(path: str | os.PathLike) -> dict[str, Any]:
+    """Read the JSON the Cura plugin writes: ``{"global": {...}, "extruders": [{...}, ...]}`` or flat.
+
+    Extruder 0's values win over the global ones.  Keys are Cura's own setting keys.
+    """
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise SettingsError(f"cannot read Cura settings {str(p)!r}: {exc.strerror or exc}; check the path") from exc
+    except ValueError as exc:
+        raise SettingsError(f"Cura settings {str(p)!r} is not valid JSON ({exc}); pass the file the Cura "
+                            "plugin wrote") from exc
+    if not isinstance(data, dict):
+        raise SettingsError(f"Cura settings {str(p)!r} must hold a JSON object of setting keys")
+    flat = dict(data.get("global", {})) if "global" in data or "extruders" in data else dict(data)
+    extruders = data.get("extruders") or []
+    if extruders and isinstance(extruders[0], dict):
+        flat.update(extruders[0])
+    return flat
+
+
+def from_cura_settings(cura: Mapping[str, Any]) -> dict[str, Any]:
+    """Machine values from Cura's resolved settings (its own keys, e.g. ``retraction_amount``)."""
+    out: dict[str, Any] = {"flow_model": "rectangle"}
+    for name, keys in _CURA_KEYS.items():
+        for k in keys:
+            if k in cura and cura[k] not in (None, ""):
+                out[name] = cura[k]
+                break
+    flow = cura.get("infill_material_flow", cura.get("material_flow"))
+    if flow not in (None, ""):
+        out["extrusion_multiplier"] = float(flow) / 100.0
+    if "retraction_enable" in cura and not _bool(cura["retraction_enable"]):
+        out["retract_length"] = 0.0
+    if _bool(cura.get("retraction_hop_enabled", False)):
+        out["retract_lift"] = cura.get("retraction_hop", 0.0)
+    elif "retraction_hop_enabled" in cura:
+        out["retract_lift"] = 0.0
+    combing = str(cura.get("retraction_combing", "")).strip().lower()
+    if combing:
+        out["only_retract_when_crossing_perimeters"] = combing != "off"
+    if "relative_extrusion" in cura:
+        pass  # the E mode is read from the file itself
+    out["wipe"] = False
+    out["use_firmware_retraction"] = _bool(cura.get("machine_firmware_retract", False))
+    return out
+
+
+def infer_from_moves(program) -> dict[str, Any]:
+    """Machine values read from the file's own moves (for files without settings: Cura's).
+
+    Travel speed: the most common feedrate of XY travels; retraction: the most common E-only pull
+    and its feedrate, the most common push feedrate; z-hop: the most common lift that follows a
+    retraction; retract-before-travel: 0 when short travels retract too.  Fields that cannot be
+    read are left out.
+    """
+    m = program.moves
+    out: dict[str, Any] = {}
+
+    def mode(v: np.ndarray) -> float | None:
+        v = v[np.isfinite(v)]
+        if len(v) == 0:
+            return None
+        vals, counts = np.unique(np.round(v, 4), return_counts=True)
+        return float(vals[np.argmax(counts)])
+
+    t = m[m["travel"] & (m["layer"] >= 0)]
+    f = mode(t["f"])
+    if f:
+        out["travel_speed"] = f / 60.0
+    r = m[m["retract"] & (m["e"] < 0)]
+    if len(r):
+        # filament held back once the retraction (wipe included) is complete
+        out["retract_length"] = mode(program.state.retracted[r["line"]])
+        fr = mode(r["f"])
+        if fr:
+            out["retract_speed"] = fr / 60.0
+    u = m[m["unretract"] & (m["e"] > 0)]
+    fu = mode(u["f"]) if len(u) else None
+    if fu:
+        out["deretract_speed"] = fu / 60.0
+    after_retract = np.zeros(len(m), dtype=bool)
+    after_retract[1:] = m["retract"][:-1]
+    lifts = m[m["lift"] & ~m["travel"] & after_retract]  # z-hops follow a retraction; layer changes need not
+    dz = mode(lifts["z1"] - lifts["z0"]) if len(lifts) else None
+    out["retract_lift"] = dz if dz and dz < 5.0 else 0.0
+    if len(lifts):
+        fz = mode(lifts["f"])
+        if fz:
+            out["travel_speed_z"] = fz / 60.0
+    out["wipe"] = bool(np.any(m["wipe"] & (m["e"] < 0)))
+    return {k: v for k, v in out.items() if v is not None}
+
+
+# ---------------------------------------------------------------------------------------------- resolving
+
+
+def resolve(program=None, *, env: Mapping[str, str] | None = None, cura_settings: Mapping[str, Any] | None = None,
+            toolpath=None, cli: Mapping[str, Any] | None = None) -> Settings:
+    """Settings in rising precedence: defaults < slicer < load case ``[toolpath]`` < command line.
+
+    Parameters
+    ----------
+    program : loadpath.gcode.Program, optional
+        The G-code: its config block (PrusaSlicer family) or, for files without one, its moves.
+    env : mapping, optional
+        Environment to read ``SLIC3R_*`` from (default: none; pass ``os.environ`` in the hook).
+    cura_settings : mapping, optional
+        Cura's resolved settings (:func:`read_cura_settings`).
+    toolpath : loadpath.loadcase.ToolpathOptions, optional
+    cli : mapping of field -> value, optional
+        Values given on the command line (None = not given).
+    """
+    s = Settings()
+    if program is not None:
+        s = s.with_values(infer_from_moves(program), "inferred from the G-code")
+        if program.dialect.family == "cura":
+            s = s.with_values({"flow_model": "rectangle", "wipe": False}, "inferred from the G-code")
+        if program.config:
+            s = s.with_values(from_prusa_config(program.config), "slicer config")
+    slic3r = from_slic3r_env(env) if env is not None else {}
+    if slic3r:
+        s = s.with_values(from_prusa_config(slic3r), "SLIC3R_* environment")
+    if cura_settings:
+        s = s.with_values(from_cura_settings(cura_settings), "Cura settings")
+    if toolpath is not None:
+        vals = {k: getattr(toolpath, k) for k in ("engine", "pitch", "K", "principal", "replace")}
+        s = s.with_values({k: v for k, v in vals.items() if v is not None}, "load case")
+    if cli:
+        s = s.with_values({k: v for k, v in cli.items() if v is not None}, "command line")
+    if s.width_min >= s.width_max:
+        raise SettingsError(f"width_min = {s.width_min} must be below width_max = {s.width_max} (x nozzle)")
+    return s
+
+
+# ---------------------------------------------------------------------------------------------- front ends
+
+
+def add_cli_options(parser: argparse.ArgumentParser) -> None:
+    """Add the schema's own flags and ``--set KEY=VALUE`` to a parser (values default to None)."""
+    for f in SCHEMA:
+        if f.cli is None:
+            continue
+        metavar = {"float": "X", "optional_float": "MM", "int": "N", "kinds": "KINDS"}.get(f.kind)
+        kw: dict[str, Any] = {"dest": f"set_{f.name}", "default": None, "help": f.help
+                              + (f" [{f.unit}]" if f.unit else "") + f" (default {f.default!r})"}
+        if f.choices and f.kind == "str":
+            kw["choices"] = f.choices
+        else:
+            kw["metavar"] = metavar or "VALUE"
+        parser.add_argument(f.cli, **kw)
+    parser.add_argument("--set", dest="set_extra", action="append", default=[], metavar="KEY=VALUE",
+                        help="any other setting, e.g. --set width_max=1.4 (see loadpath.plugin.settings.SCHEMA)")
+    parser.add_argument("--slicer-settings", metavar="FILE.json", default=None,
+                        help="the slicer's resolved settings as JSON with the slicer's own keys (the Cura plugin "
+                             "writes it: retraction_amount, speed_travel, material_diameter, ...)")
+
+
+def cli_values(args: argparse.Namespace) -> dict[str, Any]:
+    """Field values given on the command line (parsed by :func:`add_cli_options`)."""
+    out = {f.name: getattr(args, f"set_{f.name}") for f in SCHEMA
+           if f.cli is not None and getattr(args, f"set_{f.name}", None) is not None}
+    for item in getattr(args, "set_extra", []) or []:
+        if "=" not in item:
+            raise SettingsError(f"--set {item!r} must look like KEY=VALUE (e.g. --set width_max=1.4)")
+        key, value = (x.strip() for x in item.split("=", 1))
+        if key not in _FIELDS:
+            raise SettingsError(f"--set {key}: unknown setting; known: {', '.join(sorted(_FIELDS))}")
+        out[key] = value
+    return out
+
+
+def cura_setting_definitions(groups: Sequence[str] = ("toolpath",)) -> dict[str, dict[str, Any]]:
+    """The schema as Cura ``getSettingDataString`` settings (``type``, ``default_value``, ``unit``, ...)."""
+    types = {"str": "enum", "float": "float", "optional_float": "float", "int": "int", "bool": "bool",
+             "kinds": "str"}
+    out: dict[str, dict[str, Any]] = {}
+    for f in SCHEMA:
+        if f.group not in groups:
+            continue
+        d: dict[str, Any] = {"label": f.name.replace("_", " ").capitalize(), "description": f.help,
+                             "type": types[f.kind] if f.choices or f.kind != "str" else "str",
+                             "default_value": (",".join(f.default) if f.kind == "kinds" else
+                                               0.0 if f.default is None else f.default)}
+        if f.unit:
+            d["unit"] = f.unit
+        if f.minimum is not None and f.kind != "optional_float":
+            d["minimum_value"] = str(f.minimum)
+        if f.maximum is not None:
+            d["maximum_value"] = str(f.maximum)
+        if f.choices and f.kind == "str":
+            d["options"] = {c: c for c in f.choices}
+        out[f.name] = d
+    return out
+
+
+def splice_options(s: Settings):
+    """The splicer's options (:class:`loadpath.gcode.splice.SpliceOptions`) for these settings."""
+    from loadpath.gcode.flow import FlowModel
+    from loadpath.gcode.splice import Motion, PlanOptions, Retraction, SpliceOptions
+
+    flow = FlowModel(s.flow_model, s.filament_diameter, s.extrusion_multiplier, s.volumetric_e)
+    retraction = Retraction(length=s.retract_length, speed=s.retract_speed, deretract_speed=s.deretract_speed,
+                            restart_extra=s.retract_restart_extra, lift=s.retract_lift, lift_speed=s.travel_speed_z,
+                            before_travel=s.retract_before_travel,
+                            only_when_crossing=s.only_retract_when_crossing_perimeters, wipe=s.wipe,
+                            before_wipe=s.retract_before_wipe, firmware=s.use_firmware_retraction)
+    plan = PlanOptions(nozzle_diameter=s.nozzle_diameter, width_range=(s.width_min, s.width_max),
+                       link_max=s.link_max, max_volumetric_speed=s.max_volumetric_speed,
+                       match_volume=s.match_volume, max_correction=s.max_correction)
+    return SpliceOptions(flow=flow, motion=Motion(s.travel_speed, retraction), plan=plan)

@@ -1,0 +1,320 @@
+"""The splicer on real PrusaSlicer 2.5 and CuraEngine 4.13 output, relative and absolute E (issue 6, Checks).
+
+New paths here are rectilinear lines at 30 degrees over each block's region (rebuilt from the
+block's own beads), so these tests do not depend on the FEA or the engines; the pipeline tests run
+the whole chain.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from loadpath import gcode
+from loadpath.gcode.blocks import EXTRUDE, RETRACT, TRAVEL, UNRETRACT, WIPE
+from loadpath.gcode.flavors import Role
+from loadpath.gcode.verify import layer_features
+from loadpath.plugin import settings as S
+from loadpath.toolpath import Path as ToolPath
+from shapely.geometry import LineString
+from splice_helpers import infill_blocks, own_paths_fill, rectilinear_fills, run_splice
+
+CURRENT = Path(__file__).resolve().parents[1] / "data" / "current"
+
+CASES = {
+    "prusa-relE": ("prusa", "ohs", "mixed", {}),
+    "prusa-absE": ("prusa", "ohs", "solid", {"use_relative_e_distances": 0, "before_layer_gcode": '""',
+                                              "layer_gcode": '""'}),
+    "prusa-fwretract": ("prusa", "ohs", "mixed", {"use_firmware_retraction": 1, "wipe": 0}),
+    "prusa-volumetricE": ("prusa", "ohs", "mixed", {"use_volumetric_e": 1}),
+    "prusa-two-objects": ("prusa", "two_objects", "mixed", {}),
+    "cura-absE": ("cura", "ohs", "mixed", {}),
+    "cura-relE": ("cura", "ohs", "solid", {"relative_extrusion": "true"}),
+    "cura-two-objects": ("cura", "two_objects", "mixed", {}),
+}
+
+
+@pytest.fixture(scope="module", params=list(CASES), ids=list(CASES))
+def spliced(request, sliced):
+    slicer, part, settings, overrides = CASES[request.param]
+    program = gcode.read(sliced(slicer, part, settings, **overrides))
+    fills = rectilinear_fills(program, infill_blocks(program))
+    assert fills
+    result, out, check = run_splice(program, fills)
+    return request.param, program, fills, result, out, check
+
+
+def test_every_check_holds(spliced):
+    """Kept lines byte for byte and in order, machine state, volume within 3 %, retraction balance,
+    absolute E monotone, same dialect and per-layer feature types, nothing outside the region."""
+    name, program, fills, result, out, check = spliced
+    assert check.problems == []
+    assert not result.skipped
+    assert set(check.volume_ratio) == {f.block for f in fills}
+    for ratio in check.volume_ratio.values():
+        assert abs(ratio - 1) <= 0.03
+    assert out.dialect.family == program.dialect.family
+    assert layer_features(out) == layer_features(program)
+
+
+def test_new_blocks_are_new_and_kept_lines_unchanged(spliced):
+    """The replaced blocks really print the new lines; nothing else changed."""
+    name, program, fills, result, out, check = spliced
+    lmap = result.line_map(program.n_lines)
+    kept = np.flatnonzero(lmap >= 0)
+    assert [program.line(int(i)) for i in kept[::97]] == [out.line(int(lmap[i])) for i in kept[::97]]
+    # the new extrusions follow the 30 degree lines, not the slicer's 45 degree ones
+    new = np.ones(out.n_lines, dtype=bool)
+    new[lmap[kept]] = False
+    m = out.moves
+    sel = m["extrude"] & new[m["line"]]
+    ang = np.degrees(np.arctan2(m["y1"] - m["y0"], m["x1"] - m["x0"]))[sel] % 180
+    long = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])[sel] > 6.0  # not the links along the edge
+    assert np.mean(np.abs(ang[long] - 30) < 0.5) > 0.95
+
+
+def _new_range(program, result, b):
+    """Output lines [a, z) that replaced the span of block ``b``."""
+    start = shift = 0
+    for a, z, k in sorted(result.edits):
+        if (a, z) == (b.span_start, b.span_stop):
+            start = a + shift
+            return start, start + k
+        shift += k - (z - a)
+    raise KeyError(b.index)
+
+
+def test_travels_leave_the_region_only_retracted(spliced):
+    """No new travel leaves the replace region without a retraction (or G10)."""
+    name, program, fills, result, out, check = spliced
+    st = out.state
+    n_checked = 0
+    for f in fills:
+        region = f.region.buffer(0.01)
+        a, z = _new_range(program, result, program.block(f.block))
+        mv = out.moves[out.move_rows(a, z)]
+        for row in mv[mv["travel"]]:
+            seg = LineString([(row["x0"], row["y0"]), (row["x1"], row["y1"])])
+            if not region.covers(seg):
+                i = int(row["line"])
+                assert st.retracted[i] > 0 or st.fw_retracted[i], out.line(i)
+                n_checked += 1
+    assert n_checked > 0
+
+
+def test_retractions_balance_in_new_lines(spliced):
+    """Every new retraction is followed by an unretraction of the same amount before the next extrusion."""
+    name, program, fills, result, out, check = spliced
+    st = out.state
+    ext = np.flatnonzero(out.kind_of_line == EXTRUDE)
+    # before every extrusion the nozzle is primed (retracted ~ 0), in the whole output
+    assert np.all(np.abs(st.retracted[ext - 1]) < 1e-4)
+    assert not np.any(st.fw_retracted[ext])
+
+
+def test_markers_for_prusaslicers_viewer(spliced):
+    """New blocks carry ;TYPE: (the replaced block's own feature), ;WIDTH: and ;HEIGHT: (PrusaSlicer)."""
+    name, program, fills, result, out, check = spliced
+    text = out.text
+    if program.dialect.family != "prusa":
+        pytest.skip("Cura files have no ;WIDTH:/;HEIGHT: markers")
+    lmap = result.line_map(program.n_lines)
+    for f in fills[:3]:
+        b = program.block(f.block)
+        a = int(lmap[b.span_start - 1]) + 1
+        block_text = "\n".join(out.line(i) for i in range(a, a + 40))
+        assert f";TYPE:{b.feature}" in block_text
+        assert ";WIDTH:" in block_text and ";HEIGHT:" in block_text
+    widths = [float(w) for w in re.findall(r"^;WIDTH:([0-9.]+)", text, re.M)]
+    assert min(widths) > 0.2 and max(widths) < 1.0
+
+
+def test_m73_progress_stays_monotone_and_complete(spliced):
+    name, program, fills, result, out, check = spliced
+    for pat in (r"^M73 P(\d+)", r"^M73 Q(\d+)"):
+        before = [int(x) for x in re.findall(pat, program.text, re.M)]
+        after = [int(x) for x in re.findall(pat, out.text, re.M)]
+        assert after == sorted(after) and sorted(after) == sorted(before)
+
+
+def test_footer_estimate_updated(spliced):
+    name, program, fills, result, out, check = spliced
+    if program.dialect.family == "prusa":
+        m = re.search(r"^; estimated printing time after loadpath \(normal mode\) = (.+)$", out.text, re.M)
+        assert m is not None
+        assert re.search(r"^; estimated printing time \(normal mode\) = ", out.text, re.M)
+    else:
+        assert ";loadpath: ;TIME: above is the slicer's estimate" in out.text
+
+
+def test_new_lines_stay_inside_their_object_labels(spliced):
+    """New moves carry the object label of the block they replace (cancel-object keeps working)."""
+    name, program, fills, result, out, check = spliced
+    lmap = result.line_map(program.n_lines)
+    new = np.ones(out.n_lines, dtype=bool)
+    new[lmap[lmap >= 0]] = False
+    m = out.moves
+    sel = new[m["line"]] & (m["extrude"] | m["travel"])
+    objs_new = {out.objects[o] for o in np.unique(m["object"][sel]) if o >= 0}
+    objs_blocks = {program.block(f.block).object for f in fills}
+    assert objs_new <= objs_blocks
+    assert not np.any(m["object"][sel & m["extrude"]] < 0) or program.dialect.family == "cura" and not out.objects
+
+
+def test_wipe_is_regenerated_along_the_new_last_path(sliced):
+    """PrusaSlicer's wipe retraces the last path: after splicing it retraces the new last path with
+    the same retraction, also when it sits behind the next layer's ;LAYER_CHANGE lines."""
+    program = gcode.read(sliced("prusa", "ohs", "mixed"))
+    fills = rectilinear_fills(program, infill_blocks(program))
+    result, out, check = run_splice(program, fills)
+    assert check.problems == []
+    lmap = result.line_map(program.n_lines)
+    detached = [f for f in fills if program.block(f.block).exit_start >= program.block(f.block).span_stop
+                and program.block(f.block).exit_stop > program.block(f.block).exit_start]
+    assert detached
+    for f in detached:
+        b = program.block(f.block)
+        old = program.moves[program.move_rows(b.exit_start, b.exit_stop)]
+        old_e = old["e"][old["wipe"]].sum()
+        # the output exit range: the lines between the kept neighbours of the exit
+        a = int(lmap[b.exit_start - 1]) + 1
+        z = int(lmap[b.exit_stop])
+        new = out.moves[out.move_rows(a, z)]
+        assert new["wipe"].any()
+        assert new["e"][new["wipe"]].sum() == pytest.approx(old_e, abs=1e-5)
+        # the wipe starts where the new block ended and runs along its last extrusion (backwards)
+        span_end = int(lmap[b.span_stop]) if lmap[b.span_stop] >= 0 else None
+        last_ext = out.moves[out.move_rows(int(lmap[b.span_start - 1]) + 1, span_end)]
+        last_ext = last_ext[last_ext["extrude"]][-1]
+        w0 = new[new["wipe"]][0]
+        assert (w0["x0"], w0["y0"]) == pytest.approx((last_ext["x1"], last_ext["y1"]), abs=1e-3)
+        seg = LineString([(last_ext["x0"], last_ext["y0"]), (last_ext["x1"], last_ext["y1"])])
+        assert seg.distance(shapely.Point(w0["x1"], w0["y1"])) < 2e-3
+
+
+@pytest.mark.parametrize("slicer,settings,width", [("prusa", "solid", None), ("cura", "solid", 0.4)])
+def test_flow_model_reproduces_the_slicers_own_e(sliced, slicer, settings, width):
+    """Printing a block's own lines again at its own flow width gives the slicer's E per segment:
+    PrusaSlicer's rounded rectangle and Cura's rectangle, filament diameter, multiplier, E mode."""
+    program = gcode.read(sliced(slicer, "ohs", settings))
+    s = S.resolve(program)
+    blocks = [i for i in infill_blocks(program) if program.block(i).role in (Role.SOLID_INFILL, Role.SKIN,
+                                                                              Role.SPARSE_INFILL)][:2]
+    fills = []
+    flow = S.splice_options(s).flow
+    for i in blocks:
+        mv = program.moves[program.block(i).moves]
+        mv = mv[mv["extrude"]]
+        h = float(np.median(mv["height"]))
+        bead = float(np.median(mv["width"])) if width is None else width
+        fills.append(own_paths_fill(program, i, flow.flow_width(bead, h)))
+    result, out, check = run_splice(program, fills, match_volume=False)
+    for f in fills:
+        b = program.block(f.block)
+        orig = program.moves[b.moves]
+        orig = orig[orig["extrude"]]
+        seg = np.hypot(orig["x1"] - orig["x0"], orig["y1"] - orig["y0"])
+        long = seg > 1.0
+        rep = next(r for r in result.blocks if r.block == f.block)
+        assert rep.filament_model == pytest.approx(b.e, rel=2e-3)
+        # E per mm on long segments, as written back
+        assert np.median(orig["e"][long] / seg[long]) == pytest.approx(rep.filament_new / rep.length_new, rel=2e-3)
+    assert check.problems == []
+
+
+def test_variable_width_follows_pitch_and_is_clamped(sliced):
+    """Solid infill: the bead width follows each point's pitch, clamped to 0.6..1.6 x nozzle."""
+    program = gcode.read(sliced("prusa", "ohs", "solid"))
+    i = infill_blocks(program)[1]
+    base = rectilinear_fills(program, [i])[0]
+    paths = []
+    for p in base.paths:
+        x = p.points[:, 0]
+        t = np.linspace(0, 1, 20)
+        pts = p.points[0] + t[:, None] * (p.points[-1] - p.points[0])
+        pitch = 0.41 * (1.0 + 1.5 * np.sin((x.mean() + pts[:, 0]) / 7.0) ** 2)  # 0.41 .. 1.03 mm
+        paths.append(ToolPath(pts, pitch))
+    fill = base.__class__(i, tuple(paths), base.region, nominal_pitch=0.41)
+    result, out, check = run_splice(program, [fill], match_volume=False)
+    widths = [float(w) for w in re.findall(r"^;WIDTH:([0-9.]+)", out.text, re.M)]
+    lmap = result.line_map(program.n_lines)
+    new = np.ones(out.n_lines, dtype=bool)
+    new[lmap[lmap >= 0]] = False
+    m = out.moves
+    sel = m["extrude"] & new[m["line"]]
+    w = m["width"][sel]
+    assert w.min() >= 0.6 * 0.4 - 0.006 and w.max() <= 1.6 * 0.4 + 0.006
+    assert w.max() > 0.6 and w.min() < 0.5  # both the narrow and the (clamped) wide end are printed
+    assert len(set(np.round(widths, 2))) > 10
+    # E per mm grows with the width (rounded rectangle at the written width)
+    seg = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])[sel]
+    epm = m["e"][sel] / seg
+    ok = seg > 0.3
+    assert np.corrcoef(w[ok], epm[ok])[0, 1] > 0.99
+
+
+def test_volumetric_limit_lowers_the_feedrate(sliced):
+    program = gcode.read(sliced("prusa", "ohs", "solid"))
+    fills = rectilinear_fills(program, infill_blocks(program)[:2], pitch_scale=2.0)  # wide beads
+    result, out, check = run_splice(program, fills, max_volumetric_speed=4.0, width_max=2.5, max_correction=0.0,
+                                    match_volume=False)
+    lmap = result.line_map(program.n_lines)
+    new = np.ones(out.n_lines, dtype=bool)
+    new[lmap[lmap >= 0]] = False
+    m = out.moves
+    sel = m["extrude"] & new[m["line"]] & (np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"]) > 1)
+    seg = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])[sel]
+    volumetric = m["e"][sel] / seg * (np.pi * 1.75 ** 2 / 4) * m["f"][sel] / 60.0  # mm^3/s
+    assert volumetric.max() <= 4.0 * 1.001
+    assert m["f"][sel].max() < result.blocks[0].feedrate  # slowed down from the block's own 4800
+
+
+def test_block_with_a_mode_change_is_kept_and_reported(sliced):
+    program = gcode.read(sliced("prusa", "ohs", "mixed"))
+    i = infill_blocks(program)[2]
+    b = program.block(i)
+    lines = program.text.split("\n")
+    lines.insert(b.start + 5, "M82 ; someone switched E mode inside the block")
+    bad = gcode.parse("\n".join(lines))
+    fills = rectilinear_fills(bad, [i])
+    result, out, check = run_splice(bad, fills)
+    assert [k for k, _ in result.skipped] == [i]
+    assert "M82" in result.skipped[0][1]
+    assert out.to_bytes() == bad.to_bytes()
+
+
+@pytest.mark.parametrize("name", ["prusaslicer-2.9.2-calicat-mini-arcs-m486.gcode",
+                                  "prusaslicer-2.7.4-plant-sign-arcs-labels.gcode"])
+def test_current_prusaslicer_files_with_arcs_and_labels(name):
+    """Files from current PrusaSlicer releases: arcs in kept blocks, M486 / labels, wipes."""
+    program = gcode.read(CURRENT / name)
+    fills = rectilinear_fills(program, infill_blocks(program)[:6])
+    assert fills
+    result, out, check = run_splice(program, fills)
+    assert check.problems == []
+    if "m486" in name:
+        # every new extrusion sits between M486 S<id> and M486 S-1 of its own object
+        lmap = result.line_map(program.n_lines)
+        new = np.ones(out.n_lines, dtype=bool)
+        new[lmap[lmap >= 0]] = False
+        m = out.moves
+        sel = m["extrude"] & new[m["line"]]
+        assert (m["object"][sel] >= 0).all()
+
+
+def test_block_replaced_by_nothing_keeps_the_machine_state(sliced):
+    program = gcode.read(sliced("cura", "ohs", "mixed"))
+    i = infill_blocks(program)[3]
+    from loadpath.gcode.splice import BlockFill
+
+    result, out, check = run_splice(program, [BlockFill(i, ())])
+    # only the volume and feature checks complain (the layer lost its FILL), nothing about the state
+    assert len(check.problems) == 2
+    assert "extrudes 0.000 mm" in check.problems[0] and "became" in check.problems[1]
+    kinds = set(out.kind_of_line[int(result.line_map(program.n_lines)[program.block(i).span_start - 1]) + 1:
+                                 int(result.line_map(program.n_lines)[program.block(i).span_stop])])
+    assert EXTRUDE not in kinds
+    assert kinds <= {TRAVEL, RETRACT, UNRETRACT, WIPE, 0, 6}
