@@ -134,6 +134,15 @@ def _load_seeds(region: Region, load_entry: BaseGeometry, pitch: float) -> list[
         head = np.where(norm[:, None] > 1e-9, head / np.maximum(norm, 1e-12)[:, None], np.nan)
         if np.any(~np.isfinite(head)):
             continue
+        if chains:
+            # pieces of one curve meet end to end (a hole's ring is cut at its first vertex): a
+            # seed closer than a pitch to a seed of an earlier piece is dropped
+            prev = np.concatenate([c[0] for c in chains])
+            d2 = np.min(np.sum((seeds[:, None, :] - prev[None, :, :]) ** 2, axis=2), axis=1)
+            keep = d2 >= (0.9 * pitch) ** 2
+            seeds, head = seeds[keep], head[keep]
+            if not len(seeds):
+                continue
         chains.append(_order_chain(seeds, head))
     return chains
 

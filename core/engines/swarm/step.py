@@ -51,6 +51,7 @@ from loadpath.engines.swarm.chain import (
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.qp import solve
 from loadpath.engines.swarm.raster import FieldRaster
+from scipy.spatial import cKDTree
 
 __all__ = ["SwarmParams", "SwarmState", "Context", "step"]
 
@@ -308,6 +309,13 @@ def _remove_blocked(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx
         fine = ctx.grid.free_path(st.pos[ends[go]], q, st.pid[ends[go]]) & ctx.grid.clear_of(
             q, st.pid[ends[go]], (ctx.params.min_gap + 1.0 / 12.0) * ctx.pitch
         )
+        # two ends converging on one boundary (a front heading into a hole) must not finish
+        # closer than the gap to each other: keep the first of any such pair
+        fi = np.flatnonzero(fine)
+        if len(fi) > 1:
+            dq = q[fi][:, None, :] - q[fi][None, :, :]
+            close = np.triu(np.sum(dq * dq, axis=2) < (ctx.params.min_gap * ctx.pitch) ** 2, k=1)
+            fine[fi[np.any(close, axis=0)]] = False
         last = (q[fine], st.pid[ends[go]][fine])
         ctx.grid.mark(st.pos[ends[go]][fine], q[fine], st.pid[ends[go]][fine])
     gone_before = np.zeros(st.n, dtype=bool)
@@ -490,6 +498,18 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
     alive = ~moving | (ctx.domain.inside(x) & ctx.grid.free_cells(cells, pid) & clear)
     chain = tab[:, _CHAIN]
     head = tab[:, _H]
+    if chain[-1] != chain[0]:
+        # agents of different chains are no neighbours of each other, and the grid does not hold
+        # this step's moves yet: two chains closing in (around a corner, behind a hole) could put
+        # agents side by side; the later one in chain order gives way
+        idx = np.flatnonzero(alive & moving)
+        pairs = cKDTree(x[idx]).query_pairs(min_gap, output_type="ndarray")
+        if len(pairs):
+            a, b = idx[pairs[:, 0]], idx[pairs[:, 1]]
+            other = chain[a] != chain[b]
+            if np.any(other):
+                alive[np.maximum(a[other], b[other])] = False
+                ctx.count("killed_other_chain", int(np.count_nonzero(other)))
     for _ in range(8):
         idx = np.flatnonzero(alive & moving)
         if len(idx) < 2:

@@ -6,15 +6,15 @@ paths of the layer are laid, :func:`local_pitch` measures at every point the dis
 neighbouring paths along the normal, to the left ``L`` and to the right ``R`` (the first other
 path hit by the ray, within ``cap`` pitches), and sets the bead width to ``(L + R) / 2``: in one
 dimension, beads of that width centred on the paths tile the gap exactly.  Where a side has no
-path within reach the bead reaches the region's boundary (twice the distance to it), up to
-``cap`` pitches.
+path within reach the bead reaches the region's boundary along the normal (twice the way to it),
+up to ``cap`` pitches.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import shapely
 from loadpath._typing import Floats, Points2, Region
+from loadpath.engines.swarm.boundary import Domain
 from scipy.spatial import cKDTree
 
 __all__ = ["local_pitch"]
@@ -95,9 +95,19 @@ def local_pitch(
             r = (w[..., 0] * dd[..., 1] - w[..., 1] * dd[..., 0]) / den  # along the segment
             good &= (s > 0) & (r >= 0) & (r <= 1)
             hits.append(np.min(np.where(good, s, np.inf), axis=1))
-        to_edge = 2.0 * shapely.distance(region.boundary, shapely.points(pts))
-        left = np.where(np.isfinite(hits[0]), hits[0], to_edge)
-        right = np.where(np.isfinite(hits[1]), hits[1], to_edge)
+        # no path on a side: the bead reaches the layer's edge along the normal (twice the way to
+        # it), so the outermost paths cover the strip at the edge and path ends at the edge keep
+        # their width
+        sides = []
+        edge = Domain(region, 0.0)
+        for h, d in zip(hits, (nrm, -nrm), strict=True):
+            miss = np.flatnonzero(~np.isfinite(h))
+            if len(miss):
+                dist, _, _, _ = edge.ray(pts[miss], d[miss], 0.5 * reach)
+                h = h.copy()
+                h[miss] = 2.0 * dist
+            sides.append(h)
+        left, right = sides
         out = 0.5 * (np.minimum(left, reach) + np.minimum(right, reach))
     out = np.clip(out, 0.25 * pitch, reach)
     return np.split(out, np.cumsum(counts)[:-1])
