@@ -117,16 +117,18 @@ def _at_origin(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     return mesh
 
 
-def ohs_mesh(length: float = 150.0, width: float = 36.0, thickness: float = 2.0,
-             hole: float = 6.0) -> trimesh.Trimesh:
+def ohs_mesh(
+    length: float = 150.0, width: float = 36.0, thickness: float = 2.0, hole: float = 6.0
+) -> trimesh.Trimesh:
     """Open-hole tensile specimen (ASTM D5766), bounding box from the origin, mm."""
     box = trimesh.creation.box(extents=(length, width, thickness))
     cyl = trimesh.creation.cylinder(radius=hole / 2, height=thickness * 3, sections=64)
     return _at_origin(box.difference(cyl))
 
 
-def two_islands_mesh(size: tuple[float, float] = (40.0, 20.0), gap: float = 10.0,
-                     thickness: float = 2.0) -> trimesh.Trimesh:
+def two_islands_mesh(
+    size: tuple[float, float] = (40.0, 20.0), gap: float = 10.0, thickness: float = 2.0
+) -> trimesh.Trimesh:
     """Two plates side by side in one mesh: one object with two islands per layer."""
     a = trimesh.creation.box(extents=(*size, thickness))
     b = a.copy()
@@ -134,8 +136,12 @@ def two_islands_mesh(size: tuple[float, float] = (40.0, 20.0), gap: float = 10.0
     return _at_origin(trimesh.util.concatenate([a, b]))
 
 
-def bracket_mesh(legs: tuple[float, float] = (60.0, 40.0), leg_width: float = 15.0,
-                 thickness: float = 3.0, hole: float = 5.0) -> trimesh.Trimesh:
+def bracket_mesh(
+    legs: tuple[float, float] = (60.0, 40.0),
+    leg_width: float = 15.0,
+    thickness: float = 3.0,
+    hole: float = 5.0,
+) -> trimesh.Trimesh:
     """L-bracket (concave outline) with a bolt hole in the long leg."""
     import manifold3d as mf
 
@@ -147,15 +153,21 @@ def bracket_mesh(legs: tuple[float, float] = (60.0, 40.0), leg_width: float = 15
     return _at_origin(_to_trimesh(solid))
 
 
-def tower_mesh(size: tuple[float, float] = (30.0, 20.0), height: float = 24.0, hole: float = 8.0,
-               twist_deg: float = 30.0, scale_top: float = 0.6) -> trimesh.Trimesh:
+def tower_mesh(
+    size: tuple[float, float] = (30.0, 20.0),
+    height: float = 24.0,
+    hole: float = 8.0,
+    twist_deg: float = 30.0,
+    scale_top: float = 0.6,
+) -> trimesh.Trimesh:
     """A twisted, tapered plate with a hole: >= 100 layers whose outline changes with height."""
     import manifold3d as mf
 
     sx, sy = size
     cs = mf.CrossSection.square((sx, sy), center=True) - mf.CrossSection.circle(hole / 2, 48)
-    solid = mf.Manifold.extrude(cs, height, n_divisions=48, twist_degrees=twist_deg,
-                                scale_top=(scale_top, scale_top))
+    solid = mf.Manifold.extrude(
+        cs, height, n_divisions=48, twist_degrees=twist_deg, scale_top=(scale_top, scale_top)
+    )
     return _at_origin(_to_trimesh(solid))
 
 
@@ -179,8 +191,13 @@ def write_stl(mesh: trimesh.Trimesh, path: str | os.PathLike) -> Path:
 # PrusaSlicer profiles (real-tools.md §3.2)
 
 _META_KEYS = {
-    "inherits", "renamed_from", "alias", "compatible_printers", "compatible_printers_condition",
-    "compatible_prints", "compatible_prints_condition",
+    "inherits",
+    "renamed_from",
+    "alias",
+    "compatible_printers",
+    "compatible_printers_condition",
+    "compatible_prints",
+    "compatible_prints_condition",
 }
 
 
@@ -220,8 +237,9 @@ def _resolve(sections: dict, kind: str, name: str, seen: tuple[str, ...] = ()) -
     return merged
 
 
-def flatten_prusa_presets(bundle: Path = PRUSA_PROFILES,
-                          presets: Mapping[str, str] = PRUSA_PRESETS) -> dict[str, dict[str, str]]:
+def flatten_prusa_presets(
+    bundle: Path = PRUSA_PROFILES, presets: Mapping[str, str] = PRUSA_PRESETS
+) -> dict[str, dict[str, str]]:
     """Resolve the ``inherits`` chains of the bundled MK3S presets into flat key/value dicts.
 
     Returns ``{"printer": {...}, "print": {...}, "filament": {...}}`` without the meta keys.
@@ -253,7 +271,9 @@ def write_prusa_profile(folder: str | os.PathLike) -> list[Path]:
 # Running the slicers
 
 
-def _run(cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None = None) -> subprocess.CompletedProcess:
+def _run(
+    cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None = None
+) -> subprocess.CompletedProcess:
     exe = shutil.which(cmd[0])
     if exe is None:
         raise SlicerError(f"{cmd[0]} is not installed")
@@ -265,8 +285,11 @@ def _run(cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None = N
     return proc
 
 
-def slice_prusa(stl: str | os.PathLike | Sequence[str | os.PathLike], out: str | os.PathLike,
-                **overrides: str | float | int) -> Path:
+def slice_prusa(
+    stl: str | os.PathLike | Sequence[str | os.PathLike],
+    out: str | os.PathLike,
+    **overrides: str | float | int,
+) -> Path:
     """Slice with PrusaSlicer 2.5 and the flattened MK3S presets (relative E).
 
     Parameters
@@ -302,8 +325,12 @@ def slice_prusa(stl: str | os.PathLike | Sequence[str | os.PathLike], out: str |
     return out
 
 
-def slice_cura(stl: str | os.PathLike | Sequence[str | os.PathLike], out: str | os.PathLike,
-               definition: str = "prusa_i3_mk3", **settings: str | float | int) -> Path:
+def slice_cura(
+    stl: str | os.PathLike | Sequence[str | os.PathLike],
+    out: str | os.PathLike,
+    definition: str = "prusa_i3_mk3",
+    **settings: str | float | int,
+) -> Path:
     """Slice with CuraEngine 4.13 and the ``prusa_i3_mk3`` machine definition (absolute E).
 
     Each part is centred on the bed with ``mesh_position_x/y`` (CuraEngine puts the STL origin at the
@@ -340,11 +367,16 @@ def slice_cura(stl: str | os.PathLike | Sequence[str | os.PathLike], out: str | 
     bounds = [trimesh.load_mesh(s).bounds for s in stls]
     total = sum(b[1][0] - b[0][0] for b in bounds) + 10.0 * (len(stls) - 1)
     x = -total / 2
-    for s, b in zip(stls, bounds):
+    for s, b in zip(stls, bounds, strict=True):
         size = b[1] - b[0]
-        cmd += ["-l", str(s),
-                "-s", f"mesh_position_x={x - b[0][0]:.4f}",
-                "-s", f"mesh_position_y={-size[1] / 2 - b[0][1]:.4f}"]
+        cmd += [
+            "-l",
+            str(s),
+            "-s",
+            f"mesh_position_x={x - b[0][0]:.4f}",
+            "-s",
+            f"mesh_position_y={-size[1] / 2 - b[0][1]:.4f}",
+        ]
         x += size[0] + 10.0
     cmd += ["-o", str(out)]
     _run(cmd, env=env)

@@ -45,16 +45,20 @@ text, binary G-code, inch units (``G20``), no layer markers, truncated file (:mo
 malformed motion words.  ``parse(..., strict=False)`` skips the structural checks (no layer markers,
 truncation) for excerpts and generated snippets.
 
-Binary G-code (``GCDE`` magic) goes through one hook, :func:`decode_container`: today it refuses the
-file with the fix (turn binary G-code off); :mod:`loadpath.gcode.bgcode` decodes it and can be
-plugged in there.
+Binary G-code (``GCDE`` magic, PrusaSlicer 2.7+) goes through one hook, :func:`decode_container`,
+which decodes it with :mod:`loadpath.gcode.bgcode` to its G-code text.  :func:`read` then fills
+``program.config`` from the file's slicer metadata block (a binary file's text has no config
+block).  To write a processed file back in the same format, :func:`read_container` also returns
+the decoded container and :func:`encode_like` re-encodes new text with the same metadata,
+thumbnails and compression.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
-from loadpath.errors import UnsupportedFlavorError
+from loadpath.errors import GCodeParseError, UnsupportedFlavorError
 from loadpath.gcode.blocks import BLOCK_DTYPE, KINDS
 from loadpath.gcode.flavors import Dialect, Role, role_of
 from loadpath.gcode.model import MOVE_DTYPE, Block, Layer, MachineState, Program
@@ -65,6 +69,8 @@ __all__ = [
     "parse",
     "read",
     "decode_container",
+    "read_container",
+    "encode_like",
     "Program",
     "Layer",
     "Block",
@@ -84,22 +90,73 @@ BINARY_MAGIC = b"GCDE"
 
 
 def decode_container(data: bytes, source: str = "the file") -> bytes:
-    """The single hook between file bytes and the text parser.
+    """Turn a file's bytes into G-code text bytes: the single hook for container formats.
 
-    Plain G-code is returned unchanged.  Binary G-code (``GCDE`` magic) is refused with the fix for
-    now; this is where :func:`loadpath.gcode.bgcode.decode` plugs in to return the text instead.
+    Plain G-code is returned unchanged; binary G-code (``GCDE`` magic) is decoded to its text
+    (:func:`loadpath.gcode.bgcode.decode`).
 
     Raises
     ------
     UnsupportedFlavorError
-        For binary G-code.
+        Binary G-code that cannot be decoded (with the reason, and the fix).
     """
-    if data[:4] == BINARY_MAGIC:
+    if data[:4] != BINARY_MAGIC:
+        return data
+    return _decode_binary(data, source).gcode_bytes
+
+
+def _decode_binary(data: bytes, source: str):
+    from loadpath.gcode import bgcode
+
+    try:
+        return bgcode.decode(data)
+    except (GCodeParseError, UnsupportedFlavorError) as exc:
         raise UnsupportedFlavorError(
-            f"{source} is binary G-code (.bgcode, starts with 'GCDE'); loadpath reads text G-code: turn binary "
-            "G-code off in PrusaSlicer (Printer Settings > General > Firmware > 'Supports binary G-code') and "
-            "export again")
-    return data
+            f"{source} is binary G-code (.bgcode, starts with 'GCDE') that cannot be decoded ({exc}); export it "
+            "again, or turn binary G-code off in PrusaSlicer (Printer Settings > General > Firmware > "
+            "'Supports binary G-code')") from exc
+
+
+def read_container(path: str | os.PathLike, *, strict: bool = True):
+    """Read a G-code file and, for binary G-code, its decoded container.
+
+    Returns
+    -------
+    (Program, BinaryGCode or None)
+        The parsed program (``config`` from the slicer metadata for a binary file) and the container
+        (None for a text file), for :func:`encode_like`.
+    """
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    if raw[:4] != BINARY_MAGIC:
+        return parse_bytes(raw, strict=strict), None
+    container = _decode_binary(raw, os.fspath(path))
+    program = parse_bytes(container.gcode_bytes, strict=strict)
+    meta = container.slicer_config
+    if meta:
+        program = dataclasses.replace(program, config={**meta, **program.config})
+    producer = container.metadata_of(_block_type("FILE_METADATA")).get("Producer", "")
+    if program.dialect.slicer == "unknown" and producer:
+        slicer, _, version = producer.partition(" ")
+        program = dataclasses.replace(program, dialect=Dialect(slicer, version, program.dialect.family))
+    return program, container
+
+
+def _block_type(name: str):
+    """A :class:`loadpath.gcode.bgcode.BlockType` by name (imported on use)."""
+    from loadpath.gcode import bgcode
+
+    return bgcode.BlockType[name]
+
+
+def encode_like(container, text: bytes) -> bytes:
+    """New G-code text in the format it was read from: unchanged for text files (``container`` None),
+    binary G-code with the container's metadata, thumbnails and compression otherwise."""
+    if container is None:
+        return text
+    from loadpath.gcode import bgcode
+
+    return bgcode.encode(container, text)
 
 
 def parse(data: bytes | str, *, strict: bool = True) -> Program:
@@ -122,7 +179,5 @@ def parse(data: bytes | str, *, strict: bool = True) -> Program:
 
 
 def read(path: str | os.PathLike, *, strict: bool = True) -> Program:
-    """Read and parse a G-code file (see :func:`parse`).  The file is only read, never written."""
-    with open(path, "rb") as fh:
-        raw = fh.read()
-    return parse_bytes(decode_container(raw, source=os.fspath(path)), strict=strict)
+    """Read and parse a G-code file, text or binary (see :func:`parse`).  The file is only read."""
+    return read_container(path, strict=strict)[0]

@@ -45,8 +45,9 @@ class ArcChords:
     t1: Floats
 
 
-def sample_arcs(x0: Floats, y0: Floats, x1: Floats, y1: Floats, i: Floats, j: Floats, r: Floats,
-                clockwise: Bools) -> ArcChords:
+def sample_arcs(
+    x0: Floats, y0: Floats, x1: Floats, y1: Floats, i: Floats, j: Floats, r: Floats, clockwise: Bools
+) -> ArcChords:
     """Sample arcs into chords.
 
     Parameters

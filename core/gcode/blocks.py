@@ -51,28 +51,39 @@ KINDS = ("neutral", "extrude", "wipe", "retract", "unretract", "travel", "barrie
 NEUTRAL_COMMANDS = (M + 73, M + 106, M + 107, M + 117, M + 201, M + 203, M + 204, M + 205)
 """Commands a splicer may carry along: progress, fan, message, acceleration/jerk/feed limits."""
 
-BLOCK_DTYPE = np.dtype([
-    ("layer", "i4"),  # index into Program.layers
-    ("feature", "i2"),  # index into Program.features
-    ("role", "i1"),  # loadpath.gcode.Role
-    ("object", "i2"),  # index into Program.objects, -1 = none
-    ("start", "i8"),  # core first line
-    ("stop", "i8"),  # core end (last extrusion + 1)
-    ("span_start", "i8"),
-    ("span_stop", "i8"),
-    ("exit_start", "i8"),
-    ("exit_stop", "i8"),
-    ("type_line", "i8"),  # line of the ;TYPE:/; FEATURE: marker naming the feature, -1 = none
-    ("move_start", "i8"),  # rows of Program.moves with start <= line < stop
-    ("move_stop", "i8"),
-    ("e", "f8"),  # filament extruded, mm
-    ("length", "f8"),  # extruded path length, mm
-])
+BLOCK_DTYPE = np.dtype(
+    [
+        ("layer", "i4"),  # index into Program.layers
+        ("feature", "i2"),  # index into Program.features
+        ("role", "i1"),  # loadpath.gcode.Role
+        ("object", "i2"),  # index into Program.objects, -1 = none
+        ("start", "i8"),  # core first line
+        ("stop", "i8"),  # core end (last extrusion + 1)
+        ("span_start", "i8"),
+        ("span_stop", "i8"),
+        ("exit_start", "i8"),
+        ("exit_stop", "i8"),
+        ("type_line", "i8"),  # line of the ;TYPE:/; FEATURE: marker naming the feature, -1 = none
+        ("move_start", "i8"),  # rows of Program.moves with start <= line < stop
+        ("move_stop", "i8"),
+        ("e", "f8"),  # filament extruded, mm
+        ("length", "f8"),  # extruded path length, mm
+    ]
+)
 
 
-def line_kinds(cmd: np.ndarray, motion: np.ndarray, moved_xy: np.ndarray, de: np.ndarray,
-               in_wipe: np.ndarray, wipe_marker: Ints, barrier_comment: Ints, fw_retract: np.ndarray,
-               fw_unretract: np.ndarray, has_axes: np.ndarray) -> np.ndarray:
+def line_kinds(
+    cmd: np.ndarray,
+    motion: np.ndarray,
+    moved_xy: np.ndarray,
+    de: np.ndarray,
+    in_wipe: np.ndarray,
+    wipe_marker: Ints,
+    barrier_comment: Ints,
+    fw_retract: np.ndarray,
+    fw_unretract: np.ndarray,
+    has_axes: np.ndarray,
+) -> np.ndarray:
     """Kind code (:data:`KINDS`) of every line; see the module docstring."""
     n = len(cmd)
     kind = np.full(n, BARRIER, dtype=np.int8)
@@ -118,10 +129,12 @@ def _first_from(sorted_lines: Ints, at: Ints, default: int) -> Ints:
     return np.where(k < len(sorted_lines), sorted_lines[np.minimum(k, len(sorted_lines) - 1)], default)
 
 
-def find_blocks(kind: np.ndarray, layer: np.ndarray, feature: np.ndarray, obj: np.ndarray,
-                type_marker_line: np.ndarray) -> np.ndarray:
-    """All blocks of the file as a :data:`BLOCK_DTYPE` array (``move_*``, ``e``, ``length``,
-    ``role`` left for the caller).
+def find_blocks(
+    kind: np.ndarray, layer: np.ndarray, feature: np.ndarray, obj: np.ndarray, type_marker_line: np.ndarray
+) -> np.ndarray:
+    """All blocks of the file as a :data:`BLOCK_DTYPE` array.
+
+    ``move_*``, ``e``, ``length`` and ``role`` are left for the caller.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Structural checks of a parsed file: is it a slicer's complete, layered output?
+"""Structural checks of a parsed file: is it a slicer's complete, layered output.
 
 Run by :func:`loadpath.gcode.parse` unless ``strict=False``.  Each failure is one line naming what is
 wrong, where, and the fix.
@@ -44,16 +44,20 @@ def check_structure(program: Program, mk: Markers) -> None:
     n = program.n_lines
     if not program.layers:
         raise UnsupportedFlavorError(
-            f"no layer markers (';LAYER_CHANGE', '; CHANGE_LAYER' or ';LAYER:<n>') in the {n} lines of this file "
-            f"(header: {program.dialect.name or 'none'}): loadpath reads the G-code of PrusaSlicer, SuperSlicer, "
+            f"no layer markers (';LAYER_CHANGE', '; CHANGE_LAYER' or ';LAYER:<n>') in the {n} lines of this "
+            f"file (header: {program.dialect.name or 'none'}): loadpath reads the G-code of PrusaSlicer, "
+            "SuperSlicer, "
             "OrcaSlicer, Bambu Studio and Cura with its comments; pass the slicer's own output, not a file "
-            "whose comments were stripped")
+            "whose comments were stripped"
+        )
     why = _truncation(program, mk)
     if why:
         raise GCodeParseError(
             f"the file ends without {why}: it looks truncated (an interrupted export, upload or copy); "
-            "export the G-code from the slicer again", line_no=n,
-            text=program.line(n - 1) if n else None)
+            "export the G-code from the slicer again",
+            line_no=n,
+            text=program.line(n - 1) if n else None,
+        )
 
 
 def _truncation(program: Program, mk: Markers) -> str | None:

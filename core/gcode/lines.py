@@ -21,7 +21,7 @@ PAD = 64
 
 @dataclass(frozen=True)
 class LineIndex:
-    """Where each line sits in the file's bytes.
+    r"""Where each line sits in the file's bytes.
 
     Attributes
     ----------
@@ -31,7 +31,7 @@ class LineIndex:
         Byte offset where each line starts; ``starts[-1] == n_bytes``. Line ``i`` including its line
         ending is ``data[starts[i]:starts[i + 1]]``.
     ends : (n_lines,) int64
-        Byte offset where each line's content ends (before ``\\r\\n`` or ``\\n``).
+        Byte offset where each line's content ends (before ``\r\n`` or ``\n``).
     first : (n_lines,) int64
         Offset of the first byte that is not a space or tab (``== ends`` for blank lines).
     """
@@ -54,27 +54,33 @@ def check_text(data: bytes) -> None:
     """
     if not data.strip():
         raise GCodeParseError(
-            "the file is empty (or blank): there is no G-code to process; export the G-code from the slicer again")
+            "the file is empty (or blank): there is no G-code to process; export the G-code from the "
+            "slicer again"
+        )
     nul = data.find(b"\0")
     if nul >= 0:
         line = data.count(b"\n", 0, nul) + 1
         raise GCodeParseError(
             f"the file is not text: byte {nul} is a NUL byte; pass the .gcode file the slicer wrote (not a "
-            ".3mf, .stl, image or archive)", line_no=line)
+            ".3mf, .stl, image or archive)",
+            line_no=line,
+        )
     try:
         data.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = data.count(b"\n", 0, exc.start) + 1
         raise GCodeParseError(
-            f"the file is not UTF-8 text: byte {exc.start} is 0x{data[exc.start]:02x}; pass the .gcode file the "
-            "slicer wrote, or re-save it as UTF-8", line_no=line) from None
+            f"the file is not UTF-8 text: byte {exc.start} is 0x{data[exc.start]:02x}; pass the .gcode file "
+            "the slicer wrote, or re-save it as UTF-8",
+            line_no=line,
+        ) from None
 
 
 def index_lines(data: bytes) -> LineIndex:
-    """Build the :class:`LineIndex` of ``data`` (vectorized; no per-line Python work).
+    r"""Build the :class:`LineIndex` of ``data`` (vectorized; no per-line Python work).
 
-    Lines end at ``\\n``; a ``\\r`` before it belongs to the line ending. A final line without
-    ``\\n`` is a line too.
+    Lines end at ``\n``; a ``\r`` before it belongs to the line ending. A final line without
+    ``\n`` is a line too.
     """
     n = len(data)
     buf = np.zeros(n + PAD, dtype=np.uint8)

@@ -14,10 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
-
 from loadpath._typing import Ints
 from loadpath.gcode.numbers import parse_numbers
+from numpy.lib.stride_tricks import sliding_window_view
 
 __all__ = ["MarkerTable", "match_markers", "PREFIXES"]
 
@@ -98,7 +97,9 @@ def match_markers(buf: np.ndarray, first: Ints, ends: Ints, lines: Ints) -> Mark
     for kind in kinds:
         codes = [c for c, (_, kk, _) in enumerate(PREFIXES) if kk == kind]
         sel = np.flatnonzero(np.isin(kind_of, codes))
-        plen = np.array([len(PREFIXES[c][0]) for c in range(len(PREFIXES))])[kind_of[sel]] if len(sel) else sel
+        plen = (
+            np.array([len(PREFIXES[c][0]) for c in range(len(PREFIXES))])[kind_of[sel]] if len(sel) else sel
+        )
         if kind in _NUMERIC and len(sel):
             start = s[sel] + plen
             for _ in range(2):  # '; Z_HEIGHT: 0.2' puts a blank after the colon

@@ -17,28 +17,34 @@ from loadpath.gcode.state import LineState
 
 __all__ = ["MOVE_DTYPE", "Program", "Layer", "Block", "MachineState"]
 
-MOVE_DTYPE = np.dtype([
-    ("x0", "f8"), ("y0", "f8"), ("z0", "f8"),  # start point, mm
-    ("x1", "f8"), ("y1", "f8"), ("z1", "f8"),  # end point, mm
-    ("e", "f8"),  # filament pushed (> 0) or pulled (< 0), mm, whatever the E mode (volumetric converted)
-    ("f", "f8"),  # feedrate, mm/min (NaN before the first F)
-    ("width", "f8"),  # ;WIDTH: / ; LINE_WIDTH: in effect, mm (NaN when the file has none: Cura)
-    ("height", "f8"),  # ;HEIGHT: in effect, else the layer height, mm
-    ("line", "i8"),  # 0-based index of the G-code line (an arc gives several moves with one line)
-    ("layer", "i4"),  # index into Program.layers, -1 outside any layer (start / end G-code)
-    ("feature", "i2"),  # index into Program.features (the slicer's name), -1 before any marker
-    ("role", "i1"),  # loadpath.gcode.Role of the feature
-    ("object", "i2"),  # index into Program.objects, -1 outside any object label
-    ("tool", "i2"),  # active tool T<n>
-    ("travel", "?"),  # XY move without E (not a wipe)
-    ("extrude", "?"),  # XY move with E > 0
-    ("retract", "?"),  # E < 0 without XY move, or G10
-    ("unretract", "?"),  # E > 0 without XY move, or G11
-    ("wipe", "?"),  # XY move with E < 0, or an E-less XY move inside ;WIPE_START..;WIPE_END
-    ("lift", "?"),  # Z goes up on a move that does not extrude
-    ("lower", "?"),  # Z goes down on a move that does not extrude
-    ("arc", "?"),  # a chord of a G2/G3 arc
-])
+MOVE_DTYPE = np.dtype(
+    [
+        ("x0", "f8"),
+        ("y0", "f8"),
+        ("z0", "f8"),  # start point, mm
+        ("x1", "f8"),
+        ("y1", "f8"),
+        ("z1", "f8"),  # end point, mm
+        ("e", "f8"),  # filament pushed (> 0) or pulled (< 0), mm, whatever the E mode (volumetric converted)
+        ("f", "f8"),  # feedrate, mm/min (NaN before the first F)
+        ("width", "f8"),  # ;WIDTH: / ; LINE_WIDTH: in effect, mm (NaN when the file has none: Cura)
+        ("height", "f8"),  # ;HEIGHT: in effect, else the layer height, mm
+        ("line", "i8"),  # 0-based index of the G-code line (an arc gives several moves with one line)
+        ("layer", "i4"),  # index into Program.layers, -1 outside any layer (start / end G-code)
+        ("feature", "i2"),  # index into Program.features (the slicer's name), -1 before any marker
+        ("role", "i1"),  # loadpath.gcode.Role of the feature
+        ("object", "i2"),  # index into Program.objects, -1 outside any object label
+        ("tool", "i2"),  # active tool T<n>
+        ("travel", "?"),  # XY move without E (not a wipe)
+        ("extrude", "?"),  # XY move with E > 0
+        ("retract", "?"),  # E < 0 without XY move, or G10
+        ("unretract", "?"),  # E > 0 without XY move, or G11
+        ("wipe", "?"),  # XY move with E < 0, or an E-less XY move inside ;WIPE_START..;WIPE_END
+        ("lift", "?"),  # Z goes up on a move that does not extrude
+        ("lower", "?"),  # Z goes down on a move that does not extrude
+        ("arc", "?"),  # a chord of a G2/G3 arc
+    ]
+)
 """Fields of one move (one row of ``Program.moves``)."""
 
 
@@ -186,7 +192,7 @@ class Layer:
 
 @dataclass(frozen=True, eq=False)
 class Program:
-    """A parsed G-code file.  Build it with :func:`loadpath.gcode.parse` or :func:`~loadpath.gcode.read`.
+    r"""A parsed G-code file.  Build it with :func:`loadpath.gcode.parse` or :func:`~loadpath.gcode.read`.
 
     Attributes
     ----------
@@ -195,7 +201,7 @@ class Program:
     line_starts : (n_lines + 1,) int64
         Byte offset of each line's first byte; ``line_starts[-1] == len(data)``.
     line_ends : (n_lines,) int64
-        Byte offset where each line's content ends (before its ``\\r\\n`` / ``\\n``).
+        Byte offset where each line's content ends (before its ``\r\n`` / ``\n``).
     dialect : Dialect
     state : LineState
         Machine state after every line (arrays indexed by line).
@@ -251,7 +257,7 @@ class Program:
     # ------------------------------------------------------------------ text
 
     def to_bytes(self) -> bytes:
-        """The file's bytes: identical to the input for a program read from a file."""
+        """Return the file's bytes: identical to the input for a program read from a file."""
         return self.data
 
     @property
@@ -266,20 +272,20 @@ class Program:
 
     def line(self, i: int) -> str:
         """Line ``i`` (0-based) without its line ending."""
-        return self.data[self.line_starts[i]:self.line_ends[i]].decode("utf-8")
+        return self.data[self.line_starts[i] : self.line_ends[i]].decode("utf-8")
 
     def lines_bytes(self, start: int, stop: int) -> bytes:
         """Lines ``[start, stop)`` with their line endings, as in the file."""
-        return self.data[self.line_starts[start]:self.line_starts[stop]]
+        return self.data[self.line_starts[start] : self.line_starts[stop]]
 
     @cached_property
     def newline(self) -> bytes:
-        """The file's dominant line ending (``b"\\n"`` or ``b"\\r\\n"``)."""
+        r"""The file's dominant line ending (``b"\n"`` or ``b"\r\n"``)."""
         crlf = self.data.count(b"\r\n")
         return b"\r\n" if crlf * 2 > self.n_lines else b"\n"
 
     def replace_lines(self, edits: Iterable[tuple[int, int, bytes]]) -> bytes:
-        """The file with line ranges replaced; every other byte unchanged.
+        """Return the file with line ranges replaced; every other byte unchanged.
 
         Parameters
         ----------
@@ -302,19 +308,45 @@ class Program:
         """Machine state after line ``i`` (``i = -1``: the initial state)."""
         s = self.state
         if i < 0:
-            return MachineState(line=-1, x=0.0, y=0.0, z=0.0, e=0.0, f=float("nan"), absolute_xyz=True,
-                                e_relative=False, retracted=0.0, fw_retracted=False, feature=None,
-                                width=float("nan"), height=float("nan"), layer=-1, object=None, wipe=False,
-                                tool=0)
+            return MachineState(
+                line=-1,
+                x=0.0,
+                y=0.0,
+                z=0.0,
+                e=0.0,
+                f=float("nan"),
+                absolute_xyz=True,
+                e_relative=False,
+                retracted=0.0,
+                fw_retracted=False,
+                feature=None,
+                width=float("nan"),
+                height=float("nan"),
+                layer=-1,
+                object=None,
+                wipe=False,
+                tool=0,
+            )
         fcode, ocode = int(self.feature_of_line[i]), int(self.object_of_line[i])
         return MachineState(
-            line=i, x=float(s.x[i]), y=float(s.y[i]), z=float(s.z[i]), e=float(s.e[i]), f=float(s.f[i]),
-            absolute_xyz=bool(s.absolute_xyz[i]), e_relative=bool(s.e_relative[i]),
-            retracted=float(s.retracted[i]), fw_retracted=bool(s.fw_retracted[i]),
-            feature=self.features[fcode] if fcode >= 0 else None, width=float(self.width_of_line[i]),
-            height=float(self.height_of_line[i]), layer=int(self.layer_of_line[i]),
-            object=self.objects[ocode] if ocode >= 0 else None, wipe=bool(self.wipe_of_line[i]),
-            tool=int(s.tool[i]))
+            line=i,
+            x=float(s.x[i]),
+            y=float(s.y[i]),
+            z=float(s.z[i]),
+            e=float(s.e[i]),
+            f=float(s.f[i]),
+            absolute_xyz=bool(s.absolute_xyz[i]),
+            e_relative=bool(s.e_relative[i]),
+            retracted=float(s.retracted[i]),
+            fw_retracted=bool(s.fw_retracted[i]),
+            feature=self.features[fcode] if fcode >= 0 else None,
+            width=float(self.width_of_line[i]),
+            height=float(self.height_of_line[i]),
+            layer=int(self.layer_of_line[i]),
+            object=self.objects[ocode] if ocode >= 0 else None,
+            wipe=bool(self.wipe_of_line[i]),
+            tool=int(s.tool[i]),
+        )
 
     def state_before(self, i: int) -> MachineState:
         """Machine state line ``i`` starts from (the state after line ``i - 1``)."""
@@ -331,22 +363,38 @@ class Program:
         """Row ``i`` of :attr:`blocks` with names resolved."""
         b = self.blocks[i]
         obj = int(b["object"])
-        return Block(index=i, layer=int(b["layer"]), feature=self.features[int(b["feature"])],
-                     role=Role(int(b["role"])), object=self.objects[obj] if obj >= 0 else None,
-                     start=int(b["start"]), stop=int(b["stop"]), span_start=int(b["span_start"]),
-                     span_stop=int(b["span_stop"]), exit_start=int(b["exit_start"]),
-                     exit_stop=int(b["exit_stop"]), type_line=int(b["type_line"]),
-                     moves=slice(int(b["move_start"]), int(b["move_stop"])), e=float(b["e"]),
-                     length=float(b["length"]))
+        return Block(
+            index=i,
+            layer=int(b["layer"]),
+            feature=self.features[int(b["feature"])],
+            role=Role(int(b["role"])),
+            object=self.objects[obj] if obj >= 0 else None,
+            start=int(b["start"]),
+            stop=int(b["stop"]),
+            span_start=int(b["span_start"]),
+            span_stop=int(b["span_stop"]),
+            exit_start=int(b["exit_start"]),
+            exit_stop=int(b["exit_stop"]),
+            type_line=int(b["type_line"]),
+            moves=slice(int(b["move_start"]), int(b["move_stop"])),
+            e=float(b["e"]),
+            length=float(b["length"]),
+        )
 
     def blocks_of(self, layer: int | Layer) -> list[Block]:
-        """The blocks of one layer, in file order, as :class:`Block` objects."""
+        """Return the blocks of one layer, in file order, as :class:`Block` objects."""
         index = layer.index if isinstance(layer, Layer) else int(layer)
         rows = np.flatnonzero(self.blocks["layer"] == index)
         return [self.block(int(i)) for i in rows]
 
     def summary(self) -> dict[str, Any]:
-        """A few counts for messages and reports."""
-        return {"dialect": self.dialect.name, "family": self.dialect.family, "lines": self.n_lines,
-                "layers": len(self.layers), "moves": len(self.moves), "blocks": len(self.blocks),
-                "objects": list(self.objects)}
+        """Count layers, moves, blocks and objects (for messages and reports)."""
+        return {
+            "dialect": self.dialect.name,
+            "family": self.dialect.family,
+            "lines": self.n_lines,
+            "layers": len(self.layers),
+            "moves": len(self.moves),
+            "blocks": len(self.blocks),
+            "objects": list(self.objects),
+        }

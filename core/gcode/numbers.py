@@ -67,8 +67,8 @@ def parse_numbers(buf: np.ndarray, starts: Ints, limit: Ints) -> tuple[Floats, I
         raw = buf.tobytes()
         for i in slow:  # numbers longer than the window or with more than 15 digits: rare
             s, lim = int(starts[i]), int(limit[i])
-            j = s + (raw[s:s + 1] in (b"-", b"+"))
-            while j < lim and raw[j:j + 1] in b"0123456789.":
+            j = s + (raw[s : s + 1] in (b"-", b"+"))
+            while j < lim and raw[j : j + 1] in b"0123456789.":
                 j += 1
             try:
                 values[i] = float(raw[s:j])
@@ -80,7 +80,9 @@ def parse_numbers(buf: np.ndarray, starts: Ints, limit: Ints) -> tuple[Floats, I
 
 
 def _parse_chunk(win: np.ndarray, p: Ints, lim: Ints) -> tuple[Floats, Ints]:
-    w = np.ascontiguousarray(win[p].view(np.uint8).reshape(-1, WINDOW).T)  # (WINDOW, k): one row per column of the numbers
+    w = np.ascontiguousarray(
+        win[p].view(np.uint8).reshape(-1, WINDOW).T
+    )  # (WINDOW, k): one row per column of the numbers
     room = np.minimum(lim - p, WINDOW).astype(np.uint8)  # bytes that may belong to the number
     c0 = w[0]
     neg = c0 == 45

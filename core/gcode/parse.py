@@ -42,16 +42,30 @@ def parse_bytes(data: bytes, strict: bool = True) -> Program:
     arc_lines = (cmd == G + 2) | (cmd == G + 3)
     st = machine_state(tok, arc_lines, _volumetric_area(mk.config))
 
-    feature = ffill(n, np.asarray(mk.feature_lines, dtype=np.int64), np.asarray(mk.feature_codes, dtype=np.int16),
-                    np.int16(-1))
-    type_line = ffill(n, np.asarray(mk.feature_lines, dtype=np.int64), np.asarray(mk.feature_lines, dtype=np.int64),
-                      -1)
-    width = ffill(n, np.asarray(mk.width_lines, dtype=np.int64), np.asarray(mk.width_values, dtype=float), np.nan)
-    height_mark = ffill(n, np.asarray(mk.height_lines, dtype=np.int64), np.asarray(mk.height_values, dtype=float),
-                        np.nan)
-    obj = ffill(n, np.asarray(mk.object_lines, dtype=np.int64), np.asarray(mk.object_ids, dtype=np.int16),
-                np.int16(-1))
-    in_wipe = ffill(n, np.asarray(mk.wipe_lines, dtype=np.int64), np.asarray(mk.wipe_values, dtype=bool), False)
+    feature = ffill(
+        n,
+        np.asarray(mk.feature_lines, dtype=np.int64),
+        np.asarray(mk.feature_codes, dtype=np.int16),
+        np.int16(-1),
+    )
+    type_line = ffill(
+        n, np.asarray(mk.feature_lines, dtype=np.int64), np.asarray(mk.feature_lines, dtype=np.int64), -1
+    )
+    width = ffill(
+        n, np.asarray(mk.width_lines, dtype=np.int64), np.asarray(mk.width_values, dtype=float), np.nan
+    )
+    height_mark = ffill(
+        n, np.asarray(mk.height_lines, dtype=np.int64), np.asarray(mk.height_values, dtype=float), np.nan
+    )
+    obj = ffill(
+        n,
+        np.asarray(mk.object_lines, dtype=np.int64),
+        np.asarray(mk.object_ids, dtype=np.int16),
+        np.int16(-1),
+    )
+    in_wipe = ffill(
+        n, np.asarray(mk.wipe_lines, dtype=np.int64), np.asarray(mk.wipe_values, dtype=bool), False
+    )
 
     layer_starts = np.asarray(mk.layer_lines.get(family, []), dtype=np.int64)
     extrusion_lines = np.flatnonzero(st.moved_xy & (st.de > 0))
@@ -64,24 +78,61 @@ def parse_bytes(data: bytes, strict: bool = True) -> Program:
     unset = np.isnan(height_of_line) & (layer_of_line >= 0)
     height_of_line[unset] = height[layer_of_line[unset]]
 
-    moves, cols = _moves(tok, st, arc_lines, feature, width, height_of_line, layer_of_line, obj, in_wipe,
-                         _role_table(mk.features))
+    moves, cols = _moves(
+        tok,
+        st,
+        arc_lines,
+        feature,
+        width,
+        height_of_line,
+        layer_of_line,
+        obj,
+        in_wipe,
+        _role_table(mk.features),
+    )
 
     has_axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
     motion = is_motion(cmd)
     fw_ok = ~tok.other_words
-    kinds = line_kinds(cmd, motion, st.moved_xy, st.de, in_wipe, mk.wipe_lines, mk.barrier_lines,
-                       (cmd == G + 10) & fw_ok, (cmd == G + 11) & fw_ok, has_axes | arc_lines)
+    kinds = line_kinds(
+        cmd,
+        motion,
+        st.moved_xy,
+        st.de,
+        in_wipe,
+        mk.wipe_lines,
+        mk.barrier_lines,
+        (cmd == G + 10) & fw_ok,
+        (cmd == G + 11) & fw_ok,
+        has_axes | arc_lines,
+    )
     blocks = find_blocks(kinds, layer_of_line, feature, obj, type_line)
     _fill_blocks(blocks, cols, _role_table(mk.features))
 
     layers = _layers(layer_starts, print_end, numbers, z, height, moves, blocks, family)
     program = Program(
-        data=data, line_starts=idx.starts, line_ends=idx.ends, dialect=dialect, state=st,
-        feature_of_line=feature, object_of_line=obj, layer_of_line=layer_of_line, width_of_line=width,
-        height_of_line=height_of_line, wipe_of_line=in_wipe, kind_of_line=kinds, moves=moves, blocks=blocks,
-        layers=layers, features=tuple(mk.features), objects=tuple(mk.objects), config=mk.config,
-        header=mk.header, header_widths=mk.header_widths, print_end=print_end)
+        data=data,
+        line_starts=idx.starts,
+        line_ends=idx.ends,
+        dialect=dialect,
+        state=st,
+        feature_of_line=feature,
+        object_of_line=obj,
+        layer_of_line=layer_of_line,
+        width_of_line=width,
+        height_of_line=height_of_line,
+        wipe_of_line=in_wipe,
+        kind_of_line=kinds,
+        moves=moves,
+        blocks=blocks,
+        layers=layers,
+        features=tuple(mk.features),
+        objects=tuple(mk.objects),
+        config=mk.config,
+        header=mk.header,
+        header_widths=mk.header_widths,
+        print_end=print_end,
+    )
     if strict:
         check_structure(program, mk)
     return program
@@ -93,7 +144,8 @@ def _refuse_inches(data: bytes, starts: np.ndarray, tok: Tokens) -> None:
         i = int(g20[0])
         raise UnsupportedFlavorError(
             f"line {i + 1}: G20 switches to inch units; loadpath reads millimetres only: set the slicer "
-            "(or the post-processor that added it) to write millimetres (G21) and export again")
+            "(or the post-processor that added it) to write millimetres (G21) and export again"
+        )
 
 
 def _volumetric_area(config: dict[str, str]) -> float | None:
@@ -111,7 +163,9 @@ def _role_table(features: list[str]) -> np.ndarray:
     return np.array([int(role_of(f)) for f in features] + [0], dtype=np.int8)
 
 
-def _print_end(mk: Markers, family: str, layer_starts: np.ndarray, extrusion_lines: np.ndarray, n: int) -> int:
+def _print_end(
+    mk: Markers, family: str, layer_starts: np.ndarray, extrusion_lines: np.ndarray, n: int
+) -> int:
     """First line after the last layer: end G-code, statistics or trailer."""
     if len(layer_starts) == 0:
         return n
@@ -135,14 +189,18 @@ def _first_in(lines: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np.nd
     return np.where(ok, k, -1)
 
 
-def _layer_geometry(mk: Markers, family: str, starts: np.ndarray, print_end: int, extrusion_lines: np.ndarray,
-                    st: LineState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _layer_geometry(
+    mk: Markers, family: str, starts: np.ndarray, print_end: int, extrusion_lines: np.ndarray, st: LineState
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Print Z, height and slicer number of every layer."""
     m = len(starts)
-    stops = np.append(starts[1:], print_end).astype(np.int64)
+    stops = np.append(starts[1:], print_end).astype(np.int64)[:m]
     first_x = _first_in(extrusion_lines, starts, stops)
-    z_extr = np.where(first_x >= 0, st.z[extrusion_lines[np.maximum(first_x, 0)]] if len(extrusion_lines)
-                      else np.nan, st.z[np.minimum(starts, len(st.z) - 1)] if m else np.nan)
+    z_extr = np.where(
+        first_x >= 0,
+        st.z[extrusion_lines[np.maximum(first_x, 0)]] if len(extrusion_lines) else np.nan,
+        st.z[np.minimum(starts, len(st.z) - 1)] if m else np.nan,
+    )
     z = np.asarray(z_extr, dtype=float).reshape(m)
     zl = np.asarray(mk.z_lines, dtype=np.int64)
     k = _first_in(zl, starts, stops)
@@ -161,9 +219,18 @@ def _layer_geometry(mk: Markers, family: str, starts: np.ndarray, print_end: int
     return z, height, numbers
 
 
-def _moves(tok: Tokens, st: LineState, arc_lines: np.ndarray, feature: np.ndarray, width: np.ndarray,
-           height: np.ndarray, layer: np.ndarray, obj: np.ndarray, in_wipe: np.ndarray,
-           role_table: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def _moves(
+    tok: Tokens,
+    st: LineState,
+    arc_lines: np.ndarray,
+    feature: np.ndarray,
+    width: np.ndarray,
+    height: np.ndarray,
+    layer: np.ndarray,
+    obj: np.ndarray,
+    in_wipe: np.ndarray,
+    role_table: np.ndarray,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """All moves as a MOVE_DTYPE array (arcs sampled into chords), and the same as columns."""
     cmd = tok.cmd
     axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
@@ -171,13 +238,13 @@ def _moves(tok: Tokens, st: LineState, arc_lines: np.ndarray, feature: np.ndarra
     fw_ok = ~tok.other_words
     g10 = (cmd == G + 10) & fw_ok
     g11 = (cmd == G + 11) & fw_ok
+    has_fw = bool(g10.any() or g11.any())
     rows = np.flatnonzero((motion & (axes | arc_lines)) | g10 | g11)
     x1, y1, z1 = st.x[rows], st.y[rows], st.z[rows]
-    before = np.maximum(rows - 1, 0)
-    first = rows == 0
-    x0 = np.where(first, 0.0, st.x[before])
-    y0 = np.where(first, 0.0, st.y[before])
-    z0 = np.where(first, 0.0, st.z[before])
+    before = rows - 1  # the state a move starts from: after the previous line (initial state: 0)
+    x0, y0, z0 = st.x[before], st.y[before], st.z[before]
+    if len(rows) and rows[0] == 0:
+        x0[0] = y0[0] = z0[0] = 0.0
     e = st.de[rows]
     is_arc = arc_lines[rows]
     line = rows
@@ -185,8 +252,16 @@ def _moves(tok: Tokens, st: LineState, arc_lines: np.ndarray, feature: np.ndarra
     if is_arc.any():
         ai = np.flatnonzero(is_arc)
         al = rows[ai]
-        ch = sample_arcs(x0[ai], y0[ai], x1[ai], y1[ai], tok.values["I"][al], tok.values["J"][al],
-                         tok.values["R"][al], cmd[al] == G + 2)
+        ch = sample_arcs(
+            x0[ai],
+            y0[ai],
+            x1[ai],
+            y1[ai],
+            tok.values["I"][al],
+            tok.values["J"][al],
+            tok.values["R"][al],
+            cmd[al] == G + 2,
+        )
         count = np.ones(len(rows), dtype=np.int64)
         count[ai] = np.bincount(ch.arc, minlength=len(ai))
         rep = np.repeat(np.arange(len(rows)), count)
@@ -205,12 +280,30 @@ def _moves(tok: Tokens, st: LineState, arc_lines: np.ndarray, feature: np.ndarra
     not_extr = ~extrude
     fcode = feature[line]
     cols = {
-        "x0": x0, "y0": y0, "z0": z0, "x1": x1, "y1": y1, "z1": z1, "e": e, "f": st.f[line],
-        "width": width[line], "height": height[line], "line": line, "layer": layer[line], "feature": fcode,
-        "role": role_table[fcode], "object": obj[line], "tool": st.tool[line],
-        "travel": moved & (e == 0) & ~wipe, "extrude": extrude, "retract": (~moved & (e < 0)) | g10[line],
-        "unretract": (~moved & (e > 0)) | g11[line], "wipe": wipe, "lift": (z1 > z0) & not_extr,
-        "lower": (z1 < z0) & not_extr, "arc": is_arc,
+        "x0": x0,
+        "y0": y0,
+        "z0": z0,
+        "x1": x1,
+        "y1": y1,
+        "z1": z1,
+        "e": e,
+        "f": st.f[line],
+        "width": width[line],
+        "height": height[line],
+        "line": line,
+        "layer": layer[line],
+        "feature": fcode,
+        "role": role_table[fcode],
+        "object": obj[line],
+        "tool": st.tool[line],
+        "travel": moved & (e == 0) & ~wipe,
+        "extrude": extrude,
+        "retract": (~moved & (e < 0)) | (g10[line] if has_fw else False),
+        "unretract": (~moved & (e > 0)) | (g11[line] if has_fw else False),
+        "wipe": wipe,
+        "lift": (z1 > z0) & not_extr,
+        "lower": (z1 < z0) & not_extr,
+        "arc": is_arc,
     }
     return to_records(cols, MOVE_DTYPE), cols
 
@@ -220,9 +313,9 @@ def to_records(cols: dict[str, np.ndarray], dtype: np.dtype, chunk: int = 4096) 
     n = len(next(iter(cols.values())))
     out = np.zeros(n, dtype=dtype)
     for a in range(0, n, chunk):
-        part = out[a:a + chunk]
+        part = out[a : a + chunk]
         for name, col in cols.items():
-            part[name] = col[a:a + chunk]
+            part[name] = col[a : a + chunk]
     return out
 
 
@@ -240,20 +333,40 @@ def _fill_blocks(blocks: np.ndarray, moves: dict[str, np.ndarray], role_table: n
     blocks["role"] = role_table[blocks["feature"]]
 
 
-def _layers(starts: np.ndarray, print_end: int, numbers: np.ndarray, z: np.ndarray, height: np.ndarray,
-            moves: np.ndarray, blocks: np.ndarray, family: str) -> tuple[Layer, ...]:
+def _layers(
+    starts: np.ndarray,
+    print_end: int,
+    numbers: np.ndarray,
+    z: np.ndarray,
+    height: np.ndarray,
+    moves: np.ndarray,
+    blocks: np.ndarray,
+    family: str,
+) -> tuple[Layer, ...]:
     m = len(starts)
-    stops = np.append(starts[1:], print_end).astype(np.int64)
+    stops = np.append(starts[1:], print_end).astype(np.int64)[:m]
     mline = moves["line"]
     ma = np.searchsorted(mline, starts, "left")
     mb = np.searchsorted(mline, stops, "left")
     bl = blocks["layer"]
     ba = np.searchsorted(bl, np.arange(m), "left")
     bb = np.searchsorted(bl, np.arange(m), "right")
+    cols = zip(
+        numbers.tolist(),
+        z.tolist(),
+        height.tolist(),
+        starts.tolist(),
+        stops.tolist(),
+        ma.tolist(),
+        mb.tolist(),
+        ba.tolist(),
+        bb.tolist(),
+        strict=True,
+    )
     return tuple(
-        Layer(index=i, number=int(numbers[i]), z=float(z[i]), height=float(height[i]), start=int(starts[i]),
-              stop=int(stops[i]), moves=moves[ma[i]:mb[i]], blocks=blocks[ba[i]:bb[i]])
-        for i in range(m))
+        Layer(index=i, number=nu, z=zz, height=hh, start=s, stop=e, moves=moves[a:b], blocks=blocks[c:d])
+        for i, (nu, zz, hh, s, e, a, b, c, d) in enumerate(cols)
+    )
 
 
 _ = BLOCK_DTYPE  # re-exported through loadpath.gcode

@@ -195,6 +195,18 @@ def machine_state(tok: Tokens, arc_lines: Bools, volumetric_area: float | None =
     t_lines = np.flatnonzero((cmd >= T) & (cmd < T + 10_000))
     tool = ffill(n, t_lines, (cmd[t_lines] - T).astype(np.int16), np.int16(0))
 
-    return LineState(cmd=cmd, x=pos["X"], y=pos["Y"], z=pos["Z"], e=e, de=de, f=f, absolute_xyz=absolute,
-                     e_relative=e_rel, moved_xy=moved_xy, fw_retracted=fw_retracted, retracted=retracted,
-                     tool=tool)
+    return LineState(
+        cmd=cmd,
+        x=pos["X"],
+        y=pos["Y"],
+        z=pos["Z"],
+        e=e,
+        de=de,
+        f=f,
+        absolute_xyz=absolute,
+        e_relative=e_rel,
+        moved_xy=moved_xy,
+        fw_retracted=fw_retracted,
+        retracted=retracted,
+        tool=tool,
+    )

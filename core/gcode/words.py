@@ -83,8 +83,21 @@ class Tokens:
 
 def _commands(idx: LineIndex) -> tuple[np.ndarray, Ints]:
     """Command code per line and the offset just after the command token."""
-    buf, f, e = idx.buf, idx.first, idx.ends
-    n = len(e)
+    buf, f_all, e_all = idx.buf, idx.first, idx.ends
+    n = len(e_all)
+    # fast path: the bulk of a slicer's lines start with 'G1 ' or 'G0 ' (first 3 bytes as one integer)
+    head = np.ndarray(shape=(len(buf) - 4,), dtype="<u4", buffer=buf, strides=(1,))[f_all] & np.uint32(
+        0xFFFFFF
+    )
+    g1 = (head == _G1_SP) | (head == _G1_TAB)
+    g0 = (head == _G0_SP) | (head == _G0_TAB)
+    cmd = np.full(n, OTHER, dtype=np.int32)
+    after_all = f_all.copy()
+    cmd[g1], cmd[g0] = G + 1, G + 0
+    after_all[g1 | g0] += 2
+    rest = np.flatnonzero(~(g1 | g0))
+    f, e = f_all[rest], e_all[rest]
+    n = len(rest)
     w = np.ascontiguousarray(sliding_window_view(buf, 7)[f].T)  # (7, n): the first bytes of each line
     room = np.minimum(e - f, 7).astype(np.uint8)
     up = w[0] & np.uint8(0xDF)
@@ -103,12 +116,14 @@ def _commands(idx: LineIndex) -> tuple[np.ndarray, Ints]:
         ndig += alive
     after = f + 1 + ndig
     nxt = np.where(room > 1 + ndig, w[np.minimum(1 + ndig, 6), np.arange(n)], 32)
-    cmd = np.full(n, OTHER, dtype=np.int32)
+    sub_cmd = np.full(n, OTHER, dtype=np.int32)
     ok = (base > 0) & (ndig > 0)
-    cmd[ok] = base[ok] + num[ok]
-    cmd[ok & (nxt == 46)] = SUBCODE
-    cmd[(room == 0) | (w[0] == 59)] = NO_COMMAND
-    return cmd, np.where(ok, after, f)
+    sub_cmd[ok] = base[ok] + num[ok]
+    sub_cmd[ok & (nxt == 46)] = SUBCODE
+    sub_cmd[(room == 0) | (w[0] == 59)] = NO_COMMAND
+    cmd[rest] = sub_cmd
+    after_all[rest] = np.where(ok, after, f)
+    return cmd, after_all
 
 
 def tokenize(idx: LineIndex) -> Tokens:
@@ -148,8 +163,17 @@ def tokenize(idx: LineIndex) -> Tokens:
             part = sel[(rows_len > lo) & (rows_len <= width)]
             lo = width
             if len(part):
-                _words(buf, part, code_start[part], code_end[part], width, values, present,
-                       cmd[part] == G + 28, (idx.starts, idx.ends))
+                _words(
+                    buf,
+                    part,
+                    code_start[part],
+                    code_end[part],
+                    width,
+                    values,
+                    present,
+                    cmd[part] == G + 28,
+                    (idx.starts, idx.ends),
+                )
         long_rows = sel[rows_len > _MAX_ROW]
         if len(long_rows):
             _words_slow(buf, long_rows, code_start, code_end, values, present, other)
@@ -158,12 +182,14 @@ def tokenize(idx: LineIndex) -> Tokens:
             values[c] = np.broadcast_to(np.float64(np.nan), (n,))
     # G10/G11 with words (G10 P1 L2: tool offsets in RepRapFirmware) are not firmware retraction
     for i in np.flatnonzero((cmd == G + 10) | (cmd == G + 11)).tolist():
-        code = buf[code_start[i]:code_end[i]].tobytes().upper()
+        code = buf[code_start[i] : code_end[i]].tobytes().upper()
         other[i] = any(65 <= ch <= 90 for ch in code)
-    return Tokens(cmd=cmd, code_end=code_end, comment=comment, values=values, present=present,
-                  other_words=other)
+    return Tokens(
+        cmd=cmd, code_end=code_end, comment=comment, values=values, present=present, other_words=other
+    )
 
 
+_G1_SP, _G1_TAB, _G0_SP, _G0_TAB = (int.from_bytes(b, "little") for b in (b"G1 ", b"G1\t", b"G0 ", b"G0\t"))
 _ROW16 = np.arange(_MAX_ROW, dtype=np.uint16)[None, :]
 _ENDS_WORD = np.zeros(256, dtype=bool)
 _ENDS_WORD[[32, 9, 42] + list(range(65, 91)) + list(range(97, 123))] = True
@@ -173,8 +199,17 @@ for _i, _c in enumerate(LETTERS):
     _LETTER_CODE[ord(_c.lower())] = _i + 1
 
 
-def _words(buf: np.ndarray, lines: Ints, start: Ints, end: Ints, width: int, values: dict[str, Floats],
-           present: np.ndarray, bare_allowed: np.ndarray, line_bounds: tuple[Ints, Ints]) -> None:
+def _words(
+    buf: np.ndarray,
+    lines: Ints,
+    start: Ints,
+    end: Ints,
+    width: int,
+    values: dict[str, Floats],
+    present: np.ndarray,
+    bare_allowed: np.ndarray,
+    line_bounds: tuple[Ints, Ints],
+) -> None:
     """Words of ``lines`` whose code part (``start:end``) is at most ``width`` bytes.
 
     ``bare_allowed`` (per line of ``lines``): a letter without number is valid (``G28 X Y``).
@@ -183,13 +218,14 @@ def _words(buf: np.ndarray, lines: Ints, start: Ints, end: Ints, width: int, val
     win = np.ndarray(shape=(len(buf) - width,), dtype=f"V{width}", buffer=buf, strides=(1,))
     chunk = max(1, (1 << 22) // width)
     for a in range(0, len(lines), chunk):
-        ln, s, e = lines[a:a + chunk], start[a:a + chunk], end[a:a + chunk]
-        bare_ok = bare_allowed[a:a + chunk]
+        ln, s, e = lines[a : a + chunk], start[a : a + chunk], end[a : a + chunk]
+        bare_ok = bare_allowed[a : a + chunk]
         mat = win[s].view(np.uint8).reshape(len(s), width)  # (rows, width)
         inside = _ROW16[:, :width] < (e - s).astype(np.uint16)[:, None]
         up = mat & np.uint8(0xDF)  # ASCII letters to upper case; digits, '.', '-', ' ' map below 'A'
-        known = (((up - np.uint8(88)) < 3) | ((up - np.uint8(69)) < 2) | ((up - np.uint8(73)) < 2)
-                 | (up == 82)) & inside
+        known = (
+            ((up - np.uint8(88)) < 3) | ((up - np.uint8(69)) < 2) | ((up - np.uint8(73)) < 2) | (up == 82)
+        ) & inside
         flat = np.flatnonzero(known)
         ci, cj = np.divmod(flat, width)  # row, column (row-major: a repeated word's last copy comes last)
         if not len(cj):
@@ -207,8 +243,12 @@ def _words(buf: np.ndarray, lines: Ints, start: Ints, end: Ints, width: int, val
             what = "has no number" if length[i] == 0 else "has a malformed number"
             raise GCodeParseError(
                 f"word {LETTERS[letter[i] - 1]!r} {what}; fix or remove the line (G-code numbers are plain "
-                "decimals such as 12.5 or -.04)", line_no=int(line_no[i]) + 1,
-                text=buf[line_bounds[0][line_no[i]]:line_bounds[1][line_no[i]]].tobytes().decode("utf-8", "replace"))
+                "decimals such as 12.5 or -.04)",
+                line_no=int(line_no[i]) + 1,
+                text=buf[line_bounds[0][line_no[i]] : line_bounds[1][line_no[i]]]
+                .tobytes()
+                .decode("utf-8", "replace"),
+            )
         rows = len(ln)
         grid = np.full((len(LETTERS), rows), np.nan)
         seen = np.zeros((len(LETTERS), rows), dtype=bool)
@@ -224,12 +264,19 @@ def _words(buf: np.ndarray, lines: Ints, start: Ints, end: Ints, width: int, val
         present[ln] |= bits
 
 
-def _words_slow(buf: np.ndarray, lines: Ints, start: Ints, end: Ints, values: dict[str, Floats],
-                present: np.ndarray, other: np.ndarray) -> None:
+def _words_slow(
+    buf: np.ndarray,
+    lines: Ints,
+    start: Ints,
+    end: Ints,
+    values: dict[str, Floats],
+    present: np.ndarray,
+    other: np.ndarray,
+) -> None:
     """Very long code parts (over 256 bytes): one Python pass per line."""
     raw = buf.tobytes()
     for ln in lines:
-        text = raw[start[ln]:end[ln]].decode("ascii", "replace").upper()
+        text = raw[start[ln] : end[ln]].decode("ascii", "replace").upper()
         i = 0
         while i < len(text):
             ch = text[i]
@@ -241,10 +288,11 @@ def _words_slow(buf: np.ndarray, lines: Ints, start: Ints, end: Ints, values: di
                     if ch not in values:
                         values[ch] = np.full(len(present), np.nan)
                     try:
-                        values[ch][ln] = float(text[i + 1:j]) if j > i + 1 else np.nan
+                        values[ch][ln] = float(text[i + 1 : j]) if j > i + 1 else np.nan
                     except ValueError:
-                        raise GCodeParseError(f"word {ch!r} has a malformed number; fix or remove the line",
-                                              line_no=int(ln) + 1) from None
+                        raise GCodeParseError(
+                            f"word {ch!r} has a malformed number; fix or remove the line", line_no=int(ln) + 1
+                        ) from None
                     present[ln] |= np.uint16(BIT[ch])
                 else:
                     other[ln] = True

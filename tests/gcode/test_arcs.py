@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-
 from loadpath import gcode
 from loadpath.tolerances import TOL
 
@@ -20,8 +19,15 @@ def _length(m: np.ndarray) -> float:
     return float(np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"]).sum())
 
 
-@pytest.mark.parametrize("cmd,end,sweep", [("G3", (0, 10), math.pi / 2), ("G2", (0, 10), 3 * math.pi / 2),
-                                           ("G3", (-10, 0), math.pi), ("G2", (0, -10), math.pi / 2)])
+@pytest.mark.parametrize(
+    "cmd,end,sweep",
+    [
+        ("G3", (0, 10), math.pi / 2),
+        ("G2", (0, 10), 3 * math.pi / 2),
+        ("G3", (-10, 0), math.pi),
+        ("G2", (0, -10), math.pi / 2),
+    ],
+)
 def test_quarter_half_and_three_quarter_circles(cmd, end, sweep):
     m = _arc_moves(f"{cmd} X{end[0]} Y{end[1]} I-10 J0 E1\n")
     r = np.hypot(m["x1"], m["y1"])
@@ -36,7 +42,7 @@ def test_quarter_half_and_three_quarter_circles(cmd, end, sweep):
     assert m["e"].sum() == pytest.approx(1.0) and (m["e"] > 0).all()
     np.testing.assert_allclose(np.diff(m["e"]), 0, atol=1e-15)  # E spread along the sweep
     # direction: G3 turns left (counter-clockwise), G2 right
-    cross = (m["x0"] * m["y1"] - m["y0"] * m["x1"])
+    cross = m["x0"] * m["y1"] - m["y0"] * m["x1"]
     assert (np.sign(cross) == (1 if cmd == "G3" else -1)).all()
 
 

@@ -63,7 +63,9 @@ def test_truncated_prusaslicer_file(prusa_ohs):
     cut = text[: len(text) // 2]
     cut = cut[: cut.rindex("\n") + 1]  # cut at a line boundary: only the missing closing line tells
     n = cut.count("\n")
-    with pytest.raises(GCodeParseError, match=rf"^line {n} .*'; prusaslicer_config = end'.*truncated.*export"):
+    with pytest.raises(
+        GCodeParseError, match=rf"^line {n} .*'; prusaslicer_config = end'.*truncated.*export"
+    ):
         gcode.parse(cut)
 
 
@@ -99,10 +101,15 @@ def test_layer_without_perimeters_is_visible_to_the_geometry(prusa_ohs):
     text = prusa_ohs.read_text()
     # drop the perimeters of layer 4 (replace their feature name): the model reports it
     layer = program.layers[4]
-    head, body, tail = text.split("\n")[: layer.start], text.split("\n")[layer.start:layer.stop], \
-        text.split("\n")[layer.stop:]
-    body = [ln.replace(";TYPE:Perimeter", ";TYPE:Gap fill").replace(";TYPE:External perimeter", ";TYPE:Gap fill")
-            for ln in body]
+    head, body, tail = (
+        text.split("\n")[: layer.start],
+        text.split("\n")[layer.start : layer.stop],
+        text.split("\n")[layer.stop :],
+    )
+    body = [
+        ln.replace(";TYPE:Perimeter", ";TYPE:Gap fill").replace(";TYPE:External perimeter", ";TYPE:Gap fill")
+        for ln in body
+    ]
     broken = gcode.parse("\n".join(head + body + tail))
     assert not any(r.is_perimeter for r in broken.layers[4].roles)
     assert any(r.is_perimeter for r in broken.layers[3].roles)

@@ -7,8 +7,12 @@ import pytest
 from loadpath import gcode
 from loadpath.gcode.blocks import BARRIER, EXTRUDE, NEUTRAL, RETRACT, TRAVEL, UNRETRACT, WIPE
 
-CASES = [("prusa", "ohs", "mixed"), ("prusa", "two_objects", "mixed"), ("cura", "ohs", "mixed"),
-         ("cura", "two_objects", "solid")]
+CASES = [
+    ("prusa", "ohs", "mixed"),
+    ("prusa", "two_objects", "mixed"),
+    ("cura", "ohs", "mixed"),
+    ("cura", "two_objects", "solid"),
+]
 
 
 @pytest.fixture(scope="module", params=CASES, ids=["-".join(c) for c in CASES])
@@ -26,8 +30,8 @@ def test_every_layer_extrusion_is_in_exactly_one_block_core(program):
     inside = m["extrude"] & (m["layer"] >= 0)
     assert (owner[inside] >= 0).all()
     # the block's feature, object and layer are those of its moves
-    for i, b in enumerate(program.blocks):
-        ext = m[b["move_start"]:b["move_stop"]]
+    for b in program.blocks:
+        ext = m[b["move_start"] : b["move_stop"]]
         ext = ext[ext["extrude"]]
         assert (ext["feature"] == b["feature"]).all() and (ext["object"] == b["object"]).all()
         assert (ext["layer"] == b["layer"]).all()
@@ -42,28 +46,31 @@ def test_spans_nest_and_do_not_overlap(program):
     assert (b["exit_start"] <= b["exit_stop"]).all() and (b["stop"] <= b["exit_start"]).all()
     kind = program.kind_of_line
     for row in b:
-        core = kind[row["start"]:row["stop"]]
+        core = kind[row["start"] : row["stop"]]
         assert core[-1] == EXTRUDE
         # the opening lines before the first extrusion are neutral (;TYPE:, ;WIDTH:, M204, G1 F)
         first_x = row["start"] + int(np.argmax(core == EXTRUDE))
-        assert set(kind[row["start"]:first_x]) <= {NEUTRAL, TRAVEL, UNRETRACT}
-        entering = kind[row["span_start"]:row["start"]]
+        assert set(kind[row["start"] : first_x]) <= {NEUTRAL, TRAVEL, UNRETRACT}
+        entering = kind[row["span_start"] : row["start"]]
         assert set(entering) <= {TRAVEL, UNRETRACT, NEUTRAL}
         if len(entering):
             assert entering[0] in (TRAVEL, UNRETRACT)  # the span starts with the way in
-        leaving = kind[row["stop"]:row["span_stop"]]
+        leaving = kind[row["stop"] : row["span_stop"]]
         assert set(leaving) <= {WIPE, RETRACT, NEUTRAL}
         if len(leaving):
             assert leaving[-1] in (WIPE, RETRACT)
-        ex = kind[row["exit_start"]:row["exit_stop"]]
+        ex = kind[row["exit_start"] : row["exit_stop"]]
         assert set(ex) <= {WIPE, RETRACT, NEUTRAL}
-        assert BARRIER not in set(kind[row["span_start"]:row["start"]]) | set(leaving)
+        assert BARRIER not in set(kind[row["span_start"] : row["start"]]) | set(leaving)
 
 
 def test_prusa_spans_start_at_the_lift_and_hold_the_type_marker(sliced):
     program = gcode.read(sliced("prusa", "ohs"))
-    infill = [program.block(i) for i in range(len(program.blocks))
-              if program.features[program.blocks[i]["feature"]] == "Internal infill"]
+    infill = [
+        program.block(i)
+        for i in range(len(program.blocks))
+        if program.features[program.blocks[i]["feature"]] == "Internal infill"
+    ]
     assert len(infill) == 6
     for b in infill:
         text = [program.line(i) for i in range(b.span_start, b.start + 4)]
@@ -103,7 +110,11 @@ def test_detached_wipe_of_a_layer_s_last_block_retraces_its_last_path(sliced):
 
 def test_cura_block_starts_after_its_mesh_label(sliced):
     program = gcode.read(sliced("cura", "ohs"))
-    fills = [program.block(i) for i in range(len(program.blocks)) if program.blocks[i]["role"] == gcode.Role.SPARSE_INFILL]
+    fills = [
+        program.block(i)
+        for i in range(len(program.blocks))
+        if program.blocks[i]["role"] == gcode.Role.SPARSE_INFILL
+    ]
     assert len(fills) == 6
     for b in fills:
         assert program.line(b.type_line) == ";TYPE:FILL"

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from loadpath import gcode
 from loadpath.gcode import Role
 
@@ -34,7 +33,11 @@ def _flow_ratio(program, arcs: bool):
     d = float(program.config["filament_diameter"].split(",")[0])
     mult = float(program.config["extrusion_multiplier"].split(",")[0])
     seg = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])
-    area = ((m["width"] - m["height"]) * m["height"] + math.pi * (m["height"] / 2) ** 2) * mult / (math.pi * d * d / 4)
+    area = (
+        ((m["width"] - m["height"]) * m["height"] + math.pi * (m["height"] / 2) ** 2)
+        * mult
+        / (math.pi * d * d / 4)
+    )
     sel = m["extrude"] & (m["layer"] > 0) & (m["arc"] == arcs)
     _, inv = np.unique(m["line"][sel], return_inverse=True)
     length = np.bincount(inv, seg[sel])

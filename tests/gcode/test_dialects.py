@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from loadpath import gcode
 from loadpath.gcode import Role
 
@@ -132,8 +131,18 @@ def test_bambu_markers():
     assert (p.dialect.slicer, p.dialect.family) == ("BambuStudio", "bambu")
     assert [(layer.z, layer.height) for layer in p.layers] == [(0.2, 0.2), (0.4, 0.2)]
     ext = p.moves[p.moves["extrude"]]
-    assert [p.features[f] for f in ext["feature"]] == ["Outer wall", "Outer wall", "Sparse infill", "Inner wall"]
-    assert list(ext["role"]) == [Role.EXTERNAL_PERIMETER, Role.EXTERNAL_PERIMETER, Role.SPARSE_INFILL, Role.PERIMETER]
+    assert [p.features[f] for f in ext["feature"]] == [
+        "Outer wall",
+        "Outer wall",
+        "Sparse infill",
+        "Inner wall",
+    ]
+    assert list(ext["role"]) == [
+        Role.EXTERNAL_PERIMETER,
+        Role.EXTERNAL_PERIMETER,
+        Role.SPARSE_INFILL,
+        Role.PERIMETER,
+    ]
     np.testing.assert_allclose(ext["width"], [0.42, 0.42, 0.45, 0.45])
     assert p.objects == ("label id 77",)
     assert list(ext["object"]) == [0, 0, 0, -1]
@@ -181,13 +190,32 @@ def test_prusa_firmware_labels_with_quoted_names():
     assert p.dialect.version.startswith("2.8.1")
 
 
-@pytest.mark.parametrize("name,role", [("Internal infill", Role.SPARSE_INFILL), ("Sparse infill", Role.SPARSE_INFILL),
-                                       ("FILL", Role.SPARSE_INFILL), ("Solid infill", Role.SOLID_INFILL),
-                                       ("Internal solid infill", Role.SOLID_INFILL), ("SKIN", Role.SKIN),
-                                       ("Top surface", Role.TOP_SOLID_INFILL), ("Bottom surface", Role.BOTTOM_SOLID_INFILL),
-                                       ("Internal perimeter", Role.PERIMETER), ("Overhang wall", Role.OVERHANG_PERIMETER),
-                                       ("Something new", Role.OTHER)])
+@pytest.mark.parametrize(
+    "name,role",
+    [
+        ("Internal infill", Role.SPARSE_INFILL),
+        ("Sparse infill", Role.SPARSE_INFILL),
+        ("FILL", Role.SPARSE_INFILL),
+        ("Solid infill", Role.SOLID_INFILL),
+        ("Internal solid infill", Role.SOLID_INFILL),
+        ("SKIN", Role.SKIN),
+        ("Top surface", Role.TOP_SOLID_INFILL),
+        ("Bottom surface", Role.BOTTOM_SOLID_INFILL),
+        ("Internal perimeter", Role.PERIMETER),
+        ("Overhang wall", Role.OVERHANG_PERIMETER),
+        ("Something new", Role.OTHER),
+    ],
+)
 def test_role_names_of_all_dialects(name, role):
     assert gcode.role_of(name) is role
-    assert role.is_infill == (role in (Role.SPARSE_INFILL, Role.SOLID_INFILL, Role.SKIN, Role.TOP_SOLID_INFILL,
-                                       Role.BOTTOM_SOLID_INFILL, Role.BRIDGE_INFILL))
+    assert role.is_infill == (
+        role
+        in (
+            Role.SPARSE_INFILL,
+            Role.SOLID_INFILL,
+            Role.SKIN,
+            Role.TOP_SOLID_INFILL,
+            Role.BOTTOM_SOLID_INFILL,
+            Role.BRIDGE_INFILL,
+        )
+    )

@@ -14,10 +14,18 @@ from loadpath.gcode import Role
 REPO = Path(__file__).resolve().parents[2]
 DATA = REPO / "tests" / "data"
 COMMITTED = sorted(p for p in DATA.rglob("*.gcode"))
-SLICED = [("prusa", "ohs", "mixed"), ("prusa", "ohs", "solid"), ("prusa", "two_islands", "mixed"),
-          ("prusa", "bracket", "mixed"), ("prusa", "two_objects", "mixed"), ("cura", "ohs", "mixed"),
-          ("cura", "ohs", "solid"), ("cura", "two_islands", "mixed"), ("cura", "bracket", "mixed"),
-          ("cura", "two_objects", "mixed")]
+SLICED = [
+    ("prusa", "ohs", "mixed"),
+    ("prusa", "ohs", "solid"),
+    ("prusa", "two_islands", "mixed"),
+    ("prusa", "bracket", "mixed"),
+    ("prusa", "two_objects", "mixed"),
+    ("cura", "ohs", "mixed"),
+    ("cura", "ohs", "solid"),
+    ("cura", "two_islands", "mixed"),
+    ("cura", "bracket", "mixed"),
+    ("cura", "two_objects", "mixed"),
+]
 
 
 @pytest.mark.parametrize("args", SLICED, ids=["-".join(a) for a in SLICED])
@@ -84,7 +92,9 @@ def test_layer_ranges_tile_the_print(prusa_ohs):
     assert starts[1:] == stops[:-1]
     assert program.line(starts[0]) == ";LAYER_CHANGE"
     assert stops[-1] == program.print_end and program.line(program.print_end) == ";TYPE:Custom"
-    assert (program.layer_of_line[: starts[0]] == -1).all() and (program.layer_of_line[program.print_end:] == -1).all()
+    assert (program.layer_of_line[: starts[0]] == -1).all() and (
+        program.layer_of_line[program.print_end :] == -1
+    ).all()
 
 
 def test_cura_layer_z_is_taken_from_the_z_move_before_the_marker(cura_ohs):
@@ -165,10 +175,14 @@ def test_move_flags_classify_every_move(prusa_ohs):
 
 def test_retraction_state_follows_the_slicer(prusa_ohs):
     program = gcode.read(prusa_ohs)
-    infill = [b for b in (program.block(i) for i in range(len(program.blocks))) if b.feature == "Internal infill"]
+    infill = [
+        b for b in (program.block(i) for i in range(len(program.blocks))) if b.feature == "Internal infill"
+    ]
     assert infill
     for b in infill:
-        assert program.state_before(b.span_start).retracted == pytest.approx(0.8, abs=5e-5)  # wipe .76 (5-decimal pieces) + .04
+        assert program.state_before(b.span_start).retracted == pytest.approx(
+            0.8, abs=5e-5
+        )  # wipe .76 (5-decimal pieces) + .04
         assert program.state_before(b.stop - 1).retracted == 0.0  # reset by the extrusions
         s = program.state_before(b.start)
         assert s.feature is not None and s.e_relative and s.absolute_xyz

@@ -11,7 +11,6 @@ import math
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from loadpath import gcode
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -26,7 +25,9 @@ def _num(value: float, decimals: int, style: str) -> str:
     return text if text not in ("-0", "") else "0"
 
 
-numbers = st.tuples(st.floats(-500, 500, allow_nan=False), st.integers(0, 5), st.sampled_from(["prusa", "cura"]))
+numbers = st.tuples(
+    st.floats(-500, 500, allow_nan=False), st.integers(0, 5), st.sampled_from(["prusa", "cura"])
+)
 
 
 @st.composite
@@ -43,16 +44,38 @@ def motion_line(draw):
     return cmd + " " + sep.join(words)
 
 
-other_lines = st.sampled_from([
-    "", " ", ";LAYER_CHANGE", ";Z:0.2", ";TYPE:Internal infill", ";WIDTH:0.45", "M204 S800", "M73 P12 R3",
-    "M106 S255", "; comment with ünïcödé ✓", "G4 P100", "T0", "M862.3 P \"MK3S\"", "G28 W", "M117 hello;world",
-    "EXCLUDE_OBJECT_START NAME=part_1", "G1 F1200", "   G1 X1 Y2   ; indented", "G1 X3 Y4 E.5 ; trailing comment",
-])
+other_lines = st.sampled_from(
+    [
+        "",
+        " ",
+        ";LAYER_CHANGE",
+        ";Z:0.2",
+        ";TYPE:Internal infill",
+        ";WIDTH:0.45",
+        "M204 S800",
+        "M73 P12 R3",
+        "M106 S255",
+        "; comment with ünïcödé ✓",
+        "G4 P100",
+        "T0",
+        'M862.3 P "MK3S"',
+        "G28 W",
+        "M117 hello;world",
+        "EXCLUDE_OBJECT_START NAME=part_1",
+        "G1 F1200",
+        "   G1 X1 Y2   ; indented",
+        "G1 X3 Y4 E.5 ; trailing comment",
+    ]
+)
 
 
 @SETTINGS
-@given(lines=st.lists(st.one_of(motion_line(), other_lines), min_size=1, max_size=60),
-       ending=st.sampled_from(["\n", "\r\n"]), last_newline=st.booleans(), trailing=st.sampled_from(["", " ", "\t"]))
+@given(
+    lines=st.lists(st.one_of(motion_line(), other_lines), min_size=1, max_size=60),
+    ending=st.sampled_from(["\n", "\r\n"]),
+    last_newline=st.booleans(),
+    trailing=st.sampled_from(["", " ", "\t"]),
+)
 def test_round_trip_on_generated_lines(lines, ending, last_newline, trailing):
     text = ending.join(line + trailing for line in lines) + (ending if last_newline else "")
     if not text.strip():
@@ -102,7 +125,7 @@ def _reference(lines):
             elif cmd == "M83":
                 e_rel_latch = True
             elif cmd == "G92":
-                for c in (words or dict.fromkeys("XYZE", 0.0)):
+                for c in words or dict.fromkeys("XYZE", 0.0):
                     pos[c] = words.get(c, 0.0)
             elif cmd in ("G0", "G1"):
                 for c in "XYZ":

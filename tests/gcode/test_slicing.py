@@ -89,7 +89,9 @@ def test_slicer_errors_are_loud(tmp_path, test_stls):
     require_tool("prusa-slicer")
     with pytest.raises(slicing.SlicerError, match="fill pattern|100%|error"):
         # honeycomb cannot print 100 %: PrusaSlicer refuses (real-tools.md §3.1)
-        slicing.slice_prusa(test_stls("ohs"), tmp_path / "bad.gcode", fill_density="100%", fill_pattern="honeycomb")
+        slicing.slice_prusa(
+            test_stls("ohs"), tmp_path / "bad.gcode", fill_density="100%", fill_pattern="honeycomb"
+        )
     require_tool("CuraEngine")
     with pytest.raises(slicing.SlicerError, match="definition"):
         slicing.slice_cura(test_stls("ohs"), tmp_path / "bad_cura.gcode", definition="no_such_printer")
