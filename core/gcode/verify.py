@@ -167,7 +167,8 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
         k = int(np.argmax(back))
         problems.append(f"output line {k + 1} moves absolute E backwards without retracting: {output.line(k)!r}")
     # 6. dialect, layers, features
-    if (output.dialect.family, output.dialect.slicer) != (original.dialect.family, original.dialect.slicer):
+    slicers = {output.dialect.slicer, original.dialect.slicer} - {"unknown"}  # a .bgcode's text names none
+    if output.dialect.family != original.dialect.family or len(slicers) > 1:
         problems.append(f"dialect changed: {original.dialect} -> {output.dialect}")
     if len(output.layers) != len(original.layers):
         problems.append(f"{len(original.layers)} layers in the original, {len(output.layers)} in the output")

@@ -318,3 +318,27 @@ def test_block_replaced_by_nothing_keeps_the_machine_state(sliced):
                                  int(result.line_map(program.n_lines)[program.block(i).span_stop])])
     assert EXTRUDE not in kinds
     assert kinds <= {TRAVEL, RETRACT, UNRETRACT, WIPE, 0, 6}
+
+
+def test_binary_gcode_is_spliced_and_written_back_as_binary(tmp_path):
+    """A .bgcode file (PrusaSlicer 2.8.1) is read through the same hook, spliced, and re-encoded with the
+    same metadata blocks, thumbnails and compression; its slicer metadata is the program's config."""
+    from loadpath.gcode import bgcode
+
+    src = Path(__file__).resolve().parents[1] / "data" / "bgcode" / "mini_cube_ps2.8.1.bgcode"
+    program, container = gcode.read_container(src)
+    assert container is not None and program.config["filament_diameter"]
+    assert program.dialect.slicer == "PrusaSlicer"
+    solid = [i for i in infill_blocks(program) if program.block(i).role == Role.SOLID_INFILL][:4]
+    fills = rectilinear_fills(program, solid)
+    result, out, check = run_splice(program, fills)
+    assert check.problems == []
+    data = gcode.encode_like(container, result.data)
+    back = bgcode.decode(data)
+    assert [(m.kind, m.items) for m in back.metadata] == [(m.kind, m.items) for m in container.metadata]
+    assert [t.data for t in back.thumbnails] == [t.data for t in container.thumbnails]
+    assert (back.gcode_compression, back.gcode_encoding) == (container.gcode_compression, container.gcode_encoding)
+    reread = gcode.parse(back.gcode_bytes)
+    assert reread.n_lines == out.n_lines
+    assert layer_features(reread) == layer_features(program)
+    assert gcode.encode_like(None, result.data) == result.data
