@@ -226,13 +226,15 @@ def trace(
         # the first step of each branch may turn only half as much: the two branches meet at the
         # seed, where the path turns by the sum of both first turns
         first = travelled[active] == 0.0
-        turn_ok = np.sum(k * v, axis=1) >= np.where(first, cos_half, cos_turn)
+        lim = np.where(first, cos_half, cos_turn)
+        # both RK2 stages must agree with the previous step: across a jump of the followed stress
+        # the midpoint can land back on the near side and hide the 90-degree turn at x
+        turn_ok = (np.sum(k * v, axis=1) >= lim) & (np.sum(k1 * v, axis=1) >= lim)
         go = ok & turn_ok
         stop_reason = np.where(ok, END_TURN, END_DEGENERATE)
         new = x + h * k
         if settings.method == "rk2":
             # a branch that runs into an undefined zone ends on its edge, as it ends on the boundary
-            lim = np.where(first, cos_half, cos_turn)
             edge = np.flatnonzero(ok1 & ~ok2 & (np.sum(k1 * v, axis=1) >= lim))
             if len(edge):
                 t_edge = _defined_fraction(grid, x[edge], h * k1[edge])
