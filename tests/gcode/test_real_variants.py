@@ -1,0 +1,75 @@
+"""The same part sliced with different E modes and retraction settings by the real slicers: the
+model must give the same extrusions, whatever the file's conventions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loadpath import gcode
+from loadpath.gcode.blocks import RETRACT, UNRETRACT
+
+
+def _extrusions(program):
+    """Extrusions of the layers (the start G-code's intro line is custom G-code, written as is)."""
+    m = program.moves
+    return m[m["extrude"] & (m["layer"] >= 0)]
+
+
+def test_prusa_absolute_e_gives_the_same_extrusions(sliced):
+    rel = gcode.read(sliced("prusa", "ohs"))
+    # the MK3S profile resets E every layer ('G92 E0.0' in before_layer_gcode); PrusaSlicer refuses that
+    # with absolute E, so the layer G-code keeps only its comment
+    layer_gcode = ";BEFORE_LAYER_CHANGE"
+    ab = gcode.read(sliced("prusa", "ohs", use_relative_e_distances=0, before_layer_gcode=layer_gcode))
+    assert "M82" in ab.text and not ab.state.e_relative[ab.layers[0].start]
+    a, b = _extrusions(rel), _extrusions(ab)
+    assert len(a) == len(b)
+    np.testing.assert_allclose(b["e"], a["e"], atol=2e-5)  # 5-decimal rounding of absolute values
+    np.testing.assert_array_equal(b["x1"], a["x1"])
+
+
+def test_prusa_volumetric_e_is_turned_into_filament_length(sliced):
+    mm = gcode.read(sliced("prusa", "ohs"))
+    vol = gcode.read(sliced("prusa", "ohs", use_volumetric_e=1))
+    assert vol.config["use_volumetric_e"] == "1"
+    a, b = _extrusions(mm), _extrusions(vol)
+    assert len(a) == len(b)
+    # E is written with 5 decimals in mm^3 (2.405 mm^2 of filament): about 4e-6 mm of filament
+    np.testing.assert_allclose(b["e"], a["e"], atol=2e-5)
+
+
+def test_prusa_firmware_retraction(sliced):
+    # PrusaSlicer refuses to wipe with firmware retraction
+    program = gcode.read(sliced("prusa", "ohs", use_firmware_retraction=1, wipe=0))
+    g10 = sum(1 for i in range(program.n_lines) if program.line(i).startswith("G10"))
+    g11 = sum(1 for i in range(program.n_lines) if program.line(i).startswith("G11"))
+    m = program.moves
+    assert g10 > 20 and m["retract"].sum() == g10 and m["unretract"].sum() == g11
+    assert not (m["e"][m["retract"]] != 0).any()  # the firmware retracts, the file moves no E
+    kinds = program.kind_of_line
+    for b in program.blocks:
+        leaving = set(kinds[b["stop"] : b["span_stop"]])
+        entering = set(kinds[b["span_start"] : b["start"]])
+        assert leaving <= {RETRACT, 0, 2} and entering <= {UNRETRACT, 0, 5}
+    # inside a block the machine is not retracted
+    for b in program.blocks[program.blocks["layer"] > 0]:
+        assert not program.state_before(int(b["stop"]) - 1).fw_retracted
+
+
+def test_cura_relative_extrusion_gives_the_same_extrusions(sliced):
+    ab = gcode.read(sliced("cura", "ohs"))
+    rel = gcode.read(sliced("cura", "ohs", relative_extrusion="true"))
+    assert rel.state.e_relative[rel.layers[0].start] and not ab.state.e_relative[ab.layers[0].start]
+    a, b = _extrusions(ab), _extrusions(rel)
+    assert len(a) == len(b)
+    np.testing.assert_allclose(b["e"], a["e"], atol=2e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("slicer", ["prusa", "cura"])
+def test_tower_round_trip_and_layers(sliced, slicer):
+    path = sliced(slicer, "tower")
+    program = gcode.read(path)
+    assert program.to_bytes() == path.read_bytes()
+    assert len(program.layers) == 120
+    np.testing.assert_allclose([layer.z for layer in program.layers], 0.2 * np.arange(1, 121), atol=1e-9)
