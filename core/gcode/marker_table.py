@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from loadpath._typing import Ints
 from loadpath.gcode.numbers import parse_numbers
-from numpy.lib.stride_tricks import sliding_window_view
 
 __all__ = ["MarkerTable", "match_markers", "PREFIXES"]
 
@@ -48,7 +47,6 @@ PREFIXES: tuple[tuple[bytes, str, bool], ...] = (
 
 _NUMERIC = ("z", "height", "width", "layer_cura")
 _NAMED = {"feature": 48, "object_start": 128, "mesh": 128}  # kind -> longest name read here
-_PREFIX_WINDOW = 24
 
 
 @dataclass
@@ -83,32 +81,34 @@ def match_markers(buf: np.ndarray, first: Ints, ends: Ints, lines: Ints) -> Mark
     k = len(lines)
     s, e = first[lines], ends[lines]
     clen = e - s
-    head = sliding_window_view(buf, _PREFIX_WINDOW)[s]  # (k, 24)
     kind_of = np.full(k, -1, dtype=np.int64)
+    heads: dict[int, np.ndarray] = {}  # the first n bytes of every line as one V<n> item, per length n
     for code, (prefix, _kind, whole) in enumerate(PREFIXES):
         n = len(prefix)
-        m = (head[:, :n] == np.frombuffer(prefix, np.uint8)).all(axis=1) & (clen >= n) & (kind_of < 0)
+        if n not in heads:
+            heads[n] = np.ndarray(shape=(len(buf) - n,), dtype=f"V{n}", buffer=buf, strides=(1,))[s]
+        m = (heads[n] == np.frombuffer(prefix, dtype=f"V{n}")[0]) & (clen >= n)
         if whole:
-            after = head[:, min(n, _PREFIX_WINDOW - 1)]
+            after = buf[np.minimum(s + n, len(buf) - 1)]
             m &= (clen == n) | (after == 32) | (after == 9)
-        kind_of[m] = code
+        kind_of[m & (kind_of < 0)] = code
     handled = kind_of >= 0
-    kinds = sorted({kind for _, kind, _ in PREFIXES})
-    for kind in kinds:
-        codes = [c for c, (_, kk, _) in enumerate(PREFIXES) if kk == kind]
-        sel = np.flatnonzero(np.isin(kind_of, codes))
-        plen = (
-            np.array([len(PREFIXES[c][0]) for c in range(len(PREFIXES))])[kind_of[sel]] if len(sel) else sel
-        )
-        if kind in _NUMERIC and len(sel):
-            start = s[sel] + plen
-            for _ in range(2):  # '; Z_HEIGHT: 0.2' puts a blank after the colon
-                start = start + ((buf[start] == 32) & (start < e[sel]))
-            val, length = parse_numbers(buf, start, e[sel])
-            ok = length > 0
-            handled[sel[~ok]] = False
-            sel, val = sel[ok], val[ok]
-            out.values[kind] = val
+    plen_of = np.array([len(p) for p, _, _ in PREFIXES] + [0])[kind_of]
+    kind_name = np.array([kind for _, kind, _ in PREFIXES] + [""])[kind_of]
+    # numbers of all numeric markers in one call
+    num_sel = np.flatnonzero(handled & np.isin(kind_name, _NUMERIC))
+    start = s[num_sel] + plen_of[num_sel]
+    for _ in range(2):  # '; Z_HEIGHT: 0.2' puts a blank after the colon
+        start = start + ((buf[start] == 32) & (start < e[num_sel]))
+    num_val, num_len = parse_numbers(buf, start, e[num_sel])
+    handled[num_sel[num_len <= 0]] = False
+    value_of = np.zeros(k)
+    value_of[num_sel] = num_val
+    for kind in sorted({kind for _, kind, _ in PREFIXES}):
+        sel = np.flatnonzero(handled & (kind_name == kind))
+        plen = plen_of[sel]
+        if kind in _NUMERIC:
+            out.values[kind] = value_of[sel]
         elif kind in _NAMED and len(sel):
             start = s[sel] + plen
             for _ in range(2):

@@ -149,9 +149,28 @@ def read_markers(data: bytes, idx: LineIndex, tok: Tokens) -> Markers:
     first_layer = min((int(a[0]) for a in layer_marks if len(a)), default=len(ends))
     label_cmds = np.flatnonzero((tok.cmd == M + 486) | (tok.cmd == OTHER))
     lines = np.union1d(np.setdiff1d(cand, table.handled, assume_unique=True), label_cmds)
+    lines = _skip_thumbnail_rows(idx, lines)
     _python_pass(data, starts, ends, lines, mk, first_layer)
     _merge(mk, table)
     return mk
+
+
+def _skip_thumbnail_rows(idx: LineIndex, lines: Ints) -> Ints:
+    """Drop the base64 rows between '; thumbnail... begin' and '; thumbnail... end' (kept: the two markers)."""
+    if len(lines) == 0:
+        return lines
+    head = np.ndarray(shape=(len(idx.buf) - 11,), dtype="V11", buffer=idx.buf, strides=(1,))[idx.first[lines]]
+    marks = np.flatnonzero(head == np.frombuffer(b"; thumbnail", dtype="V11")[0])
+    if len(marks) == 0:
+        return lines
+    # markers alternate begin / end; rows lie between a begin and the next end (an unpaired last
+    # begin, in a truncated file, keeps its rows: the truncation check needs only the markers)
+    begins, ends = marks[0::2], marks[1::2]
+    begins = begins[: len(ends)]
+    inside = np.zeros(len(lines) + 1, dtype=np.int32)
+    np.add.at(inside, begins + 1, 1)
+    np.add.at(inside, ends, -1)
+    return lines[np.cumsum(inside[:-1]) <= 0]
 
 
 def _python_pass(data: bytes, starts: Ints, ends: Ints, lines: Ints, mk: Markers, first_layer: int) -> None:
