@@ -112,8 +112,8 @@ def _decode_binary(data: bytes, source: str):
         return bgcode.decode(data)
     except (GCodeParseError, UnsupportedFlavorError) as exc:
         raise UnsupportedFlavorError(
-            f"{source} is binary G-code (.bgcode, starts with 'GCDE') that cannot be decoded ({exc}); export it "
-            "again, or turn binary G-code off in PrusaSlicer (Printer Settings > General > Firmware > "
+            f"{source} is binary G-code (.bgcode, starts with 'GCDE') that cannot be decoded ({exc}); export "
+            "it again, or turn binary G-code off in PrusaSlicer (Printer Settings > General > Firmware > "
             "'Supports binary G-code')") from exc
 
 
@@ -143,15 +143,18 @@ def read_container(path: str | os.PathLike, *, strict: bool = True):
 
 
 def _block_type(name: str):
-    """A :class:`loadpath.gcode.bgcode.BlockType` by name (imported on use)."""
+    """Look up a :class:`loadpath.gcode.bgcode.BlockType` by name (imported on use)."""
     from loadpath.gcode import bgcode
 
     return bgcode.BlockType[name]
 
 
 def encode_like(container, text: bytes) -> bytes:
-    """New G-code text in the format it was read from: unchanged for text files (``container`` None),
-    binary G-code with the container's metadata, thumbnails and compression otherwise."""
+    """Write new G-code text in the format it was read from.
+
+    Unchanged for text files (``container`` None); binary G-code with the container's metadata,
+    thumbnails and compression otherwise.
+    """
     if container is None:
         return text
     from loadpath.gcode import bgcode
