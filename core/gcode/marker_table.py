@@ -12,12 +12,16 @@ not settle (object labels, config blocks, headers, unusual spellings) go to the 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from loadpath._typing import Ints
 from loadpath.gcode.numbers import parse_numbers
 
-__all__ = ["MarkerTable", "match_markers", "PREFIXES"]
+if TYPE_CHECKING:  # markers.py imports this module
+    from loadpath.gcode.markers import Markers
+
+__all__ = ["MarkerTable", "match_markers", "merge_into", "PREFIXES"]
 
 PREFIXES: tuple[tuple[bytes, str, bool], ...] = (
     # (prefix, kind, whole line)
@@ -139,3 +143,84 @@ def _names(buf: np.ndarray, start: Ints, room: Ints, width: int) -> tuple[list[s
     canon: dict[str, int] = {}  # two spellings that differ only in trailing blanks are one name
     remap = np.array([canon.setdefault(nm, len(canon)) for nm in names], dtype=np.int64)
     return list(canon), remap[rank[inverse.ravel()]]
+
+
+def _sorted(lines_a, values_a, lines_b, values_b) -> tuple[np.ndarray, np.ndarray]:
+    lines = np.concatenate([np.asarray(lines_a, dtype=np.int64), np.asarray(lines_b, dtype=np.int64)])
+    values = np.concatenate([np.asarray(values_a), np.asarray(values_b)]) if values_a is not None else None
+    order = np.argsort(lines, kind="stable")
+    return lines[order], (values[order] if values is not None else None)
+
+
+def merge_into(mk: Markers, t: MarkerTable) -> None:
+    """Fold the vectorized table into the Python pass's lists (as sorted arrays)."""
+    empty = np.zeros(0, dtype=np.int64)
+
+    def lines(kind: str) -> np.ndarray:
+        return t.lines.get(kind, empty)
+
+    def values(kind: str) -> np.ndarray:
+        return t.values.get(kind, np.zeros(0))
+
+    mk.z_lines, mk.z_values = _sorted(lines("z"), values("z"), mk.z_lines, np.asarray(mk.z_values, float))
+    mk.height_lines, mk.height_values = _sorted(
+        lines("height"), values("height"), mk.height_lines, np.asarray(mk.height_values, float)
+    )
+    mk.width_lines, mk.width_values = _sorted(
+        lines("width"), values("width"), mk.width_lines, np.asarray(mk.width_values, float)
+    )
+    mk.feature_lines, mk.feature_codes = _sorted(
+        lines("feature"),
+        t.codes.get("feature", empty),
+        mk.feature_lines,
+        np.asarray(mk.feature_codes, dtype=np.int64),
+    )
+    # object labels: '; printing object <label>' / '; stop printing object' / Cura ';MESH:<name>'
+    ol, oc = [lines("object_stop")], [np.full(len(lines("object_stop")), -1, dtype=np.int64)]
+    for kind in ("object_start", "mesh"):
+        names = t.names.get(kind, [])
+        codes = np.array(
+            [-1 if (kind == "mesh" and nm == "NONMESH") else mk.object_code(nm) for nm in names],
+            dtype=np.int64,
+        )
+        ol.append(lines(kind))
+        oc.append(codes[t.codes[kind]] if len(names) else empty)
+    mk.object_lines, mk.object_ids = _sorted(
+        np.concatenate(ol), np.concatenate(oc), mk.object_lines, np.asarray(mk.object_ids, dtype=np.int64)
+    )
+    wl = np.concatenate([lines("wipe_start"), lines("wipe_end")])
+    wv = np.concatenate([np.ones(len(lines("wipe_start")), bool), np.zeros(len(lines("wipe_end")), bool)])
+    mk.wipe_lines, mk.wipe_values = _sorted(wl, wv, mk.wipe_lines, np.asarray(mk.wipe_values, dtype=bool))
+    for fam in ("prusa", "bambu"):
+        mk.layer_lines[fam] = np.union1d(
+            lines("layer_" + fam), np.asarray(mk.layer_lines[fam], dtype=np.int64)
+        )
+    cura, numbers = _sorted(
+        lines("layer_cura"),
+        values("layer_cura").astype(np.int64),
+        mk.layer_lines["cura"],
+        np.asarray(mk.cura_layer_numbers, dtype=np.int64),
+    )
+    mk.layer_lines["cura"], mk.cura_layer_numbers = cura, numbers
+    mk.time_elapsed_lines = np.union1d(
+        lines("time_elapsed"), np.asarray(mk.time_elapsed_lines, dtype=np.int64)
+    )
+    custom = [i for i, name in enumerate(mk.features) if name == "Custom"]
+    mk.custom_lines = np.union1d(
+        mk.feature_lines[np.isin(mk.feature_codes, custom)], np.asarray(mk.custom_lines, dtype=np.int64)
+    )
+    barrier = [
+        lines(k)
+        for k in (
+            "layer_prusa",
+            "layer_bambu",
+            "layer_cura",
+            "z",
+            "time_elapsed",
+            "barrier",
+            "object_start",
+            "object_stop",
+            "mesh",
+        )
+    ]
+    mk.barrier_lines = np.unique(np.concatenate(barrier + [np.asarray(mk.barrier_lines, dtype=np.int64)]))

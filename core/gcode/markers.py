@@ -7,17 +7,17 @@ commands (``M486``, ``EXCLUDE_OBJECT_*``).  Facts: ``../shared/docs/slicer-conve
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import dataclass, field
 
 import numpy as np
 from loadpath._typing import Ints
+from loadpath.gcode.config import parse_config_lines, parse_cura_settings
 from loadpath.gcode.lines import LineIndex
-from loadpath.gcode.marker_table import MarkerTable, match_markers
+from loadpath.gcode.marker_table import match_markers, merge_into
 from loadpath.gcode.words import NO_COMMAND, OTHER, M, Tokens
 
-__all__ = ["Markers", "read_markers", "resolve_m486", "parse_config_lines", "parse_cura_settings"]
+__all__ = ["Markers", "read_markers", "resolve_m486"]
 
 
 @dataclass
@@ -151,12 +151,12 @@ def read_markers(data: bytes, idx: LineIndex, tok: Tokens) -> Markers:
     lines = np.union1d(np.setdiff1d(cand, table.handled, assume_unique=True), label_cmds)
     lines = _skip_thumbnail_rows(idx, lines)
     _python_pass(data, starts, ends, lines, mk, first_layer)
-    _merge(mk, table)
+    merge_into(mk, table)
     return mk
 
 
 def _skip_thumbnail_rows(idx: LineIndex, lines: Ints) -> Ints:
-    """Drop the base64 rows between '; thumbnail... begin' and '; thumbnail... end' (kept: the two markers)."""
+    """Drop the base64 rows between '; thumbnail... begin' and '; thumbnail... end' (not the markers)."""
     if len(lines) == 0:
         return lines
     head = np.ndarray(shape=(len(idx.buf) - 11,), dtype="V11", buffer=idx.buf, strides=(1,))[idx.first[lines]]
@@ -315,87 +315,6 @@ def _python_pass(data: bytes, starts: Ints, ends: Ints, lines: Ints, mk: Markers
         mk.config.update(parse_cura_settings(b"".join(cura_settings)))
 
 
-def _sorted(lines_a, values_a, lines_b, values_b) -> tuple[np.ndarray, np.ndarray]:
-    lines = np.concatenate([np.asarray(lines_a, dtype=np.int64), np.asarray(lines_b, dtype=np.int64)])
-    values = np.concatenate([np.asarray(values_a), np.asarray(values_b)]) if values_a is not None else None
-    order = np.argsort(lines, kind="stable")
-    return lines[order], (values[order] if values is not None else None)
-
-
-def _merge(mk: Markers, t: MarkerTable) -> None:
-    """Fold the vectorized table into the Python pass's lists (as sorted arrays)."""
-    empty = np.zeros(0, dtype=np.int64)
-
-    def lines(kind: str) -> np.ndarray:
-        return t.lines.get(kind, empty)
-
-    def values(kind: str) -> np.ndarray:
-        return t.values.get(kind, np.zeros(0))
-
-    mk.z_lines, mk.z_values = _sorted(lines("z"), values("z"), mk.z_lines, np.asarray(mk.z_values, float))
-    mk.height_lines, mk.height_values = _sorted(
-        lines("height"), values("height"), mk.height_lines, np.asarray(mk.height_values, float)
-    )
-    mk.width_lines, mk.width_values = _sorted(
-        lines("width"), values("width"), mk.width_lines, np.asarray(mk.width_values, float)
-    )
-    mk.feature_lines, mk.feature_codes = _sorted(
-        lines("feature"),
-        t.codes.get("feature", empty),
-        mk.feature_lines,
-        np.asarray(mk.feature_codes, dtype=np.int64),
-    )
-    # object labels: '; printing object <label>' / '; stop printing object' / Cura ';MESH:<name>'
-    ol, oc = [lines("object_stop")], [np.full(len(lines("object_stop")), -1, dtype=np.int64)]
-    for kind in ("object_start", "mesh"):
-        names = t.names.get(kind, [])
-        codes = np.array(
-            [-1 if (kind == "mesh" and nm == "NONMESH") else mk.object_code(nm) for nm in names],
-            dtype=np.int64,
-        )
-        ol.append(lines(kind))
-        oc.append(codes[t.codes[kind]] if len(names) else empty)
-    mk.object_lines, mk.object_ids = _sorted(
-        np.concatenate(ol), np.concatenate(oc), mk.object_lines, np.asarray(mk.object_ids, dtype=np.int64)
-    )
-    wl = np.concatenate([lines("wipe_start"), lines("wipe_end")])
-    wv = np.concatenate([np.ones(len(lines("wipe_start")), bool), np.zeros(len(lines("wipe_end")), bool)])
-    mk.wipe_lines, mk.wipe_values = _sorted(wl, wv, mk.wipe_lines, np.asarray(mk.wipe_values, dtype=bool))
-    for fam in ("prusa", "bambu"):
-        mk.layer_lines[fam] = np.union1d(
-            lines("layer_" + fam), np.asarray(mk.layer_lines[fam], dtype=np.int64)
-        )
-    cura, numbers = _sorted(
-        lines("layer_cura"),
-        values("layer_cura").astype(np.int64),
-        mk.layer_lines["cura"],
-        np.asarray(mk.cura_layer_numbers, dtype=np.int64),
-    )
-    mk.layer_lines["cura"], mk.cura_layer_numbers = cura, numbers
-    mk.time_elapsed_lines = np.union1d(
-        lines("time_elapsed"), np.asarray(mk.time_elapsed_lines, dtype=np.int64)
-    )
-    custom = [i for i, name in enumerate(mk.features) if name == "Custom"]
-    mk.custom_lines = np.union1d(
-        mk.feature_lines[np.isin(mk.feature_codes, custom)], np.asarray(mk.custom_lines, dtype=np.int64)
-    )
-    barrier = [
-        lines(k)
-        for k in (
-            "layer_prusa",
-            "layer_bambu",
-            "layer_cura",
-            "z",
-            "time_elapsed",
-            "barrier",
-            "object_start",
-            "object_stop",
-            "mesh",
-        )
-    ]
-    mk.barrier_lines = np.unique(np.concatenate(barrier + [np.asarray(mk.barrier_lines, dtype=np.int64)]))
-
-
 def _num(pattern: re.Pattern[bytes], raw: bytes, i: int, lines: list[int], values: list[float]) -> None:
     m = pattern.match(raw)
     if m:
@@ -456,47 +375,3 @@ def _header(raw: bytes, mk: Markers) -> None:
     m = _RE_GENERATED.match(raw)
     if m:
         mk.header["generated by"] = m.group(1).decode("utf-8", "replace")
-
-
-def parse_config_lines(lines: list[bytes]) -> dict[str, str]:
-    """``; key = value`` lines of a PrusaSlicer / Orca config block -> dict (values verbatim)."""
-    out: dict[str, str] = {}
-    for raw in lines:
-        text = raw.decode("utf-8", "replace").lstrip(";").strip()
-        if " = " in text:
-            key, value = text.split(" = ", 1)
-            out[key.strip()] = value
-        elif text.endswith(" ="):
-            out[text[:-2].strip()] = ""
-    return out
-
-
-_CURA_ESCAPE = re.compile(r"\\\\|\\n|\\r")
-_CURA_UNESCAPE = {"\\\\": "\\", "\\n": "\n", "\\r": "\r"}
-
-
-def parse_cura_settings(blob: bytes) -> dict[str, str]:
-    r"""Read the ``;SETTING_3`` block Cura's GUI appends: global values, then extruder 0's on top.
-
-    The block is JSON ``{"global_quality": "<ini>", "extruder_quality": ["<ini>", ...]}`` with
-    ``\``, newline and carriage return escaped once more (``GCodeWriter.escape_characters``), cut
-    into 80-byte ``;SETTING_3`` lines; each ini has a ``[values]`` section
-    (``Ultimaker/Cura: plugins/GCodeWriter/GCodeWriter.py``).
-    """
-    unescaped = _CURA_ESCAPE.sub(lambda m: _CURA_UNESCAPE[m.group(0)], blob.decode("utf-8", "replace"))
-    try:
-        doc = json.loads(unescaped)
-    except ValueError:
-        return {}
-    out: dict[str, str] = {}
-    inis = [doc.get("global_quality", "")] + list(doc.get("extruder_quality", [])[:1])
-    for ini in inis:
-        section = None
-        for line in str(ini).splitlines():
-            line = line.strip()
-            if line.startswith("[") and line.endswith("]"):
-                section = line[1:-1]
-            elif section == "values" and "=" in line:
-                key, value = line.split("=", 1)
-                out[key.strip()] = value.strip()
-    return out
