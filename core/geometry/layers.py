@@ -184,11 +184,17 @@ def _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program) -> tuple[Is
             blocks.append(InfillBlock(
                 block_index=int(b), feature=program.features[feat] if feat >= 0 else "", role=role,
                 kind="", region=reg, footprint=fp, flow_width=fw,
-                bead_width=float(np.median(bead_all[r])), height=float(np.median(m["height"][r])),
+                bead_width=_bead_width(m["width"][r], fw), height=float(np.median(m["height"][r])),
                 pitch=bl.pitch, angle=est.angle, density=density, length=length,
                 share=min(1.0, length / total) if total > 0 else 1.0, outside=outside_distance(bl, reg)))
         out.append(Island(k, poly, domain, tuple(blocks)))
     return tuple(out)
+
+
+def _bead_width(widths: np.ndarray, flow_width: float) -> float:
+    """Return the slicer's nominal width of a block (median ``;WIDTH:``), its flow width when it has none."""
+    ok = np.isfinite(widths) & (widths > 0)
+    return float(np.median(widths[ok])) if ok.any() else flow_width
 
 
 def _len(m, r):

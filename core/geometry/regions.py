@@ -10,9 +10,11 @@ Footprints, in two passes:
 
 1. Dense blocks (pitch at most :data:`DENSE_PITCH` flow widths): ``closing(beads, r) & domain`` with
    ``r = 0.55 * pitch``.  Their edges are accurate to a fraction of a bead.
-2. Sparse blocks: their last line can stand up to a pitch away from the wall it runs along, so the
-   closing also takes in the walls: ``closing(beads | walls, r) & domain``, minus the dense
-   footprints of the other blocks (which the closing may have swallowed).
+2. Sparse blocks cannot be closed that way: where their lines meet a boundary at a slant, the line
+   ends stand ``pitch / sin(angle)`` apart along it.  A single sparse block takes what the dense
+   blocks leave of the domain.  Several sparse blocks in one island (rare) are each closed over their
+   own pitch, walls included (their last line can stand up to a pitch away from a wall):
+   ``closing(beads | walls, r) & domain``, minus the dense footprints.
 
 Every block is then checked: its centre lines must lie inside its region within
 ``TOL.region_check_rel`` flow widths (slicers run infill a little into the innermost perimeter).
@@ -97,15 +99,19 @@ def footprints(blocks: list[BlockLines], domain: Region, walls: Region) -> list[
             r = _CLOSE * max(b.pitch, b.flow_width)
             closed = as_region(shapely.buffer(b.beads(grow=r), -r, quad_segs=4))
             out[i] = as_region(shapely.intersection(closed, domain))
-    for i, b in enumerate(blocks):
-        if b.dense:
-            continue
+    dense = [out[j] for j, b in enumerate(blocks) if b.dense and not out[j].is_empty]
+    sparse = [i for i, b in enumerate(blocks) if not b.dense]
+    if len(sparse) == 1:
+        rest = shapely.difference(domain, shapely.union_all(dense)) if dense else domain
+        out[sparse[0]] = clean(rest)
+        return out
+    for i in sparse:
+        b = blocks[i]
         r = _CLOSE * b.pitch
         grown = shapely.union(b.beads(grow=r), shapely.buffer(walls, r, quad_segs=4))
         fp = shapely.intersection(as_region(shapely.buffer(grown, -r, quad_segs=4)), domain)
-        others = [out[j] for j, o in enumerate(blocks) if j != i and o.dense and not out[j].is_empty]
-        if others:
-            fp = shapely.difference(fp, shapely.union_all(others))
+        if dense:
+            fp = shapely.difference(fp, shapely.union_all(dense))
         out[i] = as_region(fp)
     return out
 
