@@ -14,7 +14,8 @@ Third-party failures (gmsh, OSQP, file I/O) are wrapped at the boundary into one
     ├── MeshingError           (wraps gmsh)
     ├── SolverError            (wraps OSQP status, FEA residual)
     ├── SettingsError          (bad option values)
-    └── ToolMissingError       (an external program is not installed)
+    ├── ToolMissingError       (an external program is not installed)
+    └── SpliceError            (the spliced G-code failed its check; nothing was written)
     LoadpathWarning
 """
 
@@ -30,6 +31,7 @@ __all__ = [
     "SolverError",
     "SettingsError",
     "ToolMissingError",
+    "SpliceError",
     "LoadpathWarning",
 ]
 
@@ -98,6 +100,11 @@ class SettingsError(LoadpathError):
 
 class ToolMissingError(LoadpathError):
     """An external program loadpath needs is not installed."""
+
+
+class SpliceError(LoadpathError):
+    """The spliced G-code failed the check that runs before writing (a bug to report; the input is
+    left untouched)."""
 
 
 class LoadpathWarning(UserWarning):

@@ -19,7 +19,7 @@ from loadpath.fea.assembly import element_stiffness, stiffness
 from loadpath.fea.boundary import Facets, check_rigid, facets_of, load_vector, pick, support_dofs
 from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice, slice_tets
 from loadpath.fea.material import elasticity_matrix, isotropic_3d, plane_stress, rotate_plane_stress
-from loadpath.fea.solve import FEAResult, Problem, solve
+from loadpath.fea.solver import FEAResult, Problem, solve
 from loadpath.fea.stress import cell_stress, nodal_stress, principal_3d, von_mises
 
 __all__ = [

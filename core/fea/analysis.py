@@ -21,7 +21,7 @@ from loadpath.errors import LoadCaseError
 from loadpath.fea.boundary import Facets, check_rigid, facets_of, load_vector, pick, support_dofs
 from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice
 from loadpath.fea.material import elasticity_matrix
-from loadpath.fea.solve import FEAResult, Problem, solve
+from loadpath.fea.solver import FEAResult, Problem, solve
 from loadpath.field import principal_stresses
 from loadpath.loadcase.resolve import ResolvedBody
 from loadpath.mesh.data import MeshData
@@ -80,7 +80,8 @@ def build_mesh(rb: ResolvedBody, size: MeshSize | float | None = None, pitch: fl
     pitch : float, mm, optional
         The infill pitch the default size is derived from.
     """
-    from loadpath.mesh.gmsh_mesher import mesh_2d, mesh_3d
+    from loadpath.mesh.gmsh_mesher import mesh_2d
+    from loadpath.mesh.layered import mesh_3d
 
     body = rb.body
     largest = max(body.slabs, key=lambda s: s.outline.area).outline

@@ -121,11 +121,12 @@ def element_stiffness(mesh: MeshData, D: np.ndarray, cells: slice = slice(None))
     xi, w = _rule(mesh)
     g = gradients(mesh, xi, cells)
     B = strain_matrix(g.dN)  # (m, q, nv, n)
+    m, q, nv, n = B.shape
     Dm = constitutive(D, mesh)[cells]
-    DB = np.matmul(Dm[:, None], B)  # (m, q, nv, n)
     scale = (g.detJ * w) * (mesh.thickness if mesh.dim == 2 else 1.0)
-    Bt = np.swapaxes(B, 2, 3) * scale[:, :, None, None]
-    return np.matmul(Bt, DB).sum(axis=1)
+    DB = np.matmul(Dm[:, None], B) * scale[:, :, None, None]  # (m, q, nv, n)
+    # sum over quadrature points inside one product: [B_1^T .. B_q^T] [w_1 D B_1; ..; w_q D B_q]
+    return np.matmul(np.swapaxes(B.reshape(m, q * nv, n), 1, 2), DB.reshape(m, q * nv, n))
 
 
 def _pattern(cells: np.ndarray, n_nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -158,15 +159,14 @@ def stiffness(mesh: MeshData, D: np.ndarray) -> sp.csr_matrix:
     k = mesh.cells.shape[1]
     indptr, indices, pos = _pattern(mesh.cells, n)
     nb = len(indices)
-    data = np.zeros((nb, d, d))
+    data = np.zeros(nb * d * d)
+    ij = np.arange(d)[:, None] * d + np.arange(d)[None, :]  # (d, d) place inside a block
     for start in range(0, len(mesh.cells), _CHUNK):
         sl = slice(start, start + _CHUNK)
-        ke = element_stiffness(mesh, D, sl)  # (m, k d, k d)
+        ke = element_stiffness(mesh, D, sl)  # (m, k d, k d) ordered (a, i, b, j)
         m = ke.shape[0]
-        blocks = ke.reshape(m, k, d, k, d).transpose(0, 1, 3, 2, 4).reshape(m * k * k, d, d)
-        p = pos[sl].ravel()
-        for i in range(d):
-            for j in range(d):
-                data[:, i, j] += np.bincount(p, weights=blocks[:, i, j], minlength=nb)
-    K = sp.bsr_matrix((data, indices, indptr), shape=(n * d, n * d))
+        # scalar position of entry (a, i, b, j): block of the node pair (a, b), then (i, j) inside it
+        where = (pos[sl].reshape(m, k, 1, k, 1) * (d * d) + ij[None, None, :, None, :]).ravel()
+        data += np.bincount(where, weights=ke.ravel(), minlength=nb * d * d)
+    K = sp.bsr_matrix((data.reshape(nb, d, d), indices, indptr), shape=(n * d, n * d))
     return K.tocsr()

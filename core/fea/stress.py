@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from loadpath.fea.assembly import cell_dofs, constitutive, gradients, strain_matrix
+from loadpath.fea.assembly import constitutive, gradients
 from loadpath.fea.elements import ELEMENTS
 from loadpath.mesh.data import MeshData
 
@@ -37,15 +37,33 @@ def cell_stress(mesh: MeshData, D: np.ndarray, u: np.ndarray, xi: np.ndarray | N
     """
     el = ELEMENTS[mesh.cell_type]
     pts = el.nodes if xi is None else np.asarray(xi, dtype=float)
-    ue = np.asarray(u, dtype=float).ravel()[cell_dofs(mesh)]  # (m, k d)
+    d = mesh.dim
+    U = np.asarray(u, dtype=float).reshape(-1, d)
     Dm = constitutive(D, mesh)
     out = []
     for s in range(0, len(mesh.cells), _CHUNK):
         sl = slice(s, s + _CHUNK)
-        B = strain_matrix(gradients(mesh, pts, sl).dN)  # (m, q, nv, k d)
-        eps = np.einsum("mqvn,mn->mqv", B, ue[sl])
-        out.append(np.einsum("mvw,mqw->mqv", Dm[sl], eps))
+        dN = gradients(mesh, pts, sl).dN  # (m, q, k, d)
+        G = np.einsum("mqkj,mki->mqij", dN, U[mesh.cells[sl]])  # displacement gradient du_i/dx_j
+        out.append(np.einsum("mvw,mqw->mqv", Dm[sl], _voigt_strain(G)))
     return np.concatenate(out, axis=0)
+
+
+def _voigt_strain(G: np.ndarray) -> np.ndarray:
+    """Engineering strains in Voigt order from displacement gradients ``(..., d, d)``."""
+    if G.shape[-1] == 2:
+        return np.stack([G[..., 0, 0], G[..., 1, 1], G[..., 0, 1] + G[..., 1, 0]], axis=-1)
+    return np.stack(
+        [
+            G[..., 0, 0],
+            G[..., 1, 1],
+            G[..., 2, 2],
+            G[..., 1, 2] + G[..., 2, 1],
+            G[..., 0, 2] + G[..., 2, 0],
+            G[..., 0, 1] + G[..., 1, 0],
+        ],
+        axis=-1,
+    )
 
 
 def nodal_stress(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> np.ndarray:

@@ -25,6 +25,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 __all__ = ["Style", "STYLES", "Writer", "fmt"]
 
 
@@ -201,6 +203,82 @@ class Writer:
         self._move("G1", words, f, self._dist(x, y))
         self.x, self.y = x, y
         self.filament += de
+        self.retracted = 0.0
+
+    def extrude_many(self, points, de, f, widths=None, width_marker_step: float = 0.01,
+                     inserts: dict[int, list[str]] | None = None) -> None:
+        """Extrude along a polyline in one go (the vectorized form of :meth:`extrude`).
+
+        Parameters
+        ----------
+        points : (n + 1, 2) float, mm
+            The polyline; the nozzle is at ``points[0]``.
+        de : (n,) float, mm
+            Filament per segment.
+        f : (n,) float, mm/min
+            Feedrate per segment.
+        widths : (n,) float, mm, optional
+            Bead width per segment: a width marker is written where it changes by a step.
+        width_marker_step : float, mm
+            Widths are rounded to this for the markers.
+        inserts : dict of int -> list of str, optional
+            Lines written after segment ``k`` (``M73`` progress lines).
+        """
+        pts = np.asarray(points, dtype=float)
+        de = np.asarray(de, dtype=float) * self.scale
+        f = np.asarray(f, dtype=float)
+        n = len(de)
+        if n == 0:
+            return
+        if self.e_relative:
+            c = self._carry + np.cumsum(de)
+            r = np.round(c, 5)
+            written = np.diff(np.concatenate([[0.0], r]))
+            self._carry = float(c[-1] - r[-1])
+            self.e += float(r[-1])
+            e_vals = written
+        else:
+            c = self._e_exact + np.cumsum(de)
+            e_vals = np.round(c, 5)
+            written = np.diff(np.concatenate([[round(self.e, 5)], e_vals]))
+            self._e_exact = float(c[-1])
+            self.e = float(e_vals[-1])
+        lz = self.style.leading_zero
+        xs = [fmt(v, 3, lz) for v in pts[1:, 0].tolist()]
+        ys = [fmt(v, 3, lz) for v in pts[1:, 1].tolist()]
+        es = [fmt(v, 5, lz) for v in e_vals.tolist()]
+        has_e = np.abs(written) > 0
+        wq = None
+        if widths is not None and self.style.width:
+            wq = np.round(np.asarray(widths, dtype=float) / width_marker_step) * width_marker_step
+        lines = self.lines
+        cur_w = self.width
+        fcur = self.f
+        for k in range(n):
+            if wq is not None and not (abs(wq[k] - cur_w) < 1e-9):
+                cur_w = float(wq[k])
+                lines.append(f"{self.style.width}{fmt(cur_w, 6, True)}")
+            fk = float(f[k])
+            words = f"X{xs[k]} Y{ys[k]}" + (f" E{es[k]}" if has_e[k] else "")
+            if fcur != fk:
+                fcur = fk
+                if self.style.feed_line:
+                    lines.append(f"G1 F{fmt(fk, 3, True)}")
+                    lines.append(f"G1 {words}")
+                elif self.style.f_first:
+                    lines.append(f"G1 F{fmt(fk, 3, True)} {words}")
+                else:
+                    lines.append(f"G1 {words} F{fmt(fk, 3, True)}")
+            else:
+                lines.append(f"G1 {words}")
+            if inserts and k in inserts:
+                lines.extend(inserts[k])
+        seg = np.hypot(*np.diff(pts, axis=0).T)
+        self.seconds += float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
+        self.width = cur_w
+        self.f = fcur
+        self.x, self.y = float(pts[-1, 0]), float(pts[-1, 1])
+        self.filament += float(np.sum(de)) / self.scale
         self.retracted = 0.0
 
     def wipe(self, x: float, y: float, de: float) -> None:

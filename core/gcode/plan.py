@@ -7,7 +7,8 @@ its bead width, filament and feedrate.  :mod:`loadpath.gcode.splice` writes it.
 
 Steps
 -----
-1. Drop vertices closer than ``min_segment`` to the previous one (G-code prints 3 decimals; a
+1. Simplify each path within ``resolution`` (position) and ``pitch_resolution`` (local pitch), and
+   drop vertices closer than ``min_segment`` to the previous one (G-code prints 3 decimals; a
    segment must carry a visible amount of E).
 2. Order the paths greedily: from the current nozzle position, the nearest free path end next,
    reversing the path when its far end is nearer (what slicers do for infill).
@@ -51,6 +52,11 @@ class PlanOptions:
         Longest printed link between neighbouring path ends, in nominal pitches.
     min_segment : float, mm
         Vertices closer than this to the previous one are dropped.
+    resolution : float, mm
+        Largest distance of a dropped vertex from the simplified path (PrusaSlicer's
+        ``gcode_resolution`` default, 0.0125 mm).
+    pitch_resolution : float, mm
+        Largest change of a dropped vertex's pitch against the simplified segment's.
     max_volumetric_speed : float, mm^3/s
         0: no limit.
     match_volume : bool
@@ -65,6 +71,8 @@ class PlanOptions:
     width_range: tuple[float, float] = (0.6, 1.6)
     link_max: float = 2.0
     min_segment: float = 0.05
+    resolution: float = 0.0125
+    pitch_resolution: float = 0.01
     max_volumetric_speed: float = 0.0
     match_volume: bool = True
     max_correction: float = 0.15
@@ -131,29 +139,78 @@ class BlockPlan:
         return float(sum(c.length for c in self.chains))
 
 
-def simplify(points: Points2, pitch: Floats, min_segment: float) -> tuple[Points2, Floats]:
-    """Drop vertices closer than ``min_segment`` to the previous kept one (ends kept).
+def simplify(paths: Sequence[tuple[Points2, Floats]], tol: float, pitch_tol: float = 0.01,
+             min_segment: float = 0.05) -> list[tuple[Points2, Floats]]:
+    """Fewer vertices, same paths: Ramer-Douglas-Peucker on position and pitch together.
 
-    Vectorized: vertices are binned by arc length in bins of ``min_segment``; the first vertex of each
-    bin is kept, then any kept vertex still closer than ``min_segment / 2`` to its predecessor goes.
+    A vertex is dropped when the simplified polyline passes within ``tol`` mm of it and the pitch
+    interpolated along the simplified segment is within ``pitch_tol`` mm of its own (so the bead width
+    is kept too).  Then vertices closer than ``min_segment`` to the previous kept one go (ends kept).
+    All paths are simplified together: each recursion level is one numpy pass over the vertices of
+    every segment still being split.
+
+    Parameters
+    ----------
+    paths : sequence of (points (n, 2) mm, pitch (n,) mm)
+    tol : float, mm
+        PrusaSlicer's ``gcode_resolution`` is 0.0125 mm.
+    pitch_tol : float, mm
+    min_segment : float, mm
+
+    Returns
+    -------
+    list of (points (m, 2), pitch (m,))
     """
-    pts = np.asarray(points, dtype=float)
-    if len(pts) <= 2:
-        return pts, np.asarray(pitch, dtype=float)
-    seg = np.hypot(*np.diff(pts, axis=0).T)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    b = np.floor(s / min_segment).astype(np.int64)
-    keep = np.ones(len(pts), dtype=bool)
-    keep[1:] = b[1:] != b[:-1]
-    keep[-1] = True
-    idx = np.flatnonzero(keep)
-    d = np.diff(s[idx])
-    drop = np.zeros(len(idx), dtype=bool)
-    drop[1:-1] = d[:-1] < min_segment / 2
-    if len(idx) > 2 and d[-1] < min_segment / 2:
-        drop[-2] = True
-    idx = idx[~drop]
-    return pts[idx], np.asarray(pitch, dtype=float)[idx]
+    if not paths:
+        return []
+    sizes = np.array([len(p) for p, _ in paths])
+    pts = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p, _ in paths])
+    pit = np.concatenate([np.asarray(w, dtype=float) for _, w in paths])
+    ends = np.cumsum(sizes)
+    starts = ends - sizes
+    keep = np.zeros(len(pts), dtype=bool)
+    keep[starts] = keep[ends - 1] = True
+    a, z = starts.copy(), ends - 1
+    while len(a):
+        inner = z - a - 1
+        a, z, inner = a[inner > 0], z[inner > 0], inner[inner > 0]
+        if not len(a):
+            break
+        seg_id = np.repeat(np.arange(len(a)), inner)
+        first = np.cumsum(inner) - inner
+        idx = a[seg_id] + 1 + (np.arange(int(inner.sum())) - first[seg_id])
+        pa, pz = pts[a][seg_id], pts[z][seg_id]
+        d = pz - pa
+        rel = pts[idx] - pa
+        seg2 = np.sum(d * d, axis=1)
+        seg = np.sqrt(seg2)
+        safe = np.where(seg > 0, seg, 1.0)
+        dist = np.where(seg > 0, np.abs(rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]) / safe, np.hypot(*rel.T))
+        t = np.where(seg2 > 0, np.clip(np.sum(rel * d, axis=1) / np.where(seg2 > 0, seg2, 1.0), 0, 1), 0.0)
+        wa, wz = pit[a][seg_id], pit[z][seg_id]
+        err = np.maximum(dist / tol, np.abs(pit[idx] - (wa + t * (wz - wa))) / pitch_tol)
+        # worst vertex of each segment
+        order = np.lexsort((-err, seg_id))
+        head = np.ones(len(order), dtype=bool)
+        head[1:] = seg_id[order][1:] != seg_id[order][:-1]
+        worst = order[head]
+        split = err[worst] > 1.0
+        m = idx[worst][split]
+        keep[m] = True
+        a, z = np.concatenate([a[split], m]), np.concatenate([m, z[split]])
+    out = []
+    for s0, e0 in zip(starts, ends, strict=True):
+        ix = s0 + np.flatnonzero(keep[s0:e0])
+        if len(ix) > 2 and min_segment > 0:
+            gap = np.hypot(*np.diff(pts[ix], axis=0).T)
+            drop = np.zeros(len(ix), dtype=bool)
+            drop[1:-1] = gap[:-1] < min_segment
+            if gap[-1] < min_segment:
+                drop[-2] = True
+            drop[0] = drop[-1] = False
+            ix = ix[~drop]
+        out.append((pts[ix], pit[ix]))
+    return out
 
 
 def order_paths(paths: Sequence[tuple[Points2, Floats]], start: Points2) -> list[tuple[Points2, Floats]]:
@@ -223,11 +280,9 @@ def plan_block(paths: Sequence[Path], start: Points2, height: float, feedrate: f
     -------
     BlockPlan
     """
-    prepared = []
-    for p in paths:
-        pts, pitch = simplify(p.points, p.pitch, options.min_segment)
-        if len(pts) >= 2 and np.hypot(*(pts[-1] - pts[0])) + np.sum(np.hypot(*np.diff(pts, axis=0).T)) > 0:
-            prepared.append((pts, pitch))
+    prepared = [(pts, pitch) for pts, pitch in simplify([(p.points, p.pitch) for p in paths], options.resolution,
+                                                          options.pitch_resolution, options.min_segment)
+                if len(pts) >= 2 and np.sum(np.hypot(*np.diff(pts, axis=0).T)) > 0]
     if options.order:
         prepared = order_paths(prepared, start)
     if not prepared:

@@ -314,16 +314,12 @@ def _nl(p: Program) -> str:
 def _extrude_chain(w: Writer, c: Chain, style: Style, m73: list[tuple[float, str]], mi: int, done_len: float,
                    total_len: float) -> tuple[int, float]:
     """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
-    pts = c.points
-    seg = np.hypot(*np.diff(pts, axis=0).T)
-    wq = np.round(c.width, 2)
-    for k in range(len(seg)):
-        if style.width and (math.isnan(w.width) or abs(wq[k] - round(w.width, 2)) > 1e-9):
-            w.marker(style.width, _width_text(float(wq[k])))
-            w.width = float(wq[k])
-        w.extrude(float(pts[k + 1, 0]), float(pts[k + 1, 1]), float(c.filament[k]), float(c.feedrate[k]))
-        done_len += float(seg[k])
-        while mi < len(m73) and m73[mi][0] * total_len <= done_len + 1e-9:
-            w.raw(m73[mi][1])
-            mi += 1
-    return mi, done_len
+    seg = np.hypot(*np.diff(c.points, axis=0).T)
+    cum = done_len + np.cumsum(seg)
+    inserts: dict[int, list[str]] = {}
+    while mi < len(m73) and m73[mi][0] * total_len <= cum[-1] + 1e-9:
+        k = int(np.searchsorted(cum, m73[mi][0] * total_len - 1e-9))
+        inserts.setdefault(min(k, len(seg) - 1), []).append(m73[mi][1])
+        mi += 1
+    w.extrude_many(c.points, c.filament, c.feedrate, c.width, inserts=inserts)
+    return mi, float(cum[-1])

@@ -21,8 +21,12 @@ __all__ = [
 
 def __getattr__(name: str):  # type: ignore[no-untyped-def]
     # the gmsh adapter (and gmsh itself) is imported on first use only
-    if name in ("mesh_2d", "mesh_3d", "mesh_stl"):
+    if name in ("mesh_2d", "mesh_stl"):
         from loadpath.mesh import gmsh_mesher
 
         return getattr(gmsh_mesher, name)
+    if name == "mesh_3d":
+        from loadpath.mesh import layered
+
+        return layered.mesh_3d
     raise AttributeError(f"module 'loadpath.mesh' has no attribute {name!r}")

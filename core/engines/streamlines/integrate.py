@@ -19,7 +19,10 @@ Termination, per branch (each end of a line records why it stopped, ``END_*``)
     ``END_DEGENERATE`` the direction is undefined (:mod:`.directions`).
     ``END_TURN``      the step would turn by more than ``max_turn`` (a sharp turn is unprintable;
                       the thesis has no limit - digest §6 - and its faithful mode keeps only the
-                      90-degree bound that the sign rule implies).
+                      90-degree bound that the sign rule implies).  Both RK2 stages are tested
+                      (across a 90-degree jump the midpoint can land back on the near side and
+                      hide the turn), and each branch's first step may turn only half as much,
+                      because the path turns by the sum of both first steps at its seed.
     ``END_SPACING``   the step would come closer than ``clearance`` to an accepted path: the branch
                       ends on the exact clear fraction of the step (bisection), Jobard-Lefer style.
     ``END_LOOP``      the branch returns near its own seed (the thesis's "comes near to the other

@@ -76,8 +76,19 @@ class _Recorder:
                 out.append(Path(points=p, pitch=w))
         return out
 
-    def lines(self) -> list[Points2]:
-        return [p.points for p in self.paths()]
+    def lines(self, min_pid: int = 0) -> list[Points2]:
+        """Points of the paths whose id is at least ``min_pid`` (all points, ends not joined)."""
+        if not self.pts:
+            return []
+        pts = np.concatenate(self.pts)
+        pid = np.concatenate(self.pid)
+        k = np.concatenate(self.k)
+        sel = pid >= min_pid
+        pts, pid, k = pts[sel], pid[sel], k[sel]
+        order = np.lexsort((k, pid))
+        pts, pid = pts[order], pid[order]
+        cuts = np.flatnonzero(np.diff(pid)) + 1
+        return [p for p in np.split(pts, cuts) if len(p) >= 2]
 
 
 def _run(
@@ -195,24 +206,25 @@ def _fill_seeds(
     return _order_chain(seeds, head)
 
 
-def _uncovered(region: Region, lines: list[Points2], pitch: float, min_width: float) -> list[Region]:
-    """Pieces of the region beads of the nominal pitch leave uncovered, at least ``min_width`` wide (mm).
+def _subtract_beads(left: Region, lines: list[Points2], pitch: float) -> Region:
+    """What is left of ``left`` outside beads of the nominal pitch along ``lines``."""
+    if not lines:
+        return left
+    coords = np.concatenate(lines)
+    idx = np.repeat(np.arange(len(lines)), [len(x) for x in lines])
+    beads = shapely.buffer(shapely.multilinestrings(shapely.linestrings(coords, indices=idx)), 0.5 * pitch, quad_segs=4)
+    return left.difference(beads)
+
+
+def _pieces(left: Region, min_width: float) -> list[Region]:
+    """Pieces of the uncovered area at least ``min_width`` wide (mm), largest first.
 
     A path in the middle of a gap of width ``w`` between nominal beads is ``(w + pitch) / 2`` from
     the paths on either side, so any gap keeps the half-pitch rule; ``min_width`` only has to leave
     room for a moving agent inside the swarm's margin.
     """
-    if lines:
-        coords = np.concatenate(lines)
-        idx = np.repeat(np.arange(len(lines)), [len(x) for x in lines])
-        beads = shapely.buffer(
-            shapely.multilinestrings(shapely.linestrings(coords, indices=idx)), 0.5 * pitch, quad_segs=4
-        )
-        left = region.difference(beads)
-    else:
-        left = region
     parts = shapely.get_parts(left)
-    # a piece wide enough for a path has at least the area of a 0.9-pitch disc: test only those
+    # a piece wide enough has at least the area of a disc of that width: test only those
     big = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= 0.5 * min_width * min_width)]
     pieces = list(big[~shapely.is_empty(shapely.buffer(big, -0.5 * min_width))])
     pieces.sort(key=lambda g: (-round(g.area, 6), round(g.centroid.x, 6), round(g.centroid.y, 6)))
@@ -330,9 +342,12 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     rounds = 0
     area = float(region.area)
     given_up: list[Region] = []
+    left, counted = region, 0
     while fill and swarms < max_swarms:
-        lines = rec.lines()
-        pieces = _uncovered(region, lines, pitch, fill_min_width * pitch)
+        # only the paths laid since the last round are subtracted from what was left
+        left = _subtract_beads(left, rec.lines(min_pid=counted), pitch)
+        counted = next_pid
+        pieces = _pieces(left, fill_min_width * pitch)
         if given_up:
             pieces = [p for p in pieces if not any(p.equals_exact(g, 1e-9) for g in given_up)]
         covered = 1.0 - sum(p.area for p in pieces) / area

@@ -1,0 +1,134 @@
+"""Preparing part outlines for meshing: clean rings, required vertices, refinement points.
+
+G-code outlines carry jitter and polygonised arcs. Only near-collinear vertices are removed (a
+coarser simplification puts kinks of several degrees into arcs, and every kink is a weak stress
+singularity that inflates the peak stress at a hole), vertices closer than a fraction of the
+smallest element are merged, and the ends of selected boundary pieces are inserted as vertices so
+the mesh follows them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point
+from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
+
+from loadpath._typing import Points2
+from loadpath.errors import MeshingError
+from loadpath.loadcase.body import polygons_of
+from loadpath.mesh.sizing import MeshSize, reentrant_corners
+
+__all__ = ["prepare_rings", "decimate", "insert_points", "sample", "refine_groups"]
+
+
+def decimate(c: np.ndarray, min_len: float, closed: bool = True) -> np.ndarray:
+    """Drop vertices closer than ``min_len`` to their predecessor.
+
+    Never two neighbours in one pass, never the ends of an open line, never below a triangle.
+
+    Parameters
+    ----------
+    c : (n, 2) float, mm
+        Ring (without the closing repeat) or open line.
+    min_len : float, mm
+    closed : bool
+
+    Returns
+    -------
+    (k, 2) float
+    """
+    low = 3 if closed else 2
+    while len(c) > low:
+        if closed:
+            short = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1) < min_len  # segment i -> i + 1
+            drop = np.roll(short & ~np.roll(short, 1), 1)  # vertex i + 1 after a short segment i
+        else:
+            short = np.linalg.norm(c[1:] - c[:-1], axis=1) < min_len
+            drop = np.zeros(len(c), dtype=bool)
+            drop[1:] = short & ~np.concatenate([[False], short[:-1]])
+            if drop[-1]:  # the end stays: drop its predecessor instead
+                drop[-1] = False
+                drop[-2] = len(c) > 2
+            drop[0] = False
+        if not np.any(drop) or len(c) - int(drop.sum()) < low:
+            break
+        c = c[~drop]
+    return c
+
+
+def insert_points(coords: np.ndarray, extra: np.ndarray, tol: float) -> np.ndarray:
+    """Insert the points lying on a closed ring's segments (within ``tol``) as vertices."""
+    c = coords
+    for p in extra:
+        a = c
+        ab = np.roll(c, -1, axis=0) - a
+        L2 = np.einsum("ij,ij->i", ab, ab)
+        t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
+        d = np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+        k = int(np.argmin(d))
+        if d[k] > tol or np.min(np.linalg.norm(c - p, axis=1)) <= tol:
+            continue
+        c = np.insert(c, k + 1, a[k] + t[k] * ab[k], axis=0)
+    return c
+
+
+def prepare_rings(outline: BaseGeometry, size: MeshSize, split_at: Points2 | None = None) -> list[list[np.ndarray]]:
+    """Clean rings per polygon: ``[[exterior, hole, ...], ...]``, each ``(n, 2)`` without repeat.
+
+    Exteriors counter-clockwise, holes clockwise.
+    """
+    tol = min(0.005, 1e-3 * size.h_min)
+    simple = shapely.simplify(outline, tol, preserve_topology=True)
+    extra = np.zeros((0, 2)) if split_at is None else np.asarray(split_at, dtype=float).reshape(-1, 2)
+    polys = []
+    for poly in polygons_of(simple):
+        poly = orient(poly, 1.0)
+        rings = []
+        for r in [poly.exterior, *poly.interiors]:
+            c = decimate(np.asarray(r.coords)[:-1, :2], 0.2 * size.h_min)
+            rings.append(insert_points(c, extra, 1e-3 * size.h_min))
+        polys.append(rings)
+    if not polys:
+        raise MeshingError("the part outline is empty after cleaning; check the layer geometry")
+    return polys
+
+
+def sample(geom: BaseGeometry, step: float) -> np.ndarray:
+    """Points along lines and ring boundaries (every ``step`` mm, ends included), or the points themselves, ``(n, 2)``."""
+    out = []
+    for g in getattr(geom, "geoms", [geom]):
+        if g.is_empty:
+            continue
+        if isinstance(g, Point):
+            out.append(np.array([[g.x, g.y]]))
+        elif hasattr(g, "exterior"):
+            for r in [g.exterior, *g.interiors]:
+                out.append(sample(LineString(r.coords), step))
+        else:
+            n = max(2, int(math.ceil(g.length / step)) + 1)
+            d = np.linspace(0.0, g.length, n)
+            out.append(shapely.get_coordinates(shapely.line_interpolate_point(g, d))[:, :2])
+    return np.concatenate(out) if out else np.zeros((0, 2))
+
+
+def refine_groups(
+    outlines: Sequence[BaseGeometry], size: MeshSize, lines: Sequence[BaseGeometry] = ()
+) -> list[tuple[np.ndarray, float]]:
+    """Points to refine at and their sizes: holes and re-entrant corners (``h_min``), ``lines`` (``h_bc``)."""
+    holes = [LineString(r.coords) for o in outlines for p in polygons_of(o) for r in p.interiors]
+    groups = []
+    if holes:
+        groups.append((sample(shapely.MultiLineString(holes), 0.5 * size.h_min), size.h_min))
+    corners = [reentrant_corners(o) for o in outlines]
+    corners = [c for c in corners if len(c)]
+    if corners:
+        groups.append((np.unique(np.concatenate(corners), axis=0), size.h_min))
+    pts = [sample(g, 0.5 * size.h_bc) for g in lines if g is not None and not g.is_empty]
+    if pts:
+        groups.append((np.concatenate(pts), size.h_bc))
+    return groups

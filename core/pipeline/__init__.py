@@ -1,0 +1,309 @@
+"""The whole run: G-code in, stress-aligned G-code out.
+
+>>> from loadpath import gcode, loadcase
+>>> from loadpath.pipeline import PipelineOptions, run
+>>> program = gcode.read("examples/ohs.gcode")                                   # doctest: +SKIP
+>>> result = run(program, loadcase.read("examples/ohs.toml"), PipelineOptions(), splice_options)  # doctest: +SKIP
+>>> result.data                     # the new G-code text, checked; nothing is written here  # doctest: +SKIP
+
+Stages (each timed in :attr:`PipelineResult.times`):
+
+``geometry``
+    layer regions per object, island and block (:func:`loadpath.geometry.layer_geometry`);
+``loadcase``
+    the load case applied to the objects' bodies (:func:`loadpath.loadcase.resolve`): a part whose
+    layers share one outline is one prism and is solved in 2D once;
+``fea``
+    one analysis per body (:func:`loadpath.fea.analyze`);
+``paths``
+    one engine run per distinct unit (:mod:`loadpath.pipeline.paths`), in worker processes, reused on
+    identical layers (staggered by half a pitch every other layer);
+``splice``
+    the new paths written into the slicer's G-code (:func:`loadpath.gcode.splice.splice`);
+``check``
+    the result re-read and checked against the original (:func:`loadpath.gcode.verify.check_splice`);
+    a failure raises :class:`~loadpath.errors.SpliceError` and nothing is returned.
+
+Files with nothing to replace, and vase-mode or sequential prints, come back unchanged with a warning.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+
+from loadpath.errors import SpliceError
+from loadpath.gcode import Program, parse
+from loadpath.gcode.plan import PlanOptions, simplify
+from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
+from loadpath.gcode.verify import SpliceCheck, check_splice
+from loadpath.pipeline.paths import Job, assign, plan_jobs, run_jobs, stagger
+from loadpath.pipeline.units import Unit, passthrough_reason, select_units
+from loadpath.toolpath import Path, Toolpaths
+
+__all__ = ["PipelineOptions", "PipelineResult", "JobResult", "run", "STAGES"]
+
+STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "write")
+"""Stage names, in order (``parse`` and ``write`` are timed by the caller)."""
+
+Progress = Callable[[str, int, int], None]
+
+
+@dataclass(frozen=True)
+class PipelineOptions:
+    """What to replace and how (the toolpath part of :class:`loadpath.plugin.settings.Settings`).
+
+    Attributes
+    ----------
+    engine : {"swarm", "streamlines"}
+    engine_params : mapping
+        Engine parameters (``{"K": 5.0}`` for the swarm).
+    pitch : float or None, mm
+        None: each unit's slicer pitch.
+    principal : str
+        ``"max_abs"``, ``"min_abs"``, ``"tensile"``, ``"compressive"`` or ``"alternate"`` (``max_abs``
+        on even layers, ``min_abs`` on odd ones).
+    replace : tuple of str
+    stagger : bool
+    workers : int
+        Processes for the engine runs.
+    check : bool
+        Re-read and check the result (:mod:`loadpath.gcode.verify`).
+    volume_tol : float
+        Largest relative difference of a block's volume accepted by the check.
+    """
+
+    engine: str = "swarm"
+    engine_params: Mapping[str, Any] = field(default_factory=dict)
+    pitch: float | None = None
+    principal: str = "max_abs"
+    replace: tuple[str, ...] = ("solid",)
+    stagger: bool = True
+    workers: int = 1
+    check: bool = True
+    volume_tol: float = 0.03
+
+
+@dataclass
+class JobResult:
+    """One engine run and the layers that print its paths.
+
+    Attributes
+    ----------
+    job : Job
+    units : list of Unit
+        The units that use the paths (the first is the representative).
+    paths : Toolpaths
+        As the engine made them (before staggering).
+    seconds : float
+        Engine time.
+    staggered : list of bool
+        Per unit, whether it printed the staggered copy.
+    """
+
+    job: Job
+    units: list[Unit]
+    paths: Toolpaths
+    seconds: float
+    staggered: list[bool]
+
+    @property
+    def layers(self) -> list[int]:
+        """Program layer indices printing these paths."""
+        return [u.layer for u in self.units]
+
+
+@dataclass(frozen=True)
+class PipelineResult:
+    """Everything a run produced.
+
+    Attributes
+    ----------
+    data : bytes
+        The new G-code text (the input's bytes when nothing was replaced).
+    program : Program
+        The input.
+    output : Program or None
+        The output re-read (None when nothing was replaced).
+    splice : SpliceResult or None
+    check : SpliceCheck or None
+    jobs : tuple of JobResult
+    analyses : dict of str -> Analysis
+        FEA per object name.
+    geometry : PrintGeometry or None
+    times : dict of str -> float, s
+    warnings : tuple of str
+    passthrough : str or None
+        Why the file came back unchanged.
+    """
+
+    data: bytes
+    program: Program
+    output: Program | None = None
+    splice: SpliceResult | None = None
+    check: SpliceCheck | None = None
+    jobs: tuple[JobResult, ...] = ()
+    analyses: dict = field(default_factory=dict)
+    geometry: Any = None
+    times: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+    passthrough: str | None = None
+
+    @property
+    def changed(self) -> bool:
+        """Whether any block was replaced."""
+        return self.splice is not None and bool(self.splice.blocks)
+
+
+class _Clock:
+    def __init__(self, times: dict[str, float]) -> None:
+        self.times = times
+        self.t = time.perf_counter()
+
+    def lap(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.times[stage] = self.times.get(stage, 0.0) + now - self.t
+        self.t = now
+
+
+def run(program: Program, loadcase, options: PipelineOptions, splice_options: SpliceOptions,
+        progress: Progress | None = None, cura_settings: Mapping[str, Any] | None = None) -> PipelineResult:
+    """Run the pipeline on a parsed program (see the module docstring).
+
+    Parameters
+    ----------
+    program : Program
+    loadcase : loadpath.loadcase.LoadCase
+    options : PipelineOptions
+    splice_options : SpliceOptions
+    progress : callable, optional
+        ``progress(stage, done, total)``.
+    cura_settings : mapping, optional
+        Cura's settings (for vase mode / sequential printing detection).
+
+    Raises
+    ------
+    LoadCaseError, GeometryError, MeshingError, SolverError, SettingsError
+        From the stages.
+    SpliceError
+        The result failed its check.
+    """
+    from loadpath import fea, geometry
+    from loadpath.loadcase import resolve
+
+    times: dict[str, float] = {}
+    clock = _Clock(times)
+    warnings: list[str] = []
+    tell = progress or (lambda stage, done, total: None)
+
+    reason = passthrough_reason(program.config, cura_settings)
+    if reason:
+        return PipelineResult(program.data, program, times=times, warnings=(f"passed through unchanged: {reason}",),
+                              passthrough=reason)
+
+    tell("geometry", 0, 1)
+    geo = geometry.layer_geometry(program)
+    clock.lap("geometry")
+    resolved = resolve(loadcase, geo.bodies())
+    names = [rb.name for rb in resolved]
+    for obj in geo.objects:
+        if obj.name not in names:
+            warnings.append(f"object {obj.name!r} is not in the load case (object = {loadcase.object!r}): "
+                            "passed through unchanged")
+    units = select_units(geo, names, options.replace, options.pitch)
+    clock.lap("loadcase")
+    if not units:
+        kinds = ", ".join(options.replace)
+        why = (f"nothing to replace: no infill of the kind(s) {kinds} in the objects the load case applies to; "
+               "choose other kinds with replace (e.g. replace = [\"solid\", \"sparse\"])")
+        return PipelineResult(program.data, program, geometry=geo, times=times, warnings=(*warnings, why),
+                              passthrough=why)
+
+    analyses = {}
+    for k, rb in enumerate(resolved):
+        tell("fea", k, len(resolved))
+        pitches = [u.pitch for u in units if u.object == rb.name]
+        analyses[rb.name] = fea.analyze(rb, pitch=float(np.median(pitches)) if pitches else None)
+    tell("fea", len(resolved), len(resolved))
+    clock.lap("fea")
+
+    kind_of = {rb.name: rb.analysis for rb in resolved}
+    fields: dict[tuple, Any] = {}
+
+    def field_of(u: Unit, principal: str):
+        key = (u.object, "2d" if kind_of[u.object] == "2d" else round(u.z_mid, 6), principal)
+        if key not in fields:
+            fields[key] = analyses[u.object].field(u.z_mid, principal)
+        return fields[key]
+
+    def principal_of(u: Unit) -> str:
+        if options.principal == "alternate":
+            return "max_abs" if u.layer % 2 == 0 else "min_abs"
+        return options.principal
+
+    jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])
+    results = run_jobs(jobs, options.engine, dict(options.engine_params), options.workers,
+                       lambda done, total: tell("paths", done, total))
+    clock.lap("paths")
+
+    job_results, fills = _fills(units, jobs, results, options, splice_options.plan)
+    sres = splice(program, fills, splice_options)
+    for block, why in sres.skipped:
+        b = program.block(block)
+        warnings.append(f"layer {b.layer + 1}, {b.feature}: kept as sliced ({why})")
+    clock.lap("splice")
+    tell("splice", 1, 1)
+
+    out = parse(sres.data, strict=False)
+    check = None
+    if options.check:
+        regions = {f.block: f.region for f in fills if f.region is not None}
+        check = check_splice(program, out, sres, volume_tol=options.volume_tol, regions=regions)
+        if check.problems:
+            raise SpliceError(f"the new G-code failed its check ({len(check.problems)} problem(s); first: "
+                              f"{check.problems[0]}); nothing was written: please report this with the file")
+    clock.lap("check")
+    return PipelineResult(sres.data, program, out, sres, check, tuple(job_results), analyses, geo, times,
+                          tuple(warnings))
+
+
+def _simplified(paths, plan: PlanOptions) -> tuple[Path, ...]:
+    """The paths simplified once (every layer that prints them would otherwise do it again)."""
+    simple = simplify([(p.points, p.pitch) for p in paths], plan.resolution, plan.pitch_resolution,
+                      plan.min_segment)
+    return tuple(Path(pts, w, p.kind) for (pts, w), p in zip(simple, paths, strict=True) if len(pts) >= 2)
+
+
+def _fills(units: list[Unit], jobs: list[Job], results: list[tuple[Toolpaths, float]],
+           options: PipelineOptions, plan: PlanOptions) -> tuple[list[JobResult], list[BlockFill]]:
+    """Paths of every job onto the blocks of every unit that uses them."""
+    per_block: dict[int, dict[str, Any]] = {}
+    job_results = []
+    for job, (tp, secs) in zip(jobs, results, strict=True):
+        members = [units[i] for i in job.units]
+        base = _simplified(tp.paths, plan)
+        shifted = None
+        flags = []
+        for k, u in enumerate(sorted(members, key=lambda m: m.layer)):
+            use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
+            if use_shift and shifted is None:
+                shifted = _simplified(stagger(tp.paths, job.unit.region, 0.25 * job.unit.pitch), plan)
+            paths = shifted if use_shift else base
+            flags.append(use_shift)
+            for block, ps in assign(paths, u).items():
+                entry = per_block.setdefault(block, {"paths": [], "regions": [], "unit": u})
+                entry["paths"].extend(ps)
+                entry["regions"].append(u.region)
+        job_results.append(JobResult(job, sorted(members, key=lambda m: m.layer), tp, secs, flags))
+    fills = []
+    for block, e in sorted(per_block.items()):
+        u: Unit = e["unit"]
+        region = e["regions"][0] if len(e["regions"]) == 1 else shapely.union_all(e["regions"])
+        fills.append(BlockFill(block, tuple(e["paths"]), region, flow_width=u.flow_width if u.fixed_width else None,
+                               nominal_pitch=u.pitch))
+    return job_results, fills

@@ -1,0 +1,245 @@
+"""Engine runs: one per distinct unit, in parallel processes, reused on identical layers.
+
+Units share an engine run when they would get the same input: same object, kind, followed
+principal stress, pitch, layer height and (for fixed-width kinds) flow width, a replace region that
+is the same within ``TOL.region_compare_mm`` (:func:`loadpath.geometry.group_regions`), and the same
+stress field: always for a 2D analysis (one field for the whole body), and for a 3D analysis only
+when the two layers' principal directions agree (:func:`fields_agree`).
+
+Every other layer that reuses paths gets them **staggered**: shifted sideways by half the local
+pitch (:func:`stagger`), so the seams between beads do not stack up layer on layer, and clipped to
+the region.
+
+Engine runs go to worker processes (``fork``: the stress fields and regions are inherited, only the
+paths come back) when there are several and ``jobs > 1``; results are collected by index, so the
+output does not depend on the number of workers.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+
+from loadpath._typing import Region
+from loadpath.engines import generate
+from loadpath.field import StressField
+from loadpath.geometry import group_regions
+from loadpath.pipeline.units import Unit
+from loadpath.toolpath import EngineInput, Path, Toolpaths
+
+__all__ = ["Job", "plan_jobs", "run_jobs", "stagger", "assign", "fields_agree", "default_workers"]
+
+
+@dataclass
+class Job:
+    """One engine run.
+
+    Attributes
+    ----------
+    unit : Unit
+        The representative unit (the first in file order).
+    principal : str
+    input : EngineInput
+    units : list of int
+        Indices of the units that use these paths (the first is the representative).
+    """
+
+    unit: Unit
+    principal: str
+    input: EngineInput = field(repr=False)
+    units: list[int] = field(default_factory=list)
+
+
+def fields_agree(a: StressField, b: StressField, region: Region, cos_min: float = 0.99, n: int = 24) -> bool:
+    """Whether two layers' fields send paths the same way over ``region``.
+
+    On an ``n`` x ``n`` grid of points in the region: the valid masks agree on 95 % of the points and
+    the mass-weighted mean ``|cos|`` between the principal directions is at least ``cos_min``.
+    """
+    x0, y0, x1, y1 = region.bounds
+    gx, gy = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n))
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    pts = pts[shapely.contains_xy(region, pts[:, 0], pts[:, 1])]
+    if len(pts) < 8:
+        return True
+    sa, sb = a.sample(pts), b.sample(pts)
+    both = sa.valid & sb.valid
+    if np.mean(sa.valid == sb.valid) < 0.95:
+        return False
+    if not both.any():
+        return True
+    cos = np.abs(np.sum(sa.direction[both] * sb.direction[both], axis=1))
+    w = 0.5 * (sa.mass[both] + sb.mass[both]) + 1e-12
+    return bool(np.sum(cos * w) / np.sum(w) >= cos_min)
+
+
+def plan_jobs(units: Sequence[Unit], field_of: Callable[[Unit, str], StressField],
+              principal_of: Callable[[Unit], str], analysis_kind: Callable[[Unit], str]) -> list[Job]:
+    """Group units into engine runs (see the module docstring).
+
+    Parameters
+    ----------
+    units : sequence of Unit
+    field_of : callable
+        ``field_of(unit, principal) -> StressField`` of the unit's layer.
+    principal_of : callable
+        ``principal_of(unit) -> str``: the principal stress the unit's paths follow.
+    analysis_kind : callable
+        ``analysis_kind(unit) -> "2d" | "3d"``.
+    """
+    keyed: dict[tuple, list[int]] = {}
+    for i, u in enumerate(units):
+        key = (u.object, u.kind, principal_of(u), round(u.pitch, 3), round(u.height, 3),
+               round(u.flow_width, 3) if u.fixed_width else 0.0)
+        keyed.setdefault(key, []).append(i)
+    jobs: list[Job] = []
+    for key, idx in keyed.items():
+        labels = group_regions([units[i].region for i in idx])
+        groups: dict[int, list[int]] = {}
+        for i, lab in zip(idx, labels, strict=True):
+            groups.setdefault(lab, []).append(i)
+        for members in groups.values():
+            pending = list(members)
+            while pending:
+                rep = units[pending[0]]
+                f = field_of(rep, key[2])
+                same = [pending[0]]
+                rest = []
+                for i in pending[1:]:
+                    if analysis_kind(units[i]) == "2d" or fields_agree(f, field_of(units[i], key[2]), rep.region):
+                        same.append(i)
+                    else:
+                        rest.append(i)
+                entry = getattr(f, "load_entry", None)
+                jobs.append(Job(rep, key[2], EngineInput(rep.region, f, rep.pitch, entry), same))
+                pending = rest
+    jobs.sort(key=lambda j: min(j.units))
+    return jobs
+
+
+# ---------------------------------------------------------------------------------------------- running
+
+_WORK: list[tuple[str, EngineInput, dict[str, Any]]] = []
+
+
+def _run_one(i: int) -> tuple[Toolpaths, float]:
+    engine, inp, params = _WORK[i]
+    t0 = time.perf_counter()
+    tp = generate(engine, inp, **params)
+    return tp, time.perf_counter() - t0
+
+
+def default_workers() -> int:
+    """Worker processes by default: the usable cores, at most 4."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover (not Linux)
+        n = os.cpu_count() or 1
+    return max(1, min(4, n))
+
+
+def run_jobs(jobs: Sequence[Job], engine: str, params: dict[str, Any], workers: int = 1,
+             progress: Callable[[int, int], None] | None = None) -> list[tuple[Toolpaths, float]]:
+    """Run every job's engine; ``(paths, seconds)`` per job, in job order.
+
+    Parameters
+    ----------
+    jobs : sequence of Job
+    engine : str
+    params : dict
+        Engine parameters (``K``, ...).
+    workers : int
+        Processes; 1 runs in this process.
+    progress : callable, optional
+        ``progress(done, total)`` after each job.
+    """
+    global _WORK
+    _WORK = [(engine, j.input, dict(params)) for j in jobs]
+    n = len(jobs)
+    out: list[tuple[Toolpaths, float] | None] = [None] * n
+    try:
+        use_pool = workers > 1 and n > 1 and "fork" in multiprocessing.get_all_start_methods()
+        if not use_pool:
+            for i in range(n):
+                out[i] = _run_one(i)
+                if progress:
+                    progress(i + 1, n)
+        else:
+            ctx = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx) as pool:
+                futures = {pool.submit(_run_one, i): i for i in range(n)}
+                done = 0
+                from concurrent.futures import as_completed
+
+                for fut in as_completed(futures):
+                    out[futures[fut]] = fut.result()
+                    done += 1
+                    if progress:
+                        progress(done, n)
+    finally:
+        _WORK = []
+    return [o for o in out if o is not None]
+
+
+# ---------------------------------------------------------------------------------------------- reuse
+
+
+def _dominant_normal(paths: Sequence[Path]) -> np.ndarray:
+    """Unit normal of the paths' dominant direction (mean of doubled segment angles, length-weighted)."""
+    d = np.concatenate([np.diff(p.points, axis=0) for p in paths]) if paths else np.zeros((0, 2))
+    length = np.hypot(d[:, 0], d[:, 1])
+    ang = np.arctan2(d[:, 1], d[:, 0])
+    c, s = np.sum(length * np.cos(2 * ang)), np.sum(length * np.sin(2 * ang))
+    theta = 0.5 * np.arctan2(s, c)
+    return np.array([-np.sin(theta), np.cos(theta)])
+
+
+def stagger(paths: Sequence[Path], region: Region, inset: float) -> tuple[Path, ...]:
+    """Paths shifted sideways by half their local pitch, clipped to ``region`` shrunk by ``inset``.
+
+    Every path moves to the same side (the side of the paths' dominant normal), each vertex along the
+    path's local normal by half its pitch, so a shifted path runs between two original ones.  Pieces
+    shorter than two pitches are dropped.
+    """
+    ref = _dominant_normal(paths)
+    inner = region.buffer(-inset) if inset > 0 else region
+    shapely.prepare(inner)
+    out = []
+    for p in paths:
+        pts = p.points
+        t = np.gradient(pts, axis=0)
+        t /= np.maximum(np.hypot(t[:, 0], t[:, 1]), 1e-12)[:, None]
+        nrm = np.column_stack([-t[:, 1], t[:, 0]])
+        side = 1.0 if float(np.mean(nrm @ ref)) >= 0 else -1.0
+        q = pts + side * nrm * (p.pitch[:, None] / 2)
+        inside = shapely.contains_xy(inner, q[:, 0], q[:, 1])
+        cuts = np.flatnonzero(np.diff(inside.astype(np.int8))) + 1
+        for a, z in zip(np.r_[0, cuts], np.r_[cuts, len(q)], strict=True):
+            if not inside[a] or z - a < 2:
+                continue
+            piece = q[a:z]
+            if np.sum(np.hypot(*np.diff(piece, axis=0).T)) >= 2 * float(np.median(p.pitch)):
+                out.append(Path(piece, p.pitch[a:z], p.kind))
+    return tuple(out)
+
+
+def assign(paths: Sequence[Path], unit: Unit) -> dict[int, list[Path]]:
+    """Share a unit's paths among its blocks: each path goes to the block whose region holds its middle."""
+    ids = [b.block_index for b in unit.blocks]
+    if len(ids) == 1:
+        return {ids[0]: list(paths)}
+    mids = np.array([p.points[len(p.points) // 2] for p in paths]).reshape(-1, 2)
+    d = np.stack([shapely.distance(b.region, shapely.points(mids)) for b in unit.blocks], axis=1)
+    best = np.argmin(d, axis=1) if len(mids) else np.zeros(0, dtype=int)
+    out: dict[int, list[Path]] = {i: [] for i in ids}
+    for p, k in zip(paths, best, strict=True):
+        out[ids[int(k)]].append(p)
+    return out

@@ -1,0 +1,134 @@
+"""What gets replaced: units of work (the replaced blocks of one kind in one island of one layer).
+
+The table "What is replaced, what is kept" of interface.md decides here:
+
+- only blocks whose kind (:mod:`loadpath.geometry.classify`) is in the ``replace`` option: by
+  default internal solid infill; the first layer and exposed skins are ``bottom`` / ``top`` and are
+  kept unless asked; bridges, gap fill, ironing, perimeters, skirt, supports, wipe tower always kept;
+- objects the load case does not apply to (``object =``) are passed through;
+- vase mode and sequential printing are passed through with a warning (:func:`passthrough_reason`).
+
+A :class:`Unit` is what one engine run fills: its region is the union of its blocks' regions in the
+island, its pitch the slicer's (the median over its blocks) unless the user set one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from loadpath._typing import Region
+from loadpath.geometry import InfillBlock, PrintGeometry
+
+__all__ = ["Unit", "select_units", "passthrough_reason", "FIXED_WIDTH_KINDS"]
+
+FIXED_WIDTH_KINDS = ("sparse",)
+"""Kinds printed at the slicer's own bead width (the paths' pitch is the sparse line spacing); the
+other kinds fill their region completely, with the flow width following the local pitch."""
+
+
+@dataclass(frozen=True)
+class Unit:
+    """The replaced blocks of one kind in one island of one layer of one object.
+
+    Attributes
+    ----------
+    object : str
+        Object name (:attr:`loadpath.geometry.ObjectGeometry.name`).
+    layer : int
+        Index into ``Program.layers``.
+    island : int
+    kind : str
+        ``"solid"``, ``"sparse"``, ``"top"`` or ``"bottom"``.
+    region : Polygon or MultiPolygon
+        Union of the blocks' regions in this island, mm.
+    blocks : tuple of InfillBlock
+    pitch : float, mm
+        Path pitch: the user's, else the slicer's for these blocks.
+    flow_width : float, mm
+        The slicer's flow width of these blocks.
+    height : float, mm
+        Layer height.
+    z : float, mm
+        Top of the layer.
+    """
+
+    object: str
+    layer: int
+    island: int
+    kind: str
+    region: Region = field(repr=False)
+    blocks: tuple[InfillBlock, ...] = field(repr=False)
+    pitch: float
+    flow_width: float
+    height: float
+    z: float
+
+    @property
+    def z_mid(self) -> float:
+        """Middle of the layer, mm (where the stress field of a 3D analysis is cut)."""
+        return self.z - self.height / 2
+
+    @property
+    def fixed_width(self) -> bool:
+        """Printed at the slicer's bead width (sparse infill) rather than at the local pitch."""
+        return self.kind in FIXED_WIDTH_KINDS
+
+
+def passthrough_reason(config: Mapping[str, str], cura_settings: Mapping[str, object] | None = None) -> str | None:
+    """Why the whole file must be passed through unchanged (vase mode, sequential printing), or None."""
+    cfg = {k.lower(): str(v).strip() for k, v in config.items()}
+    cura = {k.lower(): str(v).strip().lower() for k, v in (cura_settings or {}).items()}
+    if cfg.get("spiral_vase") == "1" or cura.get("magic_spiralize") == "true":
+        return "vase mode (spiral vase): the part has no infill to replace"
+    if cfg.get("complete_objects") == "1" or cura.get("print_sequence") == "one_at_a_time":
+        return ("sequential printing (one object after another): objects are printed to full height one by one, "
+                "which loadpath does not handle")
+    return None
+
+
+def _median(values: Iterable[float], weights: Iterable[float]) -> float:
+    v = np.asarray(list(values), dtype=float)
+    w = np.asarray(list(weights), dtype=float)
+    order = np.argsort(v)
+    cw = np.cumsum(w[order])
+    return float(v[order][np.searchsorted(cw, cw[-1] / 2)]) if len(v) else float("nan")
+
+
+def select_units(geo: PrintGeometry, objects: Sequence[str], replace: Sequence[str],
+                 pitch: float | None = None) -> list[Unit]:
+    """The units of work of the named objects, in file order.
+
+    Parameters
+    ----------
+    geo : PrintGeometry
+    objects : sequence of str
+        Names of the objects the load case applies to.
+    replace : sequence of str
+        Kinds to replace.
+    pitch : float, mm, optional
+        The user's pitch; default each unit's slicer pitch.
+    """
+    kinds = tuple(replace)
+    out = []
+    for obj in geo.objects:
+        if obj.name not in objects:
+            continue
+        for lg in obj.layers:
+            for isl in lg.islands:
+                for kind in kinds:
+                    blocks = tuple(b for b in isl.blocks if b.kind == kind and not b.region.is_empty)
+                    if not blocks:
+                        continue
+                    region = shapely.union_all([b.region for b in blocks]) if len(blocks) > 1 else blocks[0].region
+                    if region.is_empty or region.area <= 0:
+                        continue
+                    w = [b.length for b in blocks]
+                    p = pitch if pitch else _median([b.pitch for b in blocks], w)
+                    out.append(Unit(obj.name, lg.layer_index, isl.index, kind, region, blocks, float(p),
+                                    _median([b.flow_width for b in blocks], w), float(lg.height), float(lg.z)))
+    out.sort(key=lambda u: (u.layer, min(b.block_index for b in u.blocks)))
+    return out

@@ -1,0 +1,288 @@
+"""Compare G-code files under one load case: what ``loadpath compare`` computes.
+
+For each file: parse it, derive the part outline per layer (:mod:`loadpath.geometry`), apply the
+load case (:func:`loadpath.loadcase.resolve`), and for each body the load case applies to predict
+the compliance and peak displacement from the file's own beads (:func:`~.predict.predict`).  Beside
+them, two path metrics of the file's infill (every infill role, each layer against that layer's
+isotropic stress field, as the engines see it): the stress alignment ``beta`` (swarm paper Eq. 14,
+:func:`loadpath.metrics.alignment`, pooled over the layers with its virtual-mass weights) and the
+bead coverage of the infill domain (:func:`loadpath.metrics.coverage` with each bead's flow width,
+pooled by area).
+
+Files whose bodies have the same outlines are solved on the very same mesh, so two files of one
+part differ only by their beads.  Relative stiffness is against the first file:
+``compliance_first / compliance``; per mass, ``(compliance * mass)_first / (compliance * mass)``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from loadpath import metrics
+from loadpath.errors import LoadCaseError, LoadpathError
+from loadpath.fea.analysis import Analysis, analyze
+from loadpath.gcode.flavors import Role
+from loadpath.gcode.model import Program
+from loadpath.loadcase.model import LoadCase
+from loadpath.loadcase.resolve import ResolvedBody, resolve
+from loadpath.mesh.data import MeshData
+from loadpath.stiffness.deposits import from_program
+from loadpath.stiffness.predict import Prediction, StiffnessOptions, predict, stiffness_mesh
+from loadpath.toolpath import Path
+
+__all__ = ["FileResult", "CompareRow", "evaluate_file", "compare_files", "gains", "infill_paths", "ROW_KEYS"]
+
+ROW_KEYS = ("file", "compliance", "peak_displacement", "relative_stiffness", "beta", "coverage")
+"""The keys every row has (interface.md); rows also carry ``mass`` and ``relative_specific_stiffness``."""
+
+_INFILL = np.array([int(r) for r in Role if r.is_infill], dtype=np.int64)
+_MAX_BETA_LAYERS = 24
+
+
+@dataclass(frozen=True)
+class FileResult:
+    """Everything computed for one file.
+
+    Attributes
+    ----------
+    file : str
+    predictions : tuple of Prediction
+        One per body the load case applies to.
+    isotropic : tuple of Analysis
+        The load case's isotropic analysis of each body (its stress field is the one the paths
+        are measured against).
+    beta : float
+        Pooled stress alignment of the infill (NaN when the file has no infill in the field).
+    coverage : float
+        Pooled coverage of the infill domain by infill beads, in [0, 1].
+    """
+
+    file: str
+    predictions: tuple[Prediction, ...]
+    isotropic: tuple[Analysis, ...] = field(repr=False)
+    beta: float
+    coverage: float
+
+    @property
+    def compliance(self) -> float:
+        """Summed over the bodies, N mm."""
+        return float(sum(p.compliance for p in self.predictions))
+
+    @property
+    def peak_displacement(self) -> float:
+        """Largest over the bodies, mm."""
+        return float(max(p.peak_displacement for p in self.predictions))
+
+    @property
+    def mass(self) -> float:
+        """Material of the bodies, g."""
+        return float(sum(p.mass for p in self.predictions))
+
+
+@dataclass(frozen=True)
+class CompareRow:
+    """One line of the comparison table.
+
+    Attributes
+    ----------
+    file : str
+    compliance : float, N mm
+    peak_displacement : float, mm
+    relative_stiffness : float
+        ``compliance of the first file / compliance``.
+    beta : float
+    coverage : float
+    mass : float, g
+    relative_specific_stiffness : float
+        ``(compliance * mass) of the first file / (compliance * mass)``.
+    """
+
+    file: str
+    compliance: float
+    peak_displacement: float
+    relative_stiffness: float
+    beta: float
+    coverage: float
+    mass: float
+    relative_specific_stiffness: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready mapping (NaN becomes None)."""
+        out: dict[str, Any] = {}
+        for k in (*ROW_KEYS, "mass", "relative_specific_stiffness"):
+            v = getattr(self, k)
+            out[k] = None if isinstance(v, float) and not np.isfinite(v) else v
+        return out
+
+
+def infill_paths(program: Program, layer: int, object_code: int, diameter: float) -> list[Path]:
+    """The infill extrusions of one object in one layer as polylines, each vertex's pitch its flow width."""
+    from loadpath.geometry import flow_widths
+
+    sl = slice(*_layer_rows(program, layer))
+    m = program.moves[sl]
+    keep = m["extrude"] & np.isin(m["role"], _INFILL) & (m["object"] == object_code)
+    fw = flow_widths(m, diameter)
+    keep &= np.isfinite(fw) & (fw > 0)
+    r = np.flatnonzero(keep)
+    if len(r) == 0:
+        return []
+    a = np.column_stack([m["x0"][r], m["y0"][r]])
+    b = np.column_stack([m["x1"][r], m["y1"][r]])
+    brk = np.ones(len(r), dtype=bool)
+    brk[1:] = (r[1:] != r[:-1] + 1) | (np.hypot(*(a[1:] - b[:-1]).T) > 1e-6)
+    starts = np.flatnonzero(brk)
+    out = []
+    for s, e in zip(starts, [*starts[1:], len(r)], strict=True):
+        pts = np.vstack([a[s:e], b[e - 1:e]])
+        w = fw[r[s:e]]
+        out.append(Path(pts, np.append(w, w[-1])))
+    return out
+
+
+def _layer_rows(program: Program, layer: int) -> tuple[int, int]:
+    lay = program.layers[layer]
+    rows = program.move_rows(lay.start, lay.stop)
+    return rows.start, rows.stop
+
+
+def _path_metrics(program: Program, geo_obj: Any, rb: ResolvedBody, iso: Analysis, diameter: float,
+                  pitch: float) -> tuple[float, float, float, float]:
+    """Pooled (sum m cos, sum m, covered area, domain area) of a body's infill."""
+    layers = [g for g in geo_obj.layers if not g.domain.is_empty]
+    if rb.analysis == "3d" and len(layers) > _MAX_BETA_LAYERS:
+        layers = [layers[i] for i in np.linspace(0, len(layers) - 1, _MAX_BETA_LAYERS).round().astype(int)]
+    mc = ms = cov = area = 0.0
+    for g in layers:
+        paths = infill_paths(program, g.layer_index, geo_obj.code, diameter)
+        dom = g.domain
+        area += dom.area
+        if not paths:
+            continue
+        cov += metrics.coverage(paths, dom).coverage * dom.area
+        z0, z1 = rb.body.z_range
+        zq = float(np.clip(g.z - 0.5 * g.height, z0, z1))
+        al = metrics.alignment(paths, iso.field(zq), pitch, region=dom)
+        mc += float(np.sum(al.mass * al.cos))
+        ms += float(np.sum(al.mass))
+    return mc, ms, cov, area
+
+
+def evaluate_file(
+    source: str | os.PathLike[str] | Program,
+    loadcase: LoadCase,
+    options: StiffnessOptions = StiffnessOptions(),
+    meshes: dict[Any, MeshData] | None = None,
+    name: str | None = None,
+) -> FileResult:
+    """Predict one file's stiffness under a load case, with its path metrics.
+
+    Parameters
+    ----------
+    source : path or Program
+    loadcase : LoadCase
+    options : StiffnessOptions
+    meshes : dict, optional
+        Cache of meshes by body outline; pass the same dict for every file of a comparison.
+    name : str, optional
+        Label of the file in the result (default the path).
+
+    Returns
+    -------
+    FileResult
+
+    Raises
+    ------
+    LoadpathError
+        Unreadable G-code, a load case that does not fit the part, a failed solve.
+    """
+    from loadpath import gcode, geometry
+
+    if isinstance(source, Program):
+        program = source
+    else:
+        try:
+            program = gcode.read(source)
+        except OSError as exc:
+            raise LoadpathError(f"cannot read {source}: {exc.strerror or exc}; check the path") from None
+    label = name if name is not None else (str(source) if not isinstance(source, Program) else "program")
+    geo = geometry.layer_geometry(program, check=False)
+    rbs = resolve(loadcase, geo.bodies())
+    diameter = geo.filament_diameter
+    preds, isos = [], []
+    mc = ms = cov = area = 0.0
+    for rb in rbs:
+        obj = geo.object(rb.name)
+        key = (rb.analysis, tuple(s.outline.wkb for s in rb.body.slabs), tuple((s.z0, s.z1) for s in rb.body.slabs))
+        mesh = None if meshes is None else meshes.get(key)
+        if mesh is None:
+            mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
+            if meshes is not None:
+                meshes[key] = mesh
+        dep = from_program(program, obj.code, diameter)
+        preds.append(predict(rb, dep, options, mesh))
+        iso = analyze(rb, mesh=mesh)
+        isos.append(iso)
+        a, b, c, d = _path_metrics(program, obj, rb, iso, diameter, options.pitch)
+        mc, ms, cov, area = mc + a, ms + b, cov + c, area + d
+    beta = mc / ms if ms > 0 else float("nan")
+    return FileResult(label, tuple(preds), tuple(isos), beta, cov / area if area > 0 else float("nan"))
+
+
+def compare_files(
+    files: Sequence[str | os.PathLike[str]],
+    loadcase: LoadCase,
+    options: StiffnessOptions = StiffnessOptions(),
+) -> tuple[list[CompareRow], list[FileResult]]:
+    """Evaluate several files under one load case, relative to the first.
+
+    Returns
+    -------
+    rows : list of CompareRow
+    results : list of FileResult
+    """
+    if not files:
+        raise LoadCaseError("compare needs at least one G-code file")
+    meshes: dict[Any, MeshData] = {}
+    results = [evaluate_file(f, loadcase, options, meshes) for f in files]
+    names0 = sorted(p.name for p in results[0].predictions)
+    for r in results[1:]:
+        names = sorted(p.name for p in r.predictions)
+        if names != names0:
+            raise LoadCaseError(
+                f"{r.file}: the load case applies to objects {names}, but to {names0} in {results[0].file}; "
+                "compare files of the same part (or name the object with object = in the load case)"
+            )
+    ref = results[0]
+    rows = [
+        CompareRow(r.file, r.compliance, r.peak_displacement, ref.compliance / r.compliance, r.beta, r.coverage, r.mass,
+                   (ref.compliance * ref.mass) / (r.compliance * r.mass))
+        for r in results
+    ]
+    return rows, results
+
+
+def gains(baseline: Prediction | FileResult, design: Prediction | FileResult, top: Prediction | FileResult) -> dict[str, float]:
+    """Gains of a design over a baseline, absolute and per mass, and as shares of the ceiling's gains.
+
+    ``gain = c_base / c_design - 1``; per mass ``(c m)_base / (c m)_design - 1``; shares are the
+    design's gain over the ceiling's gain (``top``) on the same basis.
+    """
+    cb, cd, ct = baseline.compliance, design.compliance, top.compliance
+    mb, md, mt = baseline.mass, design.mass, top.mass
+    g = cb / cd - 1.0
+    gt = cb / ct - 1.0
+    gs = (cb * mb) / (cd * md) - 1.0
+    gst = (cb * mb) / (ct * mt) - 1.0
+    return {
+        "gain": g,
+        "ceiling_gain": gt,
+        "share": g / gt if gt != 0 else float("nan"),
+        "specific_gain": gs,
+        "ceiling_specific_gain": gst,
+        "specific_share": gs / gst if gst != 0 else float("nan"),
+    }
