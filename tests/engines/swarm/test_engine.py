@@ -87,12 +87,14 @@ def test_open_hole_specimen_follows_the_stress_around_the_hole():
 
 
 def test_larger_K_aligns_better_and_spaces_less_evenly():
+    # the paper's single swarm (Table 1): the fill swarms our engine adds behind the hole at small K
+    # (where the split front does not close) would mix their own spacing into the comparison
     region = box(0, 0, 40, 14).difference(Point(20, 7).buffer(2.5, quad_segs=32))
     field = AnalyticField(lambda p: kirsch_tensor(p, (20, 7), 2.5, 1.0), region, scale=3.0)
     out = {}
     for K in (0.5, 50.0):
         inp = EngineInput(region=region, field=field, pitch=PITCH, load_entry=LineString([(0, 0), (0, 14)]))
-        tp = generate(inp, K=K)
+        tp = generate(inp, K=K, fill=False)
         out[K] = (M.alignment(tp, field, PITCH, region=region).beta_curved, M.spacing(tp, PITCH, "next").variance)
     assert out[50.0][0] > out[0.5][0]
     assert out[50.0][1] > out[0.5][1]
@@ -122,7 +124,8 @@ def test_bearing_load_through_a_hole():
     assert M.coverage(tp, region).coverage >= 0.97
 
 
-@pytest.mark.xfail(strict=True, reason="fanning front from a pin hole: fill swarms overlap the fan by ~12 %")
+@pytest.mark.xfail(strict=True, reason="fanning front from a pin hole: path ends of the fan and of the fill swarms "
+                   "overlap by ~5 % (coverage ~97 %)")
 def test_bearing_load_overlap_target():
     tp, region = _bearing()
     assert M.coverage(tp, region).overlap <= 0.02
