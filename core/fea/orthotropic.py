@@ -42,9 +42,10 @@ along the filament scales linearly, ``C1111 = v c1111``; every other component f
     t1 = atanh((c - a4) / a3),  ta = atanh((f1 c - a4) / a3),
     a1 = (t1 - ta) / (1 - v_a),  a2 = t1 - a1.
 
-In both models the fill is capped at 1 (a layer cannot be denser than solid plastic; over-extruded
-material spreads out of the bead instead) and floored at :data:`VOID_FILL` so empty elements stay
-positive definite (air is modelled as a very soft material, not as a hole in the mesh).
+The fill given here is the *effective* one (:meth:`loadpath.stiffness.PlyFields.effective_fill`:
+over-filled neighbourhoods are brought down to solid, since a layer cannot be denser than solid
+plastic); it is floored at :data:`VOID_FILL` so empty elements stay positive definite (air is
+modelled as a very soft material, not as a hole in the mesh) and capped at ``max_fill``.
 
 Material defaults: see :data:`PLA_PRINTED` (with its source) and :data:`ABS_PRINTED`.
 """
@@ -319,18 +320,22 @@ def averaging_weights(moments: np.ndarray) -> np.ndarray:
     return (1.0 + 2.0 * mom @ basis) / 5.0
 
 
-def ply_matrices(material: PrintedMaterial, fill: np.ndarray, model: FillModel = LINEAR, dim: int = 2) -> np.ndarray:
+def ply_matrices(
+    material: PrintedMaterial, fill: np.ndarray, model: FillModel = LINEAR, dim: int = 2, max_fill: float = 1.25
+) -> np.ndarray:
     """Local (filament-axes) matrices at the given fills, ``(m, nv, nv)`` MPa.
 
     Parameters
     ----------
     material : PrintedMaterial
     fill : (m,) float
-        Material volume / element volume; capped to ``[VOID_FILL, 1]``.
+        Effective fill (material volume / element volume); clipped to ``[VOID_FILL, max_fill]``.
     model : FillModel
     dim : {2, 3}
+    max_fill : float
+        Upper clip of the fill.
     """
-    v = np.clip(np.asarray(fill, dtype=float), VOID_FILL, 1.0)
+    v = np.clip(np.asarray(fill, dtype=float), VOID_FILL, max_fill)
     C = material.local(dim)
     if model.kind == "linear":
         return v[:, None, None] * C[None]

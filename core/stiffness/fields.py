@@ -18,11 +18,22 @@ one "ply" holding every tetrahedron (layers are resolved by the tetrahedra thems
 The sampling error of an element's fill is about ``resolution * perimeter / area`` per bead that
 crosses its edge; elements a few pitches wide and ``resolution`` a fifth of the pitch keep it to a
 few per cent (tested against exact fills in ``tests/stiffness``).
+
+Effective fill (what the stiffness uses, :meth:`PlyFields.effective_fill`)
+    A layer cannot be denser than solid plastic, but an element's sampled fill can exceed 1 for two
+    reasons: beads really overlap there (a slicer's infill-perimeter overlap, bunched paths), or a
+    bead straddling the element's edge was split unevenly between it and its neighbour (sampling).
+    Capping each element at 1 would turn the second, which averages out over neighbours, into a
+    spurious loss of stiffness.  So the fill is divided by ``max(1, neighbourhood fill)``, the
+    volume-weighted fill of the element and every element sharing a corner with it: excess material
+    is spread over its neighbourhood (as squeezed-out plastic fills neighbouring voids), a truly
+    over-filled neighbourhood is brought down to solid, and a lone over-filled element next to
+    voids keeps its material.  The result is then capped at :data:`MAX_FILL`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from loadpath._typing import Floats, Ints
@@ -31,10 +42,13 @@ from loadpath.fea.locate import TriangleLocator
 from loadpath.mesh.data import MeshData
 from loadpath.stiffness.deposits import Deposits
 
-__all__ = ["PlyFields", "sample_deposits", "tet_section", "DEFAULT_RESOLUTION"]
+__all__ = ["PlyFields", "sample_deposits", "tet_section", "DEFAULT_RESOLUTION", "MAX_FILL"]
 
 DEFAULT_RESOLUTION = 0.1
 """mm between sample points along and across a bead (a quarter of a 0.4 mm nozzle's bead)."""
+
+MAX_FILL = 1.25
+"""Largest effective fill (a neighbourhood of voids can absorb only so much of a lone element's excess)."""
 
 _CHUNK = 1 << 21  # sample points per batch
 _Z_SAMPLES = 2  # heights per layer in 3D
@@ -72,11 +86,23 @@ class PlyFields:
     volume: np.ndarray
     lost: float
     resolution: float
+    neighbours: object = field(default=None, repr=False, compare=False)
 
     @property
     def total_volume(self) -> float:
         """Material inside the mesh, mm³."""
         return float(np.sum(self.volume))
+
+    def effective_fill(self) -> np.ndarray:
+        """Fill the stiffness uses, ``(L, m)`` (module docstring): spread over neighbourhoods, capped."""
+        if self.neighbours is None:
+            return np.minimum(self.fill, 1.0)
+        A, measure = self.neighbours  # (m, m) sparse 0/1 incl. the diagonal, (m,) element size
+        near = (A @ self.volume.T).T / (A @ measure)[None, :] / self._ply_height()[:, None]
+        return np.minimum(self.fill / np.maximum(near, 1.0), MAX_FILL)
+
+    def _ply_height(self) -> Floats:
+        return np.where(np.isfinite(self.height), self.height, 1.0)
 
     def mean_fill(self) -> Floats:
         """Thickness-weighted fill per element, ``(m,)``."""
@@ -256,4 +282,18 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
     else:
         fill = vol / measure[None, :]
         weight = np.ones(1)
-    return PlyFields(layers.astype(np.int64), heights, weight, fill, moments, vol, lost, float(resolution))
+    return PlyFields(layers.astype(np.int64), heights, weight, fill, moments, vol, lost, float(resolution),
+                     (_adjacency(mesh), measure))
+
+
+def _adjacency(mesh: MeshData):  # type: ignore[no-untyped-def]
+    """Elements sharing at least one corner node (each element its own neighbour), sparse 0/1 ``(m, m)``."""
+    from scipy.sparse import csr_matrix
+
+    nc = mesh.n_corners
+    m = len(mesh.cells)
+    rows = np.repeat(np.arange(m), nc)
+    E = csr_matrix((np.ones(m * nc), (rows, mesh.cells[:, :nc].ravel())), shape=(m, len(mesh.points)))
+    A = (E @ E.T).tocsr()
+    A.data[:] = 1.0
+    return A

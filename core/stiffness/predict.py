@@ -161,8 +161,9 @@ def stiffness_mesh(rb: ResolvedBody, pitch: float = DEFAULT_PITCH, size: MeshSiz
 def material_matrices(fields: PlyFields, material: PrintedMaterial, model: FillModel, dim: int) -> np.ndarray:
     """Per-element stiffness of the stacked plies, ``(m, nv, nv)`` MPa (``sum_k w_k C_k``)."""
     out = None
+    fill = fields.effective_fill()
     for k in range(len(fields.layers)):
-        C = printed_matrices(material, fields.fill[k], fields.moments[k], model, dim)
+        C = printed_matrices(material, fill[k], fields.moments[k], model, dim)
         out = fields.weight[k] * C if out is None else out + fields.weight[k] * C
     assert out is not None
     return out

@@ -1,0 +1,93 @@
+"""Predicted stiffness of G-code files under one load case, relative to the first file.
+
+Each file's own beads (perimeters, infill, gap fill ...) set the local filament direction and fill of
+an orthotropic printed-plastic model, and the load case is solved with the in-house FEA (2D plane
+stress for a one-prism part, 3D otherwise; see ``loadpath.stiffness``).  The table gives the
+compliance (f.u, lower is stiffer), the peak displacement, the stiffness relative to the first file
+(absolute and per mass), the stress alignment beta and the infill coverage.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+from pathlib import Path
+
+HELP = "predicted stiffness of G-code files under a load case, relative to the first"
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    """Register the command's arguments."""
+    parser.add_argument("files", nargs="+", metavar="FILE.gcode", help="G-code files of the same part; the first is the reference")
+    parser.add_argument("--loadcase", required=True, metavar="CASE.toml", help="the load case (interface.md)")
+    parser.add_argument("--json", metavar="FILE", help="also write the rows as a JSON list of objects")
+    parser.add_argument("--report", metavar="DIR", help="draw the orientation field and strain energy density per file into DIR")
+    parser.add_argument("--material", choices=("pla", "abs"), default="pla",
+                        help="printed material of the model (default pla; sources in loadpath.fea.orthotropic)")
+    parser.add_argument("--fill-model", choices=("linear", "nmo"), default="linear",
+                        help="stiffness against fill: linear (default) or the thesis's spacing-dependent model")
+    parser.add_argument("--ceiling", action="store_true",
+                        help="also print the model's ceiling (every element filled along its principal stress)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the comparison table; write the JSON and the pictures when asked."""
+    from loadpath import loadcase, stiffness
+    from loadpath.fea.orthotropic import ABS_PRINTED, LINEAR, NMO, PLA_PRINTED
+    from loadpath.stiffness.compare import CompareRow
+
+    lc = loadcase.read(args.loadcase)
+    opts = stiffness.StiffnessOptions(material=PLA_PRINTED if args.material == "pla" else ABS_PRINTED,
+                                      fill_model=LINEAR if args.fill_model == "linear" else NMO)
+    rows, results = stiffness.compare_files(args.files, lc, opts)
+    if args.ceiling:
+        tops = [stiffness.ceiling(p.analysis.resolved, opts, mesh=p.mesh) for p in results[0].predictions]
+        c, m = sum(t.compliance for t in tops), sum(t.mass for t in tops)
+        ref = results[0]
+        rows.append(CompareRow("(model ceiling)", c, max(t.peak_displacement for t in tops), ref.compliance / c,
+                               float("nan"), float("nan"), m, ref.compliance * ref.mass / (c * m)))
+    print(_table(rows))
+    print(f"model: {opts.material.name}, {opts.fill_model.kind} fill; "
+          f"{', '.join(sorted({p.analysis.resolved.analysis for r in results for p in r.predictions}))} analysis")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps([r.as_dict() for r in rows], indent=2) + "\n")
+    if args.report:
+        from loadpath.stiffness.plots import draw_prediction
+
+        n = 0
+        for i, r in enumerate(results):
+            for p in r.predictions:
+                n += len(draw_prediction(p, args.report, f"{i + 1:02d}_{Path(r.file).stem}_{_safe(p.name)}"))
+        print(f"wrote {n} picture(s) to {args.report}")
+    return 0
+
+
+def _safe(name: str) -> str:
+    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
+
+
+def _table(rows) -> str:  # type: ignore[no-untyped-def]
+    head = (f"{'file':<32} {'compliance N mm':>16} {'peak disp mm':>13} {'rel. stiffness':>15} "
+            f"{'per mass':>9} {'mass g':>8} {'beta':>7} {'coverage':>9}")
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        name = r.file if len(r.file) <= 32 else "..." + r.file[-29:]
+        beta = "-" if r.beta != r.beta else f"{r.beta:.4f}"
+        cov = "-" if r.coverage != r.coverage else f"{100 * r.coverage:.1f} %"
+        lines.append(f"{name:<32} {r.compliance:>16.5g} {r.peak_displacement:>13.5g} {r.relative_stiffness:>15.4f} "
+                     f"{r.relative_specific_stiffness:>9.4f} {r.mass:>8.3f} {beta:>7} {cov:>9}")
+    return "\n".join(lines)
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
