@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Bools, Floats, Region
-from loadpath.geometry.ops import EMPTY, as_region, bead_union, clean, polygons_of
+from loadpath.geometry.ops import EMPTY, as_region, bead_union, polygons_of
 from loadpath.tolerances import TOL
 from shapely.geometry import Polygon
 
@@ -76,36 +76,58 @@ def walls(x0: Floats, y0: Floats, x1: Floats, y1: Floats, bead: Floats, flow: Fl
     Walls
     """
     snap = TOL.snap_mm
-    wide = bead_union(x0, y0, x1, y1, bead / 2, grow=snap)
-    wide = as_region(shapely.buffer(wide, -snap, quad_segs=4, join_style="mitre", mitre_limit=2.0))
+    wide = bead_union(x0, y0, x1, y1, bead / 2)
     polys = polygons_of(wide)
     if not polys:
         return Walls(EMPTY, EMPTY, EMPTY)
-    shells = [Polygon(p.exterior) for p in polys]
-    tree = shapely.STRtree(shells)
+    shells, rings = _shells_and_rings(polys, snap)
     pts = shapely.points(np.column_stack([inside_x, inside_y])) if len(inside_x) else None
     seg_tree = None
     air = []
-    for p in polys:
-        for ring in p.interiors:
-            hole = Polygon(ring)
-            nested = [shells[j] for j in tree.query(hole, predicate="contains_properly")]
-            direct = shapely.difference(hole, shapely.union_all(nested)) if nested else hole
-            if pts is not None and shapely.contains(direct, pts).any():
-                continue  # material inside: the inside of the innermost perimeter
-            if seg_tree is None:
-                seg_tree = shapely.STRtree(shapely.linestrings(
-                    np.stack([np.column_stack([x0, y0]), np.column_stack([x1, y1])], axis=1)))
-            if _mostly_external(ring, seg_tree, external):
-                air.append(direct)
+    for ring, direct in rings:
+        if pts is not None and shapely.contains(direct, pts).any():
+            continue  # material inside: the inside of the innermost perimeter
+        if seg_tree is None:
+            seg_tree = shapely.STRtree(shapely.linestrings(
+                np.stack([np.column_stack([x0, y0]), np.column_stack([x1, y1])], axis=1)))
+        if _mostly_external(ring, seg_tree, external):
+            air.append(direct)
     outline = shapely.union_all(shells)
     if air:  # the direct regions exclude nested islands, so an island inside a hole stays
         outline = shapely.difference(outline, shapely.union_all(air))
     outline = as_region(outline)
     outline = as_region(shapely.orient_polygons(outline)) if hasattr(shapely, "orient_polygons") else outline
-    band = bead_union(x0, y0, x1, y1, flow / 2)
-    domain = clean(shapely.difference(outline, band))
+    same = np.array_equal(bead, flow)
+    band = wide if same else bead_union(x0, y0, x1, y1, flow / 2)
+    if not same:
+        _, rings = _shells_and_rings(polygons_of(band), snap)
+    # the domain: inside the flow band's inner rings that lie in the part (not holes, not slivers)
+    shapely.prepare(outline)
+    pieces = [direct for _, direct in rings
+              if not direct.is_empty and outline.contains_properly(direct.representative_point())]
+    domain = as_region(shapely.union_all(pieces)) if pieces else EMPTY
     return Walls(outline, domain, band)
+
+
+def _shells_and_rings(polys: list[Polygon], snap: float) -> tuple[list[Polygon], list[tuple[object, Region]]]:
+    """Fill the outer rings of a band's polygons; pair each inner ring with the region directly inside it.
+
+    The direct region of an inner ring is the ring's polygon minus the filled polygons nested in it.
+    Direct regions narrower on average than ``2 * snap`` (``area / length <= snap``: the slit between
+    two loops that touch, a seam) are no rings at all and are left out.
+    """
+    shells = [Polygon(p.exterior) for p in polys]
+    tree = shapely.STRtree(shells)
+    rings = []
+    for p in polys:
+        for ring in p.interiors:
+            hole = Polygon(ring)
+            nested = [shells[j] for j in tree.query(hole, predicate="contains_properly")]
+            direct = as_region(shapely.difference(hole, shapely.union_all(nested)) if nested else hole)
+            if direct.area <= snap * direct.length:
+                continue  # a slit between loops, not a region
+            rings.append((ring, direct))
+    return shells, rings
 
 
 def _mostly_external(ring, seg_tree: shapely.STRtree, external: Bools) -> bool:

@@ -81,12 +81,19 @@ def test_plate_with_hole():
 
 
 def test_washer_without_infill_keeps_its_hole():
-    # the walls fill the whole ring: no infill marks the inside, the hole is still air (external walls)
+    # the walls fill the whole ring (0.85 mm wide, two 0.45 mm beads): no infill marks the inside, and
+    # the hole is still air (external walls)
     w = 0.45
-    loops = [loop(w / 2, w / 2, 4 - w / 2, 4 - w / 2), loop(1 - w / 2, 1 - w / 2, 3 + w / 2, 3 + w / 2)]
+    outer = loop(w / 2, w / 2, 4 - w / 2, 4 - w / 2)
+    loops = [outer, loop(0.85 - w / 2, 0.85 - w / 2, 3.15 + w / 2, 3.15 + w / 2)]
     res = _walls(loops, [True, True])
     assert len(res.outline.interiors) == 1
-    assert res.outline.area == pytest.approx(16 - 4, rel=1e-6)
+    assert res.outline.area == pytest.approx(16 - 2.3**2, rel=1e-6)
+    assert res.domain.is_empty
+    # a slit of 0.06 mm between two loops that nearly touch is no hole either
+    loops = [outer, loop(0.96 - w / 2, 0.96 - w / 2, 3.04 + w / 2, 3.04 + w / 2)]
+    res = _walls(loops, [True, True])
+    assert len(res.outline.interiors) == 1 and res.outline.area == pytest.approx(16 - 2.08**2, rel=1e-6)
 
 
 def test_empty_domain_bounded_by_inner_walls_is_part():
