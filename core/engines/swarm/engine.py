@@ -73,7 +73,7 @@ class _Recorder:
         out = []
         for p, w in zip(np.split(pts, cuts), np.split(pitch, cuts), strict=True):
             if len(p) >= min_points:
-                out.append(Path(points=p, pitch=w))
+                out.append(Path(points=p, pitch=w))  # negative pitch: uncertain (see step)
         return out
 
     def lines(self, min_pid: int = 0) -> list[Points2]:
@@ -253,9 +253,9 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         ``coverage_target`` (default 0.995: stop starting swarms above this nominal-bead
         coverage), ``max_swarms`` (default 400), ``fill`` (default True: start further swarms on
         uncovered pieces), ``fill_min_width`` (default 0.6: the narrowest uncovered piece, in
-        pitches, that gets a fill swarm), ``widths`` (default ``"geometric"``: each point's local
-        pitch measured on the finished layer, :mod:`.widths`; ``"swarm"``: from its chain
-        neighbours during the step), ``width_cap`` (default 1.5: the widest bead, in pitches).
+        pitches, that gets a fill swarm), ``widths`` (default ``"geometric"``: the local pitch of
+        points the swarm is unsure of (chain ends, next to a boundary, seeds) measured on the
+        finished layer, :mod:`.widths`; ``"swarm"``: all from the chain neighbours during the step), ``width_cap`` (default 1.5: the widest bead, in pitches).
 
     Returns
     -------
@@ -326,7 +326,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
                 raster=raster, domain=domain, grid=grid, params=params, pitch=pitch,
                 next_pid=next_pid, stats=stats,
             )
-            rec.add(st.pos, st.pid, np.full(st.n, pitch), 0)
+            rec.add(st.pos, st.pid, np.full(st.n, -pitch), 0)
             grid.mark(st.pos, st.pos, st.pid)
             _run(st, ctx, rec, sign, max_steps)
             next_pid = ctx.next_pid
@@ -377,9 +377,17 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     paths = rec.paths()
     if widths == "geometric" and paths:
         t_w = time.perf_counter()
-        w = local_pitch([p.points for p in paths], region, pitch, cap=width_cap)
-        paths = [Path(points=p.points, pitch=wi, kind=p.kind) for p, wi in zip(paths, w, strict=True)]
+        w = local_pitch(
+            [p.points for p in paths], region, pitch, cap=width_cap, only=[p.pitch < 0 for p in paths]
+        )
+        stats["widths_measured"] = int(sum(np.count_nonzero(p.pitch < 0) for p in paths))
+        paths = [
+            Path(points=p.points, pitch=np.where(p.pitch < 0, wi, np.minimum(p.pitch, width_cap * pitch)), kind=p.kind)
+            for p, wi in zip(paths, w, strict=True)
+        ]
         stats["time_widths_s"] = time.perf_counter() - t_w
+    else:
+        paths = [Path(points=p.points, pitch=np.abs(p.pitch), kind=p.kind) for p in paths]
     stats["time_s"] = time.perf_counter() - t0
     stats["K"] = params.K
     return Toolpaths(paths=tuple(paths), stats=stats)

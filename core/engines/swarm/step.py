@@ -531,7 +531,12 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
 
 
 def _local_pitch(tab: np.ndarray, x: Points2, ctx: Context) -> Floats:
-    """Local pitch of each agent: half the gap to each moving neighbour, the full gap to a boundary."""
+    """Local pitch of each agent: half the gap to each moving neighbour, the full gap to a boundary.
+
+    Negative where the estimate is uncertain: an agent without a moving neighbour on both sides
+    (a chain end, next to a boundary agent), whose other side may get paths the chain never sees;
+    the engine measures those points on the finished layer (:mod:`.widths`).
+    """
     m = len(tab)
     chain = tab[:, _CHAIN]
     bnd = tab[:, _KIND] < 0
@@ -551,8 +556,10 @@ def _local_pitch(tab: np.ndarray, x: Points2, ctx: Context) -> Floats:
     rpart = np.where(link[1:], np.where(right_b, 1.0, 0.5) * gap[1:], np.nan)
     lpart = np.where(np.isnan(lpart), rpart, lpart)
     rpart = np.where(np.isnan(rpart), lpart, rpart)
+    sure = link[:-1] & link[1:] & ~left_b & ~right_b
     out = np.where(np.isnan(lpart), ctx.pitch, lpart + rpart)
-    return np.clip(out, 0.25 * ctx.pitch, 3.0 * ctx.pitch)
+    out = np.clip(out, 0.25 * ctx.pitch, 3.0 * ctx.pitch)
+    return np.where(sure, out, -out)
 
 
 def _merge(st: SwarmState, ctx: Context) -> SwarmState:
@@ -645,13 +652,13 @@ def step(st: SwarmState, ctx: Context) -> tuple[SwarmState, Points2, Ints, Float
     pid : (m,) int
         Their path ids.
     pitch : (m,) float, mm
-        Their local pitch.
+        Their local pitch, negative where uncertain (see :func:`_local_pitch`).
     prev : (m, 2) float, mm
         Their previous locations (spawned agents: the new location).
     """
     t, sdir, mass = _ideal(st, ctx)
     st, t, sdir, mass, (last, last_pid) = _remove_blocked(st, t, sdir, mass, ctx)
-    last_pitch = np.full(len(last), ctx.pitch)
+    last_pitch = np.full(len(last), -ctx.pitch)
     if st.n == 0:
         return st, last, last_pid, last_pitch, last
     tab = _extend(st, t, sdir, mass, ctx)

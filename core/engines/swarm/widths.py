@@ -34,7 +34,12 @@ def _tangents(points: Points2, starts: np.ndarray) -> Points2:
 
 
 def local_pitch(
-    paths: list[Points2], region: Region, pitch: float, cap: float = 1.5, k: int = 24
+    paths: list[Points2],
+    region: Region,
+    pitch: float,
+    cap: float = 1.5,
+    k: int = 12,
+    only: list[np.ndarray] | None = None,
 ) -> list[Floats]:
     """Flow width at every point of the layer's paths (mm).
 
@@ -47,6 +52,8 @@ def local_pitch(
         Largest width, in pitches; also how far the rays look.
     k : int
         Nearest segments examined per point.
+    only : list of (n_i,) bool, optional
+        Measure only these points (the others get ``cap * pitch``, to be replaced by the caller).
 
     Returns
     -------
@@ -60,7 +67,6 @@ def local_pitch(
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
     pid = np.repeat(np.arange(len(paths)), counts)
     tan = _tangents(pts, starts)
-    nrm = np.stack([-tan[:, 1], tan[:, 0]], axis=1)
     # segments of all paths, split so none is longer than half a pitch (midpoints find them)
     last = np.zeros(len(pts), dtype=bool)
     last[np.cumsum(counts) - 1] = True
@@ -76,25 +82,32 @@ def local_pitch(
         s1 = ((frac + 1) / parts[rep])[:, None]
         e = b[rep] - a[rep]
         a2, b2, sid2 = a[rep] + s0 * e, a[rep] + s1 * e, sid[rep]
+        sel = np.flatnonzero(np.concatenate(only)) if only is not None else np.arange(len(pts))
         tree = cKDTree(0.5 * (a2 + b2))
         kk = min(k, len(a2))
-        _, idx = tree.query(pts, k=kk, distance_upper_bound=reach + 0.5 * pitch)
-        idx = idx.reshape(len(pts), kk)
+        _, idx = tree.query(pts[sel], k=kk, distance_upper_bound=reach + 0.5 * pitch)
+        idx = idx.reshape(len(sel), kk)
         ok = idx < len(a2)
         idx = np.where(ok, idx, 0)
-        ok &= sid2[idx] != pid[:, None]
-        sa, se = a2[idx], b2[idx] - a2[idx]
-        w = sa - pts[:, None, :]
-        hits = []
-        for d in (nrm, -nrm):
-            dd = d[:, None, :]
-            den = dd[..., 0] * se[..., 1] - dd[..., 1] * se[..., 0]
-            good = ok & (np.abs(den) > 1e-12)
-            den = np.where(good, den, 1.0)
-            s = (w[..., 0] * se[..., 1] - w[..., 1] * se[..., 0]) / den  # along the ray
-            r = (w[..., 0] * dd[..., 1] - w[..., 1] * dd[..., 0]) / den  # along the segment
-            good &= (s > 0) & (r >= 0) & (r <= 1)
-            hits.append(np.min(np.where(good, s, np.inf), axis=1))
+        ok &= sid2[idx] != pid[sel, None]
+        n_all = len(pts)
+        pts, tan = pts[sel], tan[sel]
+        nrm = np.stack([-tan[:, 1], tan[:, 0]], axis=1)
+        # candidate segment ends in the point's frame: along the tangent (u) and the normal (v);
+        # the normal line (u = 0) crosses a segment whose ends lie on both sides of it, at
+        # v = va + (vb - va) ua / (ua - ub): v > 0 on the left, v < 0 on the right
+        px, py = pts[:, 0:1], pts[:, 1:2]
+        tx, ty = tan[:, 0:1], tan[:, 1:2]
+        ax_, ay_ = a2[idx, 0] - px, a2[idx, 1] - py
+        bx_, by_ = b2[idx, 0] - px, b2[idx, 1] - py
+        ua, ub = ax_ * tx + ay_ * ty, bx_ * tx + by_ * ty
+        va, vb = ay_ * tx - ax_ * ty, by_ * tx - bx_ * ty
+        cross = ok & (ua * ub <= 0) & (ua != ub)
+        v = va + (vb - va) * (ua / np.where(cross, ua - ub, 1.0))
+        hits = [
+            np.min(np.where(cross & (v > 0), v, np.inf), axis=1),
+            np.min(np.where(cross & (v < 0), -v, np.inf), axis=1),
+        ]
         # no path on a side: the bead reaches the layer's edge along the normal (twice the way to
         # it), so the outermost paths cover the strip at the edge and path ends at the edge keep
         # their width
@@ -108,6 +121,7 @@ def local_pitch(
                 h[miss] = 2.0 * dist
             sides.append(h)
         left, right = sides
-        out = 0.5 * (np.minimum(left, reach) + np.minimum(right, reach))
+        out = np.full(n_all, reach)
+        out[sel] = 0.5 * (np.minimum(left, reach) + np.minimum(right, reach))
     out = np.clip(out, 0.25 * pitch, reach)
     return np.split(out, np.cumsum(counts)[:-1])
