@@ -51,7 +51,7 @@ def _median_time(fn, repeats: int) -> float:
 
 def _wall_rows(program):
     m = program.moves
-    fw = geometry.flow_widths(m, geometry.filament_diameter(program))
+    fw = geometry.flow_widths(m, geometry.filament_diameter(program)[0])
     sel = m["extrude"] & np.isin(m["role"], _PERI) & np.isfinite(fw) & (m["layer"] >= 0)
     rows = np.flatnonzero(sel)
     return m, fw, np.split(rows, np.flatnonzero(np.diff(m["layer"][rows])) + 1)

@@ -24,8 +24,9 @@ of the blocks that are kept.  Kinds (:mod:`.classify`): ``solid`` (internal soli
 """
 
 from loadpath.geometry.classify import DEFAULT_REPLACE, KINDS, REPLACEABLE, classify, exposed_fraction
+from loadpath.geometry.flow import filament_diameter, flow_widths, wall_spacing
 from loadpath.geometry.groups import LayerGroup, distinct_layers, group_regions
-from loadpath.geometry.layers import filament_diameter, flow_widths, layer_geometry, object_names
+from loadpath.geometry.layers import layer_geometry, object_names
 from loadpath.geometry.model import InfillBlock, Island, LayerGeometry, ObjectGeometry, PrintGeometry
 from loadpath.geometry.ops import region_difference
 from loadpath.geometry.pitch import PitchEstimate, estimate_pitch
@@ -50,5 +51,6 @@ __all__ = [
     "region_difference",
     "filament_diameter",
     "flow_widths",
+    "wall_spacing",
     "object_names",
 ]

@@ -6,10 +6,10 @@ For each layer and each object: the part outline and the infill domain from the 
 each block's kind (:mod:`.classify`); finally every region is checked against its block's own
 extrusions.
 
-Widths: the **flow width** of a move is its extruded cross-section over its height,
-``e * (pi D^2 / 4) / (length * height)`` with ``e`` in mm of filament and ``D`` the filament diameter
-from the slicer configuration (1.75 mm when the file carries none, e.g. CuraEngine run on its own);
-the **bead width** is the slicer's ``;WIDTH:`` (the flow width when there is none).
+Widths: the **flow width** of a move is its extruded cross-section over its height (:mod:`.flow`:
+``e * (pi D^2 / 4) / (length * height)``, the filament diameter ``D`` from the file's configuration or
+measured from its walls); the **bead width** is the slicer's ``;WIDTH:`` (the flow width when there
+is none).
 """
 
 from __future__ import annotations
@@ -23,52 +23,19 @@ from loadpath.errors import GeometryError
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
 from loadpath.geometry.classify import classify, exposed_fraction
+from loadpath.geometry.flow import filament_diameter, flow_widths
 from loadpath.geometry.model import InfillBlock, Island, LayerGeometry, ObjectGeometry, PrintGeometry
 from loadpath.geometry.ops import EMPTY, as_region, polygons_of
 from loadpath.geometry.pitch import estimate_pitch
 from loadpath.geometry.regions import BlockLines, check_tolerance, footprints, outside_distance, regions
 from loadpath.geometry.walls import walls
 
-__all__ = ["layer_geometry", "filament_diameter", "flow_widths", "object_names", "DEFAULT_FILAMENT"]
-
-DEFAULT_FILAMENT = 1.75
-"""Filament diameter assumed when the file does not say (mm)."""
+__all__ = ["layer_geometry", "object_names"]
 
 _PERIMETER = np.array([Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER])
 _INSIDE = np.array([r for r in Role if r.is_infill] + [Role.GAP_FILL, Role.IRONING])
 _FIX = ("slice with at least one perimeter (PrusaSlicer: perimeters >= 1; Cura: wall_line_count >= 1); "
         "loadpath finds the infill domain from the perimeters")
-
-
-def filament_diameter(program: Program) -> float:
-    """Filament diameter from the embedded configuration (first extruder), else 1.75 mm."""
-    for key in ("filament_diameter", "material_diameter"):
-        raw = program.config.get(key)
-        if raw:
-            try:
-                d = float(str(raw).split(",")[0].split(";")[0].strip())
-            except ValueError:
-                continue
-            if d > 0:
-                return d
-    return DEFAULT_FILAMENT
-
-
-def flow_widths(moves: np.ndarray, diameter: float) -> np.ndarray:
-    """Flow width of every move, mm (NaN for moves that do not extrude).
-
-    Parameters
-    ----------
-    moves : structured array (MOVE_DTYPE)
-    diameter : float, mm
-        Filament diameter.
-    """
-    length = np.hypot(moves["x1"] - moves["x0"], moves["y1"] - moves["y0"])
-    ok = moves["extrude"] & (length > 0) & (moves["height"] > 0)
-    area = np.pi * diameter ** 2 / 4
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fw = moves["e"] * area / (length * moves["height"])
-    return np.where(ok, fw, np.nan)
 
 
 def object_names(labels: Iterable[str]) -> list[str]:
@@ -99,7 +66,7 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
         A layer with infill but no perimeters; a region its own block's lines leave (``check``).
     """
     m = program.moves
-    diameter = filament_diameter(program)
+    diameter, source = filament_diameter(program)
     fw_all = flow_widths(m, diameter)
     bead_all = np.where(np.isfinite(m["width"]) & (m["width"] > 0), m["width"], fw_all)
     work = m["extrude"] & (m["layer"] >= 0) & np.isfinite(fw_all) & (fw_all > 0)
@@ -136,7 +103,7 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
         if check:
             _check(layers, program)
         objects.append(ObjectGeometry(name, program.objects[code] if code >= 0 else "", code, tuple(layers)))
-    return PrintGeometry(tuple(objects), program.dialect, len(program.layers), diameter)
+    return PrintGeometry(tuple(objects), program.dialect, len(program.layers), diameter, source)
 
 
 def _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program) -> tuple[Island, ...]:

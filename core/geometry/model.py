@@ -232,12 +232,15 @@ class PrintGeometry:
         Layers in the file.
     filament_diameter : float, mm
         Used to turn E into flow widths.
+    filament_source : str
+        Where it came from: ``"config"``, ``"wall spacing"`` (measured) or ``"default"`` (1.75 mm).
     """
 
     objects: tuple[ObjectGeometry, ...]
     dialect: Dialect
     n_layers: int
     filament_diameter: float
+    filament_source: str = "config"
 
     def object(self, name: str) -> ObjectGeometry:
         """Return the object with this name or label (KeyError listing the names otherwise)."""

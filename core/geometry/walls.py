@@ -1,23 +1,24 @@
 """Part outline and infill domain of one object in one layer, from the perimeters the slicer printed.
 
-Two unions of perimeter beads (:func:`loadpath.geometry.ops.bead_union`) give everything:
+Two unions of perimeter beads (:func:`loadpath.geometry.ops.bead_union`) give everything; loops whose
+ends miss by less than a bead (PrusaSlicer clips every loop end) are closed rings already:
 
-``wall band`` (bead widths, closed by ``TOL.snap_mm``)
+``wall band`` (bead widths)
     Every perimeter centre line buffered by half its bead width (``;WIDTH:``, or the flow width when
-    the file has none), then morphologically closed, so loop seams and touching loops leave no slits.
-    Its outer rings are the outside of the external perimeter: the **part outline**.  Each of its
-    inner rings bounds either air (a hole of the part) or the inside of the innermost perimeter.  A
-    ring bounds air when nothing but perimeters lies inside it (nested islands excluded) and most of
-    the perimeter next to it is an external perimeter; otherwise it is filled.
+    the file has none).  Its outer rings are the outside of the external perimeter: the **part
+    outline**.  Each of its inner rings bounds either air (a hole of the part) or the inside of the
+    innermost perimeter.  A ring bounds air when nothing but perimeters lies inside it (nested
+    islands excluded) and most of the perimeter next to it is an external perimeter; otherwise it is
+    filled.  Inner rings whose region is thinner on average than ``2 * TOL.snap_mm`` are slits
+    between loops that (nearly) touch, not rings: they are filled.
 ``flow band``
     The same centre lines buffered by half their **flow width** (extruded cross-section / height:
     for PrusaSlicer ``w - h (1 - pi/4)``, which is also its perimeter spacing).  The **infill domain**
-    is the part outline minus the flow band, opened by ``TOL.snap_mm`` (the slivers between
-    exactly touching loops go).
+    is what its inner rings enclose inside the part (holes and slits left out).
 
 So for PrusaSlicer's classic and Arachne perimeters on a straight wall, with ``n >= 2`` loops, external
 bead width ``we`` and spacings ``se``, ``sp``, the domain edge lies ``we/2 + (se + sp)/2 + (n - 2) sp +
-sp/2`` inside the sliced contour; see ``tests/geometry/test_layers.py`` for the analytic check.
+sp/2`` inside the sliced contour; see ``tests/geometry/test_geo_layers.py`` for the analytic check.
 """
 
 from __future__ import annotations

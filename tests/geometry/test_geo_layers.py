@@ -250,3 +250,27 @@ def test_flow_widths_from_e(prusa_ohs, cura_ohs):
     assert b.flow_width == pytest.approx(0.4, rel=2e-3) and b.bead_width == b.flow_width
     assert geometry.object_names(["a.stl id:0 copy 0", "/x/b.stl", "a.stl id:0 copy 1"]) == \
         ["a.stl id:0 copy 0", "b.stl", "a.stl id:0 copy 1"]
+
+
+def test_filament_diameter_measured_from_the_walls(cura_ohs):
+    """A Cura file carries no filament diameter; a 2.85 mm printer's E is (1.75 / 2.85)^2 of a 1.75 mm one.
+
+    Scaling every E word of real CuraEngine output that way, the walls' spacing (a length E does not
+    enter) tells the diameter, and the geometry comes out the same.
+    """
+    import re
+
+    text = cura_ohs.read_text()
+    k = (1.75 / 2.85) ** 2
+    scaled = re.sub(r"(?m)^(G[01] [^;\n]*?E)(-?[\d.]+)",
+                    lambda mt: f"{mt.group(1)}{float(mt.group(2)) * k:.5f}", text)
+    p0, p1 = gcode.parse(text.encode()), gcode.parse(scaled.encode())
+    assert geometry.filament_diameter(p0) == (1.75, "default")
+    assert geometry.filament_diameter(p1) == (2.85, "wall spacing")
+    g0, g1 = geometry.layer_geometry(p0), geometry.layer_geometry(p1)
+    assert g1.filament_diameter == 2.85 and g1.filament_source == "wall spacing"
+    for a, b in zip(g0.objects[0].layers, g1.objects[0].layers, strict=True):
+        assert b.domain.area == pytest.approx(a.domain.area, rel=1e-3)
+        assert [x.kind for x in b.blocks] == [x.kind for x in a.blocks]
+        assert b.blocks[0].flow_width == pytest.approx(0.4, rel=5e-3)
+    assert geometry.wall_spacing(p0) == pytest.approx(0.4, abs=0.005)  # (w0 + wx) / 2
