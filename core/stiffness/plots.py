@@ -62,7 +62,8 @@ def draw_orientation(pred: Prediction, path: str | os.PathLike[str], title: str 
     pc.set_clim(0.0, 1.2)
     ax.add_collection(pc)
     c = tri.mean(axis=1)
-    size = np.sqrt(np.abs(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])) / 2.0)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    size = np.sqrt(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / 2.0)
     half = 0.45 * size * pred.strength[elem]
     d = np.column_stack([np.cos(pred.angle[elem]), np.sin(pred.angle[elem])]) * half[:, None]
     ax.add_collection(LineCollection(np.stack([c - d, c + d], axis=1), colors="w", linewidths=0.6))

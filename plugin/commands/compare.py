@@ -28,6 +28,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="printed material of the model (default pla; sources in loadpath.fea.orthotropic)")
     parser.add_argument("--fill-model", choices=("linear", "nmo"), default="linear",
                         help="stiffness against fill: linear (default) or the thesis's spacing-dependent model")
+    parser.add_argument("--resolution", type=float, default=None, metavar="MM",
+                        help="sampling step of the beads (default 0.1 mm; coarser is faster and noisier)")
     parser.add_argument("--ceiling", action="store_true",
                         help="also print the model's ceiling (every element filled along its principal stress)")
 
@@ -40,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
 
     lc = loadcase.read(args.loadcase)
     opts = stiffness.StiffnessOptions(material=PLA_PRINTED if args.material == "pla" else ABS_PRINTED,
-                                      fill_model=LINEAR if args.fill_model == "linear" else NMO)
+                                      fill_model=LINEAR if args.fill_model == "linear" else NMO,
+                                      resolution=args.resolution or stiffness.DEFAULT_RESOLUTION)
     rows, results = stiffness.compare_files(args.files, lc, opts)
     if args.ceiling:
         tops = [stiffness.ceiling(p.analysis.resolved, opts, mesh=p.mesh) for p in results[0].predictions]

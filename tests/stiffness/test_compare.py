@@ -1,0 +1,81 @@
+"""``loadpath compare`` on real slicer output (PrusaSlicer 2.5, CuraEngine 4.13)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+
+import pytest
+from conftest import REPO
+from loadpath.plugin.cli import main
+
+CASE = REPO / "examples" / "ohs.toml"
+
+
+def digest(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def prusa_pair(sliced):
+    cross = sliced("prusa", "ohs", "solid")  # rectilinear at 45 degrees, alternating: cross-hatching
+    aligned = sliced("prusa", "ohs", "solid", fill_pattern="alignedrectilinear", fill_angle=0,
+                     top_fill_pattern="alignedrectilinear", bottom_fill_pattern="alignedrectilinear",
+                     bottom_solid_layers=1, top_solid_layers=1)
+    return cross, aligned
+
+
+@pytest.mark.slow
+def test_compare_prints_and_writes_rows_relative_to_the_first_file(prusa_pair, tmp_path, capsys):
+    cross, aligned = prusa_pair
+    again = tmp_path / "cross_copy.gcode"
+    shutil.copyfile(cross, again)
+    before = {p: digest(p) for p in (cross, aligned)}
+    out = tmp_path / "rows.json"
+    rep = tmp_path / "report"
+    status = main(["compare", str(cross), str(aligned), str(again), "--loadcase", str(CASE), "--json", str(out),
+                   "--report", str(rep), "--resolution", "0.2"])
+    assert status == 0
+    text = capsys.readouterr().out
+    assert "relative" in text.lower() or "rel. stiffness" in text
+    rows = json.loads(out.read_text())
+    assert [r["file"] for r in rows] == [str(cross), str(aligned), str(again)]
+    for r in rows:
+        assert {"file", "compliance", "peak_displacement", "relative_stiffness", "beta", "coverage"} <= set(r)
+    c, a, c2 = rows
+    assert c["relative_stiffness"] == 1.0
+    assert c2["compliance"] == c["compliance"] and c2["relative_stiffness"] == 1.0  # same beads, same mesh
+    # along the pull the aligned part is stiffer and better aligned; both fill the domain
+    assert a["relative_stiffness"] > 1.005
+    assert a["compliance"] < c["compliance"] and a["peak_displacement"] < c["peak_displacement"]
+    assert a["beta"] > 0.95 > 0.8 > c["beta"]
+    assert c["coverage"] > 0.97 and a["coverage"] > 0.97
+    # 1000 N on 36 x 2 mm over 150 mm of PLA (E about 3 GPa): about 0.7 mm
+    assert 0.4 < c["peak_displacement"] < 1.2
+    assert sorted(p.name for p in rep.glob("*.png")) == sorted(
+        f"{i:02d}_{stem}_ohs.stl_{kind}.png" for i, stem in ((1, cross.stem), (2, aligned.stem), (3, again.stem))
+        for kind in ("energy", "orientation"))
+    assert {p: digest(p) for p in (cross, aligned)} == before  # inputs untouched
+
+
+@pytest.mark.slow
+def test_compare_cura_against_prusaslicer_and_the_ceiling(prusa_pair, sliced, tmp_path, capsys):
+    cura = sliced("cura", "ohs", "solid")
+    out = tmp_path / "rows.json"
+    assert main(["compare", str(prusa_pair[0]), str(cura), "--loadcase", str(CASE), "--json", str(out),
+                 "--resolution", "0.2", "--ceiling"]) == 0
+    rows = json.loads(out.read_text())
+    assert rows[-1]["file"] == "(model ceiling)" and rows[-1]["beta"] is None
+    # Cura's solid lines also alternate +-45: within a few per cent of PrusaSlicer's cross-hatching
+    assert rows[1]["relative_stiffness"] == pytest.approx(1.0, abs=0.05)
+    assert rows[-1]["relative_stiffness"] > max(rows[0]["relative_stiffness"], rows[1]["relative_stiffness"])
+
+
+def test_compare_refuses_a_missing_file_in_one_line(tmp_path, capsys):
+    out = tmp_path / "rows.json"
+    status = main(["compare", str(tmp_path / "nope.gcode"), "--loadcase", str(CASE), "--json", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and len(err) == 1
+    assert "nope.gcode" in err[0] and "check the path" in err[0]
+    assert not out.exists()
