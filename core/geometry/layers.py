@@ -26,11 +26,15 @@ from loadpath.geometry.classify import classify, exposed_fraction
 from loadpath.geometry.flow import filament_diameter, flow_widths
 from loadpath.geometry.model import InfillBlock, Island, LayerGeometry, ObjectGeometry, PrintGeometry
 from loadpath.geometry.ops import EMPTY, as_region, polygons_of
-from loadpath.geometry.pitch import estimate_pitch
+from loadpath.geometry.pitch import PitchEstimate, estimate_pitch
 from loadpath.geometry.regions import BlockLines, check_tolerance, footprints, outside_distance, regions
 from loadpath.geometry.walls import walls
 
-__all__ = ["layer_geometry", "object_names"]
+__all__ = ["layer_geometry", "object_names", "MIN_STRAIGHT"]
+
+MIN_STRAIGHT = 0.7
+"""Share of a block's length its straight line families must carry for their spacing to be its pitch
+(rectilinear, lines, grid, triangles carry 0.84-1.0 with their anchors; honeycomb about 0.5)."""
 
 _PERIMETER = np.array([Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER])
 _INSIDE = np.array([r for r in Role if r.is_infill] + [Role.GAP_FILL, Role.IRONING])
@@ -136,10 +140,12 @@ def _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program) -> tuple[Is
             r = mine[block_of[mine] == b]
             fw = float(np.sum(fw_all[r] * _len(m, r)) / np.sum(_len(m, r)))
             est = estimate_pitch(x0[r], y0[r], x1[r], y1[r], fw)
+            if est.straight_share < MIN_STRAIGHT:  # honeycomb, gyroid, ...: measured by area below
+                est = PitchEstimate(float("nan"), float("nan"), est.directions, est.straight_share)
             lines.append(BlockLines(x0[r], y0[r], x1[r], y1[r], fw, est.pitch))
             total = float(program.blocks["length"][b]) if b >= 0 else float(np.sum(_len(m, r)))
             meta.append((b, r, fw, est, float(np.sum(_len(m, r))), total))
-        lines = [_with_pitch(bl, domain) for bl in lines]
+        lines = [_with_pitch(bl, domain, len(lines) == 1) for bl in lines]
         walls_k = as_region(shapely.difference(poly, domain)) if not domain.is_empty else poly
         prints = footprints(lines, domain, walls_k)
         regs = regions(domain, prints) if lines else []
@@ -168,15 +174,28 @@ def _len(m, r):
     return np.hypot(m["x1"][r] - m["x0"][r], m["y1"][r] - m["y0"][r])
 
 
-def _with_pitch(bl: BlockLines, domain) -> BlockLines:
-    """Fill in the pitch of curved patterns: ``area / length`` of the area its lines span."""
+def _with_pitch(bl: BlockLines, domain, alone: bool) -> BlockLines:
+    """Fill in the pitch of curved patterns: ``area / length`` of the area its lines span.
+
+    The area is the island's domain when the block is alone in it, else the block's lines closed
+    over a radius that grows with the pitch found (2.5 mm first).
+    """
     if np.isfinite(bl.pitch):
         return bl
     length = float(np.sum(np.hypot(bl.x1 - bl.x0, bl.y1 - bl.y0)))
-    span = shapely.intersection(as_region(shapely.buffer(bl.beads(grow=2.5), -2.5)), domain) \
-        if not domain.is_empty else bl.beads()
-    pitch = max(span.area / length, bl.flow_width) if length > 0 else bl.flow_width
-    return BlockLines(bl.x0, bl.y0, bl.x1, bl.y1, bl.flow_width, float(pitch))
+    if length <= 0 or domain.is_empty:
+        return BlockLines(bl.x0, bl.y0, bl.x1, bl.y1, bl.flow_width, bl.flow_width)
+    if alone:
+        pitch = domain.area / length
+    else:
+        r, pitch = 2.5, 0.0
+        for _ in range(3):
+            span = shapely.intersection(as_region(shapely.buffer(bl.beads(grow=r), -r)), domain)
+            pitch = span.area / length
+            if pitch < 1.5 * r:
+                break
+            r = 0.75 * pitch
+    return BlockLines(bl.x0, bl.y0, bl.x1, bl.y1, bl.flow_width, float(max(pitch, bl.flow_width)))
 
 
 def _classified(layers: list[LayerGeometry]) -> list[LayerGeometry]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import geometry_fixtures
 import pytest
 import shapely
@@ -59,6 +61,25 @@ def test_sparse_density_and_pitch(prusa_ohs, cura_ohs):
     b = geometry.layer_geometry(gcode.read(cura_ohs)).objects[0].layers[4].blocks[0]
     assert b.pitch == pytest.approx(4.0, rel=0.005)
     assert b.density == pytest.approx(0.4 / 4.0, abs=0.01)
+
+
+@pytest.mark.parametrize("slicer,setting", [("prusa", {"fill_pattern": "gyroid"}),
+                                            ("prusa", {"fill_pattern": "honeycomb"}),
+                                            ("prusa", {"fill_pattern": "grid"}),
+                                            ("cura", {"infill_pattern": "gyroid"})])
+def test_other_sparse_patterns(slicer, setting, sliced):
+    """Curved and cellular patterns have no single line spacing: their pitch is area / length."""
+    geo = geometry.layer_geometry(gcode.read(sliced(slicer, "ohs", "mixed", **setting)))
+    density = 0.2 if slicer == "prusa" else 0.1
+    for g in geo.objects[0].layers[2:8]:
+        (b,) = g.blocks
+        assert b.kind == "sparse"
+        assert b.density == pytest.approx(density, rel=0.5)
+        if setting.get("fill_pattern") == "grid":  # two families of lines, each at twice the spacing
+            assert b.pitch == pytest.approx(2 * b.flow_width / density, rel=0.02)
+        else:
+            assert math.isnan(b.angle)
+            assert b.pitch == pytest.approx(b.flow_width / b.density, rel=0.01)
 
 
 def test_solid_pitch_is_the_flow_width(prusa_ohs_solid, cura_ohs_solid):

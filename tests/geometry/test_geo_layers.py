@@ -72,6 +72,15 @@ def test_specimen_domain_equals_analytic_value_prusa(fixture, request):
         assert len(poly.interiors) == 1  # the hole, grown by the walls around it
 
 
+@pytest.mark.parametrize("perimeters", [1, 3])
+def test_specimen_domain_other_perimeter_counts(perimeters, sliced):
+    program = gcode.read(sliced("prusa", "ohs", "mixed", perimeters=perimeters))
+    assert int(program.config["perimeters"]) == perimeters
+    expected = specimen_domain_area(prusa_perimeter_inset(program.config))
+    for g in geometry.layer_geometry(program).objects[0].layers[1:-1]:
+        assert g.islands[0].domain.area == pytest.approx(expected, rel=0.001)
+
+
 def test_specimen_domain_equals_analytic_value_cura(cura_ohs):
     # CuraEngine's rectangle model: walls tile at their line width; the prusa_i3_mk3 definition has
     # 0.4 mm lines and wall_thickness 0.8 mm, so 2 walls: t = w0 + (n - 1) wx = 0.8 mm.
