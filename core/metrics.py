@@ -270,7 +270,7 @@ def alignment(
 
 
 def _grid_step(region: Region) -> float:
-    """A grid step giving about 40 000 points over the region's area."""
+    """Return a grid step giving about 40 000 points over the region's area."""
     return float(np.sqrt(region.area / 4.0e4))
 
 
@@ -533,7 +533,7 @@ def coverage(paths: PathsLike, region: Region, flow_width: float | None = None) 
 
 
 def crossings(paths: PathsLike) -> int:
-    """Number of pairs of distinct paths that intersect (cross or touch).
+    """Count the pairs of distinct paths that intersect (cross or touch).
 
     Parameters
     ----------
@@ -553,7 +553,7 @@ def crossings(paths: PathsLike) -> int:
 
 
 def travel(paths: PathsLike) -> float:
-    """Summed straight travel from the end of each path to the start of the next, mm."""
+    """Sum the straight travel from the end of each path to the start of the next, mm."""
     ps = _paths(paths)
     if len(ps) < 2:
         return 0.0
@@ -568,7 +568,7 @@ def travel(paths: PathsLike) -> float:
 
 
 def rectilinear(region: Region, pitch: float, angle_deg: float = 0.0) -> Toolpaths:
-    """The slicer's rectilinear infill: parallel lines at ``angle_deg``, one ``pitch`` apart.
+    """Lay the slicer's rectilinear infill: parallel lines at ``angle_deg``, one ``pitch`` apart.
 
     Lines sit at ``(k + 1/2) pitch`` from the region's extreme along their normal and are clipped
     to the region; each piece is one path (printed in alternating directions, line by line).
@@ -635,7 +635,7 @@ def best_rectilinear(
     angles_deg: Iterable[float] = tuple(range(0, 180, 5)),
     key: str = "beta_curved",
 ) -> tuple[float, AlignmentResult]:
-    """The rectilinear orientation with the highest alignment (``key`` of :class:`AlignmentResult`).
+    """Find the rectilinear orientation with the highest alignment (``key`` of :class:`AlignmentResult`).
 
     Returns
     -------
@@ -755,7 +755,7 @@ def evaluate(
 def baselines(
     region: Region, field_: StressField, pitch: float, flow_width: float | None = None
 ) -> dict[str, Metrics]:
-    """The slicer's own infill at the same pitch, evaluated like an engine's paths.
+    """Evaluate the slicer's own infill at the same pitch like an engine's paths.
 
     Returns
     -------

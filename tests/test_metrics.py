@@ -64,7 +64,9 @@ def test_cross_hatching_alternates_plus_and_minus_45():
         assert np.rad2deg(np.arctan2(d[1], d[0])) % 180.0 == pytest.approx(expected)
 
 
-@pytest.mark.parametrize("angle,beta", [(0.0, 1.0), (90.0, 0.0), (45.0, np.sqrt(0.5)), (30.0, np.cos(np.pi / 6))])
+@pytest.mark.parametrize(
+    "angle,beta", [(0.0, 1.0), (90.0, 0.0), (45.0, np.sqrt(0.5)), (30.0, np.cos(np.pi / 6))]
+)
 def test_alignment_of_straight_lines_in_a_uniform_field(angle, beta):
     region = box(0, 0, 10, 10)
     res = M.alignment(M.rectilinear(region, 0.5, angle), _uniform(0.0, region), 0.5, region=region)

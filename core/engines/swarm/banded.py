@@ -97,7 +97,7 @@ def banded_matvec(ab: np.ndarray, x: Floats) -> Floats:
 
 
 def banded_to_dense(ab: np.ndarray) -> np.ndarray:
-    """The full symmetric matrix of an upper band ``ab`` (for tests and the OSQP fallback)."""
+    """Return the full symmetric matrix of an upper band ``ab`` (for tests and the OSQP fallback)."""
     u = ab.shape[0] - 1
     n = ab.shape[1]
     h = np.diag(ab[u].copy())
@@ -109,7 +109,7 @@ def banded_to_dense(ab: np.ndarray) -> np.ndarray:
 
 
 def _reduced(ab: np.ndarray, fixed: np.ndarray) -> np.ndarray:
-    """The band with the rows and columns of fixed variables replaced by the identity's."""
+    """Return the band with the rows and columns of fixed variables replaced by the identity's."""
     u = ab.shape[0] - 1
     out = ab.copy()
     if not np.any(fixed):
@@ -154,7 +154,7 @@ def solve_banded_box_qp(
     kkt = float("inf")
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 (the count is reported)
-        kkt = float(np.max(np.abs(x - np.clip(x - g, lo, hi)), initial=0.0))
+        kkt = float(np.abs(x - np.minimum(np.maximum(x - g, lo), hi)).max(initial=0.0))
         if kkt <= tol:
             return BandedResult(x, f, kkt, it - 1, True)
         # epsilon-binding set: at (or within eps of) a bound with the gradient pushing outward
@@ -170,7 +170,7 @@ def solve_banded_box_qp(
         d = np.where(fixed & ~pinned, -g, d)
         alpha = 1.0
         for _ in range(_MAX_BACKTRACK):
-            xn = np.clip(x + alpha * d, lo, hi)
+            xn = np.minimum(np.maximum(x + alpha * d, lo), hi)
             hxn = banded_matvec(ab, xn)
             fn = 0.5 * float(xn @ hxn) + float(q @ xn)
             # Armijo along the projected arc (Bertsekas 1982, eq. 32)

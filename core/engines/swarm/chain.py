@@ -153,6 +153,6 @@ def potentials(cp: ChainProblem, u: Floats) -> tuple[Floats, Floats]:
     uu = np.asarray(u).reshape(-1, 2)
     x = positions(cp, u)
     a = x[1:] - x[:-1] - cp.target[:, None] * cp.radial
-    pair = np.where(cp.link, np.sum(a * a, axis=1), 0.0)
-    agent = cp.weight * np.sum(uu * uu, axis=1)
+    pair = np.where(cp.link, np.add.reduce(a * a, axis=1), 0.0)
+    agent = cp.weight * np.add.reduce(uu * uu, axis=1)
     return pair, agent

@@ -28,8 +28,8 @@ from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.swarm.boundary import Domain
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.raster import raster_for
-from loadpath.engines.swarm.widths import local_pitch
 from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, step
+from loadpath.engines.swarm.widths import local_pitch
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
 from loadpath.toolpath import EngineInput, Path, Toolpaths
@@ -38,6 +38,7 @@ from shapely.geometry.base import BaseGeometry
 __all__ = ["generate", "SwarmParams"]
 
 _PARAM_NAMES = {f.name for f in fields(SwarmParams)}
+_ENGINE_OPTIONS = {"coverage_target", "max_swarms", "fill", "fill_min_width", "widths", "width_cap"}
 
 
 class _Recorder:
@@ -91,9 +92,7 @@ class _Recorder:
         return [p for p in np.split(pts, cuts) if len(p) >= 2]
 
 
-def _run(
-    state: SwarmState, ctx: Context, rec: _Recorder, direction: int, max_steps: int
-) -> int:
+def _run(state: SwarmState, ctx: Context, rec: _Recorder, direction: int, max_steps: int) -> int:
     """Advance a swarm until it dies; returns the number of steps."""
     n = 0
     while state.n and n < max_steps:
@@ -137,9 +136,9 @@ def _load_seeds(region: Region, load_entry: BaseGeometry, pitch: float) -> list[
         if piece.geom_type != "LineString" or piece.length < 0.5 * pitch:
             continue
         seeds = _sample_curve(piece, pitch)
-        foot = shapely.get_coordinates(
-            shapely.shortest_line(shapely.points(seeds), load_entry)
-        ).reshape(-1, 2, 2)[:, 1]
+        foot = shapely.get_coordinates(shapely.shortest_line(shapely.points(seeds), load_entry)).reshape(
+            -1, 2, 2
+        )[:, 1]
         head = seeds - foot
         norm = np.linalg.norm(head, axis=1)
         head = np.where(norm[:, None] > 1e-9, head / np.maximum(norm, 1e-12)[:, None], np.nan)
@@ -207,12 +206,14 @@ def _fill_seeds(
 
 
 def _subtract_beads(left: Region, lines: list[Points2], pitch: float) -> Region:
-    """What is left of ``left`` outside beads of the nominal pitch along ``lines``."""
+    """Subtract beads of the nominal pitch along ``lines`` from ``left``."""
     if not lines:
         return left
     coords = np.concatenate(lines)
     idx = np.repeat(np.arange(len(lines)), [len(x) for x in lines])
-    beads = shapely.buffer(shapely.multilinestrings(shapely.linestrings(coords, indices=idx)), 0.5 * pitch, quad_segs=4)
+    beads = shapely.buffer(
+        shapely.multilinestrings(shapely.linestrings(coords, indices=idx)), 0.5 * pitch, quad_segs=4
+    )
     return left.difference(beads)
 
 
@@ -255,7 +256,8 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         uncovered pieces), ``fill_min_width`` (default 0.6: the narrowest uncovered piece, in
         pitches, that gets a fill swarm), ``widths`` (default ``"geometric"``: the local pitch of
         points the swarm is unsure of (chain ends, next to a boundary, seeds) measured on the
-        finished layer, :mod:`.widths`; ``"swarm"``: all from the chain neighbours during the step), ``width_cap`` (default 1.5: the widest bead, in pitches).
+        finished layer, :mod:`.widths`; ``"swarm"``: all from the chain neighbours during the
+        step), ``width_cap`` (default 1.5: the widest bead, in pitches).
 
     Returns
     -------
@@ -273,12 +275,14 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     widths = str(opts.pop("widths", "geometric"))
     width_cap = float(opts.pop("width_cap", 1.5))  # type: ignore[arg-type]
     if widths not in ("geometric", "swarm"):
-        raise SettingsError(f"widths = {widths!r}; use 'geometric' (from the finished layer) or 'swarm' (from the chains)")
+        raise SettingsError(
+            f"widths = {widths!r}; use 'geometric' (from the finished layer) or 'swarm' (from the chains)"
+        )
     params_kw = {k: opts.pop(k) for k in list(opts) if k in _PARAM_NAMES}
     if opts:
         raise SettingsError(
             f"unknown swarm option(s) {', '.join(sorted(opts))}; known: "
-            f"{', '.join(sorted(_PARAM_NAMES | {'coverage_target', 'max_swarms', 'fill', 'fill_min_width', 'widths', 'width_cap'}))}"
+            f"{', '.join(sorted(_PARAM_NAMES | _ENGINE_OPTIONS))}"
         )
     params = SwarmParams(K=float(K), **params_kw)  # type: ignore[arg-type]
     t0 = time.perf_counter()
@@ -323,8 +327,13 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
             start[0] = True
             st = SwarmState(pos=seeds[ok].copy(), head=head[ok].copy(), pid=pid[ok], start=start)
             ctx = Context(
-                raster=raster, domain=domain, grid=grid, params=params, pitch=pitch,
-                next_pid=next_pid, stats=stats,
+                raster=raster,
+                domain=domain,
+                grid=grid,
+                params=params,
+                pitch=pitch,
+                next_pid=next_pid,
+                stats=stats,
             )
             rec.add(st.pos, st.pid, np.full(st.n, -pitch), 0)
             grid.mark(st.pos, st.pos, st.pid)
@@ -382,7 +391,11 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         )
         stats["widths_measured"] = int(sum(np.count_nonzero(p.pitch < 0) for p in paths))
         paths = [
-            Path(points=p.points, pitch=np.where(p.pitch < 0, wi, np.minimum(p.pitch, width_cap * pitch)), kind=p.kind)
+            Path(
+                points=p.points,
+                pitch=np.where(p.pitch < 0, wi, np.minimum(p.pitch, width_cap * pitch)),
+                kind=p.kind,
+            )
             for p, wi in zip(paths, w, strict=True)
         ]
         stats["time_widths_s"] = time.perf_counter() - t_w

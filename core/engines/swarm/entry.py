@@ -42,7 +42,7 @@ def _segments(lines: BaseGeometry) -> tuple[np.ndarray, np.ndarray]:
 
 
 def load_entry(resolved: object, z: float | None = None) -> BaseGeometry | None:
-    """The boundary lines through which the loads enter the layer at height ``z``.
+    """Find the boundary lines through which the loads enter the layer at height ``z``.
 
     Parameters
     ----------

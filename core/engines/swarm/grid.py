@@ -56,7 +56,7 @@ class Occupancy:
 
     def _index(self, points: Points2) -> np.ndarray:
         """Flat cell index of each point (clamped two cells inside the grid's edge), (n,) int."""
-        f = np.clip(np.floor((points - self.origin) / self.cell), 2.0, self._hi)
+        f = np.minimum(np.maximum(np.floor((points - self.origin) / self.cell), 2.0), self._hi)
         return f.astype(np.intp) @ self._stride
 
     def free_for(self, points: Points2, path_id: Ints) -> Bools:
@@ -67,7 +67,7 @@ class Occupancy:
     def _samples(self, a: Points2, b: Points2) -> tuple[np.ndarray, int]:
         """Points every half cell (at most) along segments ``a -> b``, (n * k, 2), and ``k``."""
         d = b - a
-        length = float(np.sqrt(np.max(np.sum(d * d, axis=1), initial=0.0)))
+        length = float(np.sqrt(np.max(np.add.reduce(d * d, axis=1), initial=0.0)))
         k = max(2, int(np.ceil(2.0 * length / self.cell)) + 1)
         s = self._fractions.get(k)
         if s is None:
@@ -81,7 +81,7 @@ class Occupancy:
         return self._index(pts).reshape(-1, k), pts.reshape(-1, k, 2)
 
     def free_cells(self, idx: np.ndarray, path_id: Ints) -> Bools:
-        """Whether all cells of each row of ``idx`` (from :meth:`cells`) are empty or the path's, (n,) bool."""
+        """Whether all cells of each row of ``idx`` (:meth:`cells`) are empty or the path's, (n,) bool."""
         own = self.owner[idx]
         return np.all((own < 0) | (own == np.asarray(path_id)[:, None]), axis=1)
 
@@ -124,5 +124,5 @@ class Occupancy:
             return out
         r, c = np.nonzero(other)
         d = self.point[kk[r, c]] - p[r]
-        out[r[np.sum(d * d, axis=1) < radius * radius]] = False
+        out[r[np.add.reduce(d * d, axis=1) < radius * radius]] = False
         return out

@@ -57,6 +57,7 @@ class FieldRaster:
             i, j = distance_transform_edt(~ok, return_distances=False, return_indices=True)
             t = t[i, j]
         self.tensor = np.ascontiguousarray(t.reshape(-1, 3))
+        self._imax = np.array([self.nx - 2, self.ny - 2], dtype=float)
         self.principal = field.principal
         self.scale = field.scale if field.scale > 0 else 1.0
         self._aniso_min = TOL.anisotropy_rel * self.scale
@@ -66,14 +67,17 @@ class FieldRaster:
         x0, y0, x1, y1 = self.bounds
         return (
             abs(cell - self.cell) <= 1e-12 * cell
-            and bounds[0] >= x0 and bounds[1] >= y0 and bounds[2] <= x1 and bounds[3] <= y1
+            and bounds[0] >= x0
+            and bounds[1] >= y0
+            and bounds[2] <= x1
+            and bounds[3] <= y1
         )
 
     def interpolate(self, points: Points2) -> np.ndarray:
         """Bilinearly interpolated tensor ``[sxx, syy, sxy]`` at points, (n, 3) MPa."""
         f = (np.asarray(points, dtype=float) - self.origin) / self.cell
-        i = np.clip(np.floor(f), 0, [self.nx - 2, self.ny - 2])
-        w = np.clip(f - i, 0.0, 1.0)
+        i = np.minimum(np.maximum(np.floor(f), 0.0), self._imax)
+        w = np.minimum(np.maximum(f - i, 0.0), 1.0)
         k = (i[:, 0] * self.ny + i[:, 1]).astype(np.intp)
         T = self.tensor
         wx, wy = w[:, 0:1], w[:, 1:2]
@@ -119,7 +123,7 @@ class FieldRaster:
 
 
 def raster_for(field: StressField, bounds: tuple[float, float, float, float], cell: float) -> FieldRaster:
-    """A raster of ``field`` covering ``bounds`` at ``cell``, from the cache if one serves."""
+    """Return a raster of ``field`` covering ``bounds`` at ``cell``, from the cache if one serves."""
     try:
         cached = _CACHE.setdefault(field, [])
     except TypeError:  # a field that cannot be weakly referenced: no cache

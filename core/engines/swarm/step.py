@@ -148,14 +148,18 @@ class Context:
         self.stats[key] = self.stats.get(key, 0) + value
 
 
+_FLIP = np.array([1.0, -1.0])
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
-    return v / np.where(n > 0, n, 1.0)
+    n = np.sqrt(np.add.reduce(v * v, axis=-1, keepdims=True))
+    n[n == 0] = 1.0
+    return v / n
 
 
 def _right(v: np.ndarray) -> np.ndarray:
     """Clockwise normal ``-(v^perp)`` (Eq. 5: the radial direction points to the right of travel)."""
-    return np.stack([v[..., 1], -v[..., 0]], axis=-1)
+    return v[..., ::-1] * _FLIP
 
 
 # ----------------------------------------------------------------------------------------------
@@ -178,10 +182,17 @@ _NCOL = 14
 
 
 def _rows(
-    t: Points2, e1: Points2, mass: Floats, head: Points2, pos: Points2, kind: float,
-    chain: Floats, pid: Floats, seg: Floats | float = -1.0,
+    t: Points2,
+    e1: Points2,
+    mass: Floats,
+    head: Points2,
+    pos: Points2,
+    kind: float,
+    chain: Floats,
+    pid: Floats,
+    seg: Floats | float = -1.0,
 ) -> np.ndarray:
-    out = np.empty((len(t), _NCOL))
+    out = np.zeros((len(t), _NCOL))
     out[:, _T] = t
     out[:, _E] = e1
     out[:, _MASS] = mass
@@ -270,11 +281,11 @@ def _ideal(st: SwarmState, ctx: Context) -> tuple[Points2, Points2, Floats]:
         mean[:-1] += np.where(link[:, None], st.head[1:], 0.0)
         mean[1:] += np.where(link[:, None], st.head[:-1], 0.0)
         mean = _unit(mean)
-        mean = np.where(np.sum(mean * mean, axis=1)[:, None] > 0.25, mean, st.head)
+        mean = np.where(np.add.reduce(mean * mean, axis=1)[:, None] > 0.25, mean, st.head)
         s = np.where(valid[:, None], s, mean)
         mass = np.where(valid, mass, 0.0)
         ctx.count("no_direction", int(np.count_nonzero(~valid)))
-    sdir = np.where((np.sum(s * st.head, axis=1) >= 0)[:, None], s, -s)
+    sdir = np.where((np.add.reduce(s * st.head, axis=1) >= 0)[:, None], s, -s)
     return st.pos + ctx.pitch * sdir, sdir, mass
 
 
@@ -314,7 +325,7 @@ def _remove_blocked(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx
         fi = np.flatnonzero(fine)
         if len(fi) > 1:
             dq = q[fi][:, None, :] - q[fi][None, :, :]
-            close = np.triu(np.sum(dq * dq, axis=2) < (ctx.params.min_gap * ctx.pitch) ** 2, k=1)
+            close = np.triu(np.add.reduce(dq * dq, axis=2) < (ctx.params.min_gap * ctx.pitch) ** 2, k=1)
             fine[fi[np.any(close, axis=0)]] = False
         last = (q[fine], st.pid[ends[go]][fine])
         ctx.grid.mark(st.pos[ends[go]][fine], q[fine], st.pid[ends[go]][fine])
@@ -352,8 +363,8 @@ def _extend(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx: Contex
         spawn = ~hit & ctx.domain.inside(cand) & ctx.grid.free_for(cand, np.full(len(cand), -2))
         nb = np.concatenate([np.minimum(starts + 1, ends), np.maximum(ends - 1, starts)])
         along = _unit(t[src] - t[nb])
-        square = np.abs(np.sum(st.head[src] * along, axis=1)) < 0.5
-        spawn &= (nb != src) & square & (np.sum(along * dirs, axis=1) > 0.8)
+        square = np.abs(np.add.reduce(st.head[src] * along, axis=1)) < 0.5
+        spawn &= (nb != src) & square & (np.add.reduce(along * dirs, axis=1) > 0.8)
         if np.any(spawn):
             idx = np.flatnonzero(spawn)
             d = np.min(np.linalg.norm(cand[idx][:, None, :] - t[None, :, :], axis=2), axis=1)
@@ -367,7 +378,13 @@ def _extend(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx: Contex
             keys.append(np.where(left[sp], 3.0 * s_src, 3.0 * s_src + 2.0))
             parts.append(
                 _rows(
-                    cand[sp], sdir[s_src], mass[s_src], st.head[s_src], cand[sp], 1.0, chain[s_src],
+                    cand[sp],
+                    sdir[s_src],
+                    mass[s_src],
+                    st.head[s_src],
+                    cand[sp],
+                    1.0,
+                    chain[s_src],
                     ctx.new_pids(len(sp)).astype(float),
                 )
             )
@@ -377,7 +394,9 @@ def _extend(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx: Contex
         keys.append(np.where(left[bh], 3.0 * b_src - 0.4, 3.0 * b_src + 2.4))
         z = np.zeros((len(bh), 2))
         parts.append(_rows(point[bh], tangent[bh], 0.0, z, point[bh], -1.0, chain[b_src], -1.0, seg[bh]))
-    tab = np.concatenate(parts)[np.argsort(np.concatenate(keys), kind="stable")] if len(parts) > 1 else parts[0]
+    tab = (
+        np.concatenate(parts)[np.argsort(np.concatenate(keys), kind="stable")] if len(parts) > 1 else parts[0]
+    )
     tab[:, _WIN] = _windows(tab, p.window)
     return tab
 
@@ -390,7 +409,7 @@ def _propose(tab: np.ndarray, ctx: Context) -> tuple[Ints, Ints, Ints, Ints]:
     p = ctx.params
     kind = tab[:, _KIND]
     link, radial, target = _links(tab)
-    gap = np.sum((tab[1:, _T] - tab[:-1, _T]) * radial, axis=1) / (ctx.pitch * target)
+    gap = np.add.reduce((tab[1:, _T] - tab[:-1, _T]) * radial, axis=1) / (ctx.pitch * target)
     gap = np.where(link, gap, np.nan)
     lw = np.where(kind[:-1] >= 0, tab[:-1, _WIN], tab[1:, _WIN])
     kw, kpair = _extreme_per_window(lw, np.where(gap < p.kill_below, gap, np.inf))
@@ -409,7 +428,7 @@ def _propose(tab: np.ndarray, ctx: Context) -> tuple[Ints, Ints, Ints, Ints]:
 
 
 def _spawned(tab: np.ndarray, pairs: Ints) -> np.ndarray:
-    """New agents in the gaps ``(j, j + 1)``: at the point that splits the gap by the targets."""
+    """Place new agents in the gaps ``(j, j + 1)``, at the point that splits the gap by the targets."""
     a, b = tab[pairs], tab[pairs + 1]
     mov_a = a[:, _KIND] >= 0
     mov_b = b[:, _KIND] >= 0
@@ -427,7 +446,7 @@ def _spawned(tab: np.ndarray, pairs: Ints) -> np.ndarray:
 
 
 def _variant(tab: np.ndarray, kill: Ints, spawn_pairs: Ints) -> np.ndarray:
-    """The swarm with the given agents killed and new agents in the given gaps."""
+    """Return the swarm with the given agents killed and new agents in the given gaps."""
     keep = np.ones(len(tab), dtype=bool)
     keep[kill] = False
     if not len(spawn_pairs):
@@ -492,7 +511,9 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
     # the new point and the middle of the move, so no part of the new trail comes within half a
     # pitch of another path (the vertex alone would let the middle of a move pass closer)
     m = len(x)
-    clear = ctx.grid.clear_of(np.concatenate([x, 0.5 * (start + x)]), np.concatenate([pid, pid]), min_gap + ctx.pitch / 12.0)
+    clear = ctx.grid.clear_of(
+        np.concatenate([x, 0.5 * (start + x)]), np.concatenate([pid, pid]), min_gap + ctx.pitch / 12.0
+    )
     clear = clear[:m] & clear[m:]
     cells, samples = ctx.grid.cells(start, x)
     alive = ~moving | (ctx.domain.inside(x) & ctx.grid.free_cells(cells, pid) & clear)
@@ -517,8 +538,8 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
         link = chain[idx[1:]] == chain[idx[:-1]]
         radial = _unit(_right(head[idx[1:]] + head[idx[:-1]]))
         dx = x[idx[1:]] - x[idx[:-1]]
-        gap = np.sum(dx * radial, axis=1)
-        bad = link & ((gap < min_gap) | (np.sum(dx * dx, axis=1) < min_gap * min_gap))
+        gap = np.add.reduce(dx * radial, axis=1)
+        bad = link & ((gap < min_gap) | (np.add.reduce(dx * dx, axis=1) < min_gap * min_gap))
         if not np.any(bad):
             break
         j = np.flatnonzero(bad)
@@ -547,7 +568,7 @@ def _local_pitch(tab: np.ndarray, x: Points2, ctx: Context) -> Floats:
     # front that runs oblique to its paths does not read as wider spacing
     d = x[1:] - x[:-1]
     radial = _unit(_right(tab[1:, _H] + tab[:-1, _H]))
-    gap[1:-1] = np.abs(np.sum(d * radial, axis=1))
+    gap[1:-1] = np.abs(np.add.reduce(d * radial, axis=1))
     left_b = np.zeros(m, dtype=bool)
     right_b = np.zeros(m, dtype=bool)
     left_b[1:] = bnd[:-1]
@@ -558,7 +579,7 @@ def _local_pitch(tab: np.ndarray, x: Points2, ctx: Context) -> Floats:
     rpart = np.where(np.isnan(rpart), lpart, rpart)
     sure = link[:-1] & link[1:] & ~left_b & ~right_b
     out = np.where(np.isnan(lpart), ctx.pitch, lpart + rpart)
-    out = np.clip(out, 0.25 * ctx.pitch, 3.0 * ctx.pitch)
+    out = np.minimum(np.maximum(out, 0.25 * ctx.pitch), 3.0 * ctx.pitch)
     return np.where(sure, out, -out)
 
 
@@ -570,9 +591,9 @@ def _merge(st: SwarmState, ctx: Context) -> SwarmState:
     a = st.pos[starts[1:] - 1]
     b = st.pos[starts[1:]]
     d = b - a
-    close = np.sum(d * d, axis=1) <= (ctx.params.merge_reach * ctx.pitch) ** 2
+    close = np.add.reduce(d * d, axis=1) <= (ctx.params.merge_reach * ctx.pitch) ** 2
     # they must face each other: b lies to the right of a's travel
-    close &= np.sum(d * _right(st.head[starts[1:] - 1] + st.head[starts[1:]]), axis=1) > 0
+    close &= np.add.reduce(d * _right(st.head[starts[1:] - 1] + st.head[starts[1:]]), axis=1) > 0
     if not np.any(close):
         return st
     close[close] &= ~ctx.domain.crosses(a[close], b[close])
@@ -629,8 +650,14 @@ def _choose(tab: np.ndarray, kills: Ints, kw: Ints, spairs: Ints, sw: Ints, ctx:
     lo = int(np.sum(sizes[:vi]))
     hi = lo + sizes[vi]
     sub = ChainProblem(
-        t=cp.t[lo:hi], frame=cp.frame[lo:hi], lo=cp.lo[lo:hi], hi=cp.hi[lo:hi], weight=cp.weight[lo:hi],
-        link=cp.link[lo : hi - 1], radial=cp.radial[lo : hi - 1], target=cp.target[lo : hi - 1],
+        t=cp.t[lo:hi],
+        frame=cp.frame[lo:hi],
+        lo=cp.lo[lo:hi],
+        hi=cp.hi[lo:hi],
+        weight=cp.weight[lo:hi],
+        link=cp.link[lo : hi - 1],
+        radial=cp.radial[lo : hi - 1],
+        target=cp.target[lo : hi - 1],
     )
     return variants[vi], sub, u[2 * lo : 2 * hi]
 
@@ -686,7 +713,7 @@ def step(st: SwarmState, ctx: Context) -> tuple[SwarmState, Points2, Ints, Float
     spawned = (fm[:, _KIND] == 1)[:, None]
     prev = np.where(spawned, xm, fm[:, _P])
     moved = xm - prev
-    step_len2 = np.sum(moved * moved, axis=1)
+    step_len2 = np.add.reduce(moved * moved, axis=1)
     head = np.where((step_len2 > (0.1 * ctx.pitch) ** 2)[:, None], _unit(moved), fm[:, _H])
     chain = fm[:, _CHAIN]
     start = np.ones(len(chain), dtype=bool)

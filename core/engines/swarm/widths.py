@@ -21,7 +21,7 @@ __all__ = ["local_pitch"]
 
 
 def _tangents(points: Points2, starts: np.ndarray) -> Points2:
-    """Unit tangent at every vertex of ragged paths (central differences, one-sided at ends)."""
+    """Return the unit tangent at every vertex of ragged paths (central differences, one-sided at ends)."""
     n = len(points)
     nxt = np.arange(1, n + 1)
     prv = np.arange(-1, n - 1)

@@ -59,7 +59,11 @@ SHAPES = {
         _uniform(0.0),
         LineString([(0, 0), (0, 16)]),
     ),
-    "start line in the middle (area behind it)": (box(0, 0, 20, 8), _uniform(0.0), LineString([(10, 0), (10, 8)])),
+    "start line in the middle (area behind it)": (
+        box(0, 0, 20, 8),
+        _uniform(0.0),
+        LineString([(10, 0), (10, 8)]),
+    ),
 }
 
 
@@ -95,7 +99,10 @@ def test_larger_K_aligns_better_and_spaces_less_evenly():
     for K in (0.5, 50.0):
         inp = EngineInput(region=region, field=field, pitch=PITCH, load_entry=LineString([(0, 0), (0, 14)]))
         tp = generate(inp, K=K, fill=False)
-        out[K] = (M.alignment(tp, field, PITCH, region=region).beta_curved, M.spacing(tp, PITCH, "next").variance)
+        out[K] = (
+            M.alignment(tp, field, PITCH, region=region).beta_curved,
+            M.spacing(tp, PITCH, "next").variance,
+        )
     assert out[50.0][0] > out[0.5][0]
     assert out[50.0][1] > out[0.5][1]
 
@@ -124,8 +131,11 @@ def test_bearing_load_through_a_hole():
     assert M.coverage(tp, region).coverage >= 0.97
 
 
-@pytest.mark.xfail(strict=True, reason="fanning front from a pin hole: path ends of the fan and of the fill swarms "
-                   "overlap by ~6 % (coverage ~97 %)")
+@pytest.mark.xfail(
+    strict=True,
+    reason="fanning front from a pin hole: path ends of the fan and of the fill swarms "
+    "overlap by ~6 % (coverage ~97 %)",
+)
 def test_bearing_load_overlap_target():
     tp, region = _bearing()
     assert M.coverage(tp, region).overlap <= 0.02

@@ -57,7 +57,9 @@ def specimen():
 
 def test_load_entry_of_the_shipped_example(repo_root):
     region = box(0, 0, 150, 36).difference(Point(75, 18).buffer(3, quad_segs=64))
-    (rb,) = resolve(read(repo_root / "examples" / "ohs.toml"), [Body.from_layers("ohs", [(0.0, 2.0, region)])])
+    (rb,) = resolve(
+        read(repo_root / "examples" / "ohs.toml"), [Body.from_layers("ohs", [(0.0, 2.0, region)])]
+    )
     # the side selector picks 10 mm of each long side too; a pull along x enters through x = 150
     assert rb.load_entry(1.0).length > 36.0 + 19.0
     entry = load_entry(rb, 1.0)
@@ -116,8 +118,11 @@ def test_bearing_load_real_field(bracket):
     assert M.coverage(tp, region).coverage >= 0.95
 
 
-@pytest.mark.xfail(strict=True, reason="bearing load on a bent bracket: fill swarms meet the first front at the "
-                   "neutral axis, where the max-|sigma| direction turns by 90 degrees (~95 % coverage, ~6 % overlap)")
+@pytest.mark.xfail(
+    strict=True,
+    reason="bearing load on a bent bracket: fill swarms meet the first front at the "
+    "neutral axis, where the max-|sigma| direction turns by 90 degrees (~95 % coverage, ~6 % overlap)",
+)
 def test_bearing_load_real_field_targets(bracket):
     region, _, _, tp = bracket
     cov = M.coverage(tp, region)

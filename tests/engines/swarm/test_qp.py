@@ -81,8 +81,13 @@ def test_chain_qp_equals_the_swarm_potential():
     radial = rng.normal(size=(n - 1, 2))
     radial /= np.linalg.norm(radial, axis=1)[:, None]
     cp = ChainProblem(
-        t=rng.normal(size=(n, 2)), frame=frame, lo=-np.ones((n, 2)), hi=np.ones((n, 2)),
-        weight=rng.uniform(0, 2, n), link=np.array([1, 1, 0, 1, 1, 1], bool), radial=radial,
+        t=rng.normal(size=(n, 2)),
+        frame=frame,
+        lo=-np.ones((n, 2)),
+        hi=np.ones((n, 2)),
+        weight=rng.uniform(0, 2, n),
+        link=np.array([1, 1, 0, 1, 1, 1], bool),
+        radial=radial,
         target=rng.uniform(0.5, 1.0, n - 1),
     )
     qp, c0 = build_qp(cp)
