@@ -19,6 +19,7 @@ from collections.abc import Iterable
 
 import numpy as np
 import shapely
+from loadpath._typing import Floats, Ints, Region
 from loadpath.errors import GeometryError
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
@@ -110,7 +111,8 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
     return PrintGeometry(tuple(objects), program.dialect, len(program.layers), diameter, source)
 
 
-def _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program) -> tuple[Island, ...]:
+def _islands(m: np.ndarray, p_rows: Ints, i_rows: Ints, fw_all: Floats, bead_all: Floats, block_of: Ints,
+             program: Program) -> tuple[Island, ...]:
     """Islands of one object in one layer, with their (unclassified) blocks."""
     x0, y0, x1, y1 = (m[k] for k in ("x0", "y0", "x1", "y1"))
     mx, my = (x0[i_rows] + x1[i_rows]) / 2, (y0[i_rows] + y1[i_rows]) / 2
@@ -170,11 +172,11 @@ def _bead_width(widths: np.ndarray, flow_width: float) -> float:
     return float(np.median(widths[ok])) if ok.any() else flow_width
 
 
-def _len(m, r):
+def _len(m: np.ndarray, r: Ints) -> Floats:
     return np.hypot(m["x1"][r] - m["x0"][r], m["y1"][r] - m["y0"][r])
 
 
-def _with_pitch(bl: BlockLines, domain, alone: bool) -> BlockLines:
+def _with_pitch(bl: BlockLines, domain: Region, alone: bool) -> BlockLines:
     """Fill in the pitch of curved patterns: ``area / length`` of the area its lines span.
 
     The area is the island's domain when the block is alone in it, else the block's lines closed

@@ -8,12 +8,16 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import shapely
 from loadpath._typing import Region
 from loadpath.gcode.flavors import Dialect, Role
 from loadpath.geometry.classify import DEFAULT_REPLACE, REPLACEABLE
 from loadpath.geometry.ops import EMPTY, as_region, clean
+
+if TYPE_CHECKING:  # the load case is optional here: imported when a body is asked for
+    from loadpath.loadcase import Body
 
 __all__ = ["InfillBlock", "Island", "LayerGeometry", "ObjectGeometry", "PrintGeometry"]
 
@@ -213,7 +217,7 @@ class ObjectGeometry:
         """``[(z_bottom, z_top, part_outline)]`` per layer: the input of ``Body.from_layers``."""
         return [(g.z_bottom, g.z, g.outline) for g in self.layers]
 
-    def body(self):  # -> loadpath.loadcase.Body (imported lazily: the load case is optional here)
+    def body(self) -> Body:
         """Return the object as a :class:`loadpath.loadcase.Body` (one slab per layer, not merged)."""
         from loadpath.loadcase import Body
 
@@ -253,7 +257,7 @@ class PrintGeometry:
         """Every object's geometry in one layer of the file."""
         return [g for o in self.objects for g in o.layers if g.layer_index == layer_index]
 
-    def bodies(self, names: Sequence[str] | None = None) -> list:
+    def bodies(self, names: Sequence[str] | None = None) -> list[Body]:
         """:class:`loadpath.loadcase.Body` of each object (or of the named ones), for ``resolve``."""
         objs = self.objects if names is None else [self.object(n) for n in names]
         return [o.body() for o in objs]

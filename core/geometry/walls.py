@@ -30,7 +30,7 @@ import shapely
 from loadpath._typing import Bools, Floats, Region
 from loadpath.geometry.ops import EMPTY, as_region, bead_union, polygons_of
 from loadpath.tolerances import TOL
-from shapely.geometry import Polygon
+from shapely.geometry import LinearRing, Polygon
 
 __all__ = ["Walls", "walls"]
 
@@ -110,7 +110,8 @@ def walls(x0: Floats, y0: Floats, x1: Floats, y1: Floats, bead: Floats, flow: Fl
     return Walls(outline, domain, band)
 
 
-def _shells_and_rings(polys: list[Polygon], snap: float) -> tuple[list[Polygon], list[tuple[object, Region]]]:
+def _shells_and_rings(polys: list[Polygon],
+                      snap: float) -> tuple[list[Polygon], list[tuple[LinearRing, Region]]]:
     """Fill the outer rings of a band's polygons; pair each inner ring with the region directly inside it.
 
     The direct region of an inner ring is the ring's polygon minus the filled polygons nested in it.
@@ -131,7 +132,7 @@ def _shells_and_rings(polys: list[Polygon], snap: float) -> tuple[list[Polygon],
     return shells, rings
 
 
-def _mostly_external(ring, seg_tree: shapely.STRtree, external: Bools) -> bool:
+def _mostly_external(ring: LinearRing, seg_tree: shapely.STRtree, external: Bools) -> bool:
     """Most of the perimeter next to ``ring`` is external perimeter (the ring faces air)."""
     pts = shapely.points(np.asarray(ring.coords)[:-1])
     if len(pts) == 0:

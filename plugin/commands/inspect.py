@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 HELP = "per-layer summary of a G-code file (regions, islands, infill kinds); optional pictures"
 
@@ -75,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _draw(out: Path, program, geo, kinds, resolved, groups) -> list[Path]:
+def _draw(out: Path, program: Any, geo: Any, kinds: tuple[str, ...], resolved: Any,
+          groups: dict[int, int]) -> list[Path]:
     """Pictures of each distinct layer, the selections and the stress fields."""
     from loadpath.geometry import distinct_layers
     from loadpath.geometry.plots import draw_layer, draw_selections, draw_stress
