@@ -169,14 +169,19 @@ def resolve_body(loadcase: LoadCase, body: Body, analysis: str | None = None) ->
         kind, reason = "3d", f"the part has {len(merged.slabs)} distinct regions over its height"
     elif loadcase.needs_3d:
         kind, reason = "3d", "the load case has loads, supports or selectors in z"
-    elif any(s.measure("2d") <= 0 < s.measure("3d") for s in sels):
+    elif any(s.measure("2d") <= _tiny(merged) < s.measure("3d") for s in sels):
         kind, reason = "3d", "a selector picks only top or bottom faces"
     else:
         kind, reason = "2d", "one region over the height and an in-plane load case: plane stress"
     for sel in sels:
-        if sel.measure(kind) <= 0:
+        if sel.measure(kind) <= _tiny(merged):  # picks as thin as the selectors' tolerance are empty
             raise LoadCaseError(_empty_message(loadcase, merged, sel))
     return ResolvedBody(merged, loadcase, sups, loads, kind, reason)
+
+
+def _tiny(body: Body) -> float:
+    lo, hi = body.bounds
+    return 1e-6 * float(np.sum((hi - lo) ** 2))
 
 
 def _empty_message(lc: LoadCase, body: Body, sel: Selection) -> str:

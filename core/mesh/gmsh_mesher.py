@@ -188,7 +188,13 @@ def mesh_2d(
         embedded: list[tuple[int, list[int]]] = []
         for line in embed:
             for part in getattr(line, "geoms", [line]):
-                c = decimate(np.asarray(part.coords)[:, :2], 0.2 * sz.h_min, closed=False)
+                c = np.asarray(part.coords)[:, :2]
+                # vertices shared with the outline (in split_at) must stay, or the line misses them
+                keep = None
+                if split_at is not None and len(split_at):
+                    sp = np.asarray(split_at, dtype=float).reshape(-1, 2)
+                    keep = np.min(np.linalg.norm(c[:, None, :] - sp[None, :, :], axis=2), axis=1) <= 1e-3 * sz.h_min
+                c = decimate(c, 0.2 * sz.h_min, closed=False, keep=keep)
                 if len(c) < 2:
                     continue
                 pts = [point(x, y) for x, y in c]

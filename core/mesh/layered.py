@@ -130,7 +130,10 @@ def _inner_lines(stack: Sequence[Slab], rects: Sequence[BaseGeometry], union: Ba
         if union.boundary.distance(mid) <= tol or not union.contains(mid):
             continue
         out.append(g)
-    return [ln for ln in shapely.line_merge(shapely.MultiLineString(out)).geoms] if len(out) > 1 else out
+    if len(out) < 2:
+        return out
+    merged = shapely.line_merge(shapely.MultiLineString(out))
+    return list(getattr(merged, "geoms", [merged]))
 
 
 def mesh_3d(
@@ -168,8 +171,9 @@ def mesh_3d(
     stack, rects = _cut(list(slabs), cut_boxes, tol)
     union = shapely.unary_union([s.outline for s in stack])
     inner = _inner_lines(stack, rects, union, tol)
-    ends = np.array([c for ln in inner for c in (ln.coords[0], ln.coords[-1])]).reshape(-1, 2)
-    on_edge = shapely.distance(union.boundary, shapely.points(ends)) <= tol if len(ends) else np.zeros(0, bool)
+    # every vertex of an inner line that lies on the outside boundary must be a boundary vertex too
+    ends = np.array([c[:2] for ln in inner for c in ln.coords]).reshape(-1, 2)
+    on_edge = shapely.distance(union.boundary, shapely.points(ends)) <= 1e-6 * (1.0 + sz.h) if len(ends) else np.zeros(0, bool)
     m2 = mesh_2d(
         union, sz, refine_at=refine_at, split_at=ends[on_edge], order=1, embed=inner,
         refine_outlines=[s.outline for s in stack],

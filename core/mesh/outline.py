@@ -26,10 +26,11 @@ from loadpath.mesh.sizing import MeshSize, reentrant_corners
 __all__ = ["prepare_rings", "decimate", "insert_points", "sample", "refine_groups"]
 
 
-def decimate(c: np.ndarray, min_len: float, closed: bool = True) -> np.ndarray:
+def decimate(c: np.ndarray, min_len: float, closed: bool = True, keep: np.ndarray | None = None) -> np.ndarray:
     """Drop vertices closer than ``min_len`` to their predecessor.
 
-    Never two neighbours in one pass, never the ends of an open line, never below a triangle.
+    Never a vertex marked in ``keep``, never the ends of an open line, never two neighbours in one
+    pass, never below a triangle.
 
     Parameters
     ----------
@@ -37,32 +38,47 @@ def decimate(c: np.ndarray, min_len: float, closed: bool = True) -> np.ndarray:
         Ring (without the closing repeat) or open line.
     min_len : float, mm
     closed : bool
+    keep : (n,) bool, optional
+        Vertices that must stay (e.g. ends of selected boundary pieces).
 
     Returns
     -------
     (k, 2) float
     """
     low = 3 if closed else 2
+    kept = np.zeros(len(c), dtype=bool) if keep is None else np.asarray(keep, dtype=bool).copy()
+    if not closed and len(c):
+        kept[0] = kept[-1] = True
     while len(c) > low:
         if closed:
             short = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1) < min_len  # segment i -> i + 1
             drop = np.roll(short & ~np.roll(short, 1), 1)  # vertex i + 1 after a short segment i
+            # a kept vertex after a short segment: drop the one before it instead
+            back = drop & kept
+            drop = (drop & ~kept) | (np.roll(back, -1) & ~kept & ~np.roll(drop, 1))
         else:
             short = np.linalg.norm(c[1:] - c[:-1], axis=1) < min_len
             drop = np.zeros(len(c), dtype=bool)
             drop[1:] = short & ~np.concatenate([[False], short[:-1]])
-            if drop[-1]:  # the end stays: drop its predecessor instead
-                drop[-1] = False
-                drop[-2] = len(c) > 2
-            drop[0] = False
+            back = drop & kept
+            drop = drop & ~kept
+            drop[:-1] |= back[1:] & ~kept[:-1] & ~np.concatenate([[False], drop[:-2]])
         if not np.any(drop) or len(c) - int(drop.sum()) < low:
             break
         c = c[~drop]
+        kept = kept[~drop]
     return c
 
 
-def insert_points(coords: np.ndarray, extra: np.ndarray, tol: float) -> np.ndarray:
-    """Insert the points lying on a closed ring's segments (within ``tol``) as vertices."""
+def insert_points(coords: np.ndarray, extra: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Insert the points lying on a closed ring's segments (within ``tol``) as vertices.
+
+    Returns
+    -------
+    coords : (k, 2) float
+    is_extra : (k,) bool
+        Vertices that are (or coincide with) one of the points.
+    """
     c = coords
     for p in extra:
         a = c
@@ -74,7 +90,10 @@ def insert_points(coords: np.ndarray, extra: np.ndarray, tol: float) -> np.ndarr
         if d[k] > tol or np.min(np.linalg.norm(c - p, axis=1)) <= tol:
             continue
         c = np.insert(c, k + 1, a[k] + t[k] * ab[k], axis=0)
-    return c
+    if len(extra) == 0:
+        return c, np.zeros(len(c), dtype=bool)
+    dist = np.min(np.linalg.norm(c[:, None, :] - extra[None, :, :], axis=2), axis=1)
+    return c, dist <= tol
 
 
 def prepare_rings(outline: BaseGeometry, size: MeshSize, split_at: Points2 | None = None) -> list[list[np.ndarray]]:
@@ -90,8 +109,8 @@ def prepare_rings(outline: BaseGeometry, size: MeshSize, split_at: Points2 | Non
         poly = orient(poly, 1.0)
         rings = []
         for r in [poly.exterior, *poly.interiors]:
-            c = decimate(np.asarray(r.coords)[:-1, :2], 0.2 * size.h_min)
-            rings.append(insert_points(c, extra, 1e-3 * size.h_min))
+            c, keep = insert_points(np.asarray(r.coords)[:-1, :2], extra, 1e-3 * size.h_min)
+            rings.append(decimate(c, 0.2 * size.h_min, keep=keep))
         polys.append(rings)
     if not polys:
         raise MeshingError("the part outline is empty after cleaning; check the layer geometry")
