@@ -24,6 +24,7 @@ from loadpath.geometry.ops import polygons_of
 __all__ = ["draw_layer", "draw_selections", "draw_stress"]
 
 _PERIMETER = (Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER)
+_NOT_PART = (Role.SKIRT, Role.WIPE_TOWER)
 _SELECTION_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown", "tab:pink")
 
 
@@ -119,7 +120,7 @@ def draw_layer(path: str | os.PathLike, program: Program, layers: Sequence[Layer
     m = program.moves
     sel = m["extrude"] & np.isin(m["layer"], list(idx))
     peri = sel & np.isin(m["role"], _PERIMETER)
-    other = sel & ~peri
+    other = sel & ~peri & ~np.isin(m["role"], _NOT_PART)
     ax.add_collection(LineCollection(_segments(m[other]), colors="0.55", linewidths=0.3, zorder=3))
     ax.add_collection(LineCollection(_segments(m[peri]), colors="tab:orange", linewidths=0.6, zorder=4))
     for g in layers:

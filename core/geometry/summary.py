@@ -26,7 +26,8 @@ class LayerRow:
     Attributes
     ----------
     layer : int
-        0-based index into ``Program.layers`` (Cura's ``;LAYER:n``; PrusaSlicer's preview counts from 1).
+        0-based index into ``Program.layers`` (Cura's ``;LAYER:n``); the table prints ``layer + 1``, as
+        the slicers' previews and loadpath's messages count layers.
     z, height : float, mm
     features : tuple of str
         The slicer's feature names printed in the layer, in file order.
@@ -104,10 +105,10 @@ def layer_rows(program: Program, geometry: PrintGeometry,
 
 
 def format_layer_table(rows: Sequence[LayerRow], kinds: Sequence[str] = DEFAULT_REPLACE) -> str:
-    """Format the rows as an aligned text table (one header line, one line per layer)."""
+    """Format the rows as an aligned text table (one header line, one line per layer, counted from 1)."""
     head = ("layer", "z mm", "h mm", "islands", "infill mm2", f"replace mm2 ({'+'.join(kinds)})", "kinds",
             "group", "features")
-    body = [(str(r.layer), f"{r.z:.3f}", f"{r.height:.3f}", str(r.islands), f"{r.infill_area:.1f}",
+    body = [(str(r.layer + 1), f"{r.z:.3f}", f"{r.height:.3f}", str(r.islands), f"{r.infill_area:.1f}",
              f"{r.replace_area:.1f}", "+".join(r.kinds) or "-", _group_name(r.group),
              ", ".join(r.features) or "-") for r in rows]
     widths = [max(len(h), *(len(row[i]) for row in body)) if body else len(h) for i, h in enumerate(head)]

@@ -58,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
     geo = geometry.layer_geometry(program)
 
     objs = ", ".join(f"{o.name!r} ({len(o.layers)} layers)" for o in geo.objects) or "none"
-    print(f"{args.gcode}: {program.dialect.name}, {len(program.layers)} layers, objects: {objs}")
+    print(f"{args.gcode}: {program.dialect.name}, {len(program.layers)} layers (counted from 1), "
+          f"objects: {objs}")
     print(format_layer_table(layer_rows(program, geo, kinds), kinds))
 
     resolved = ()
@@ -90,9 +91,9 @@ def _draw(out: Path, program: Any, geo: Any, kinds: tuple[str, ...], resolved: A
         seen.add(group)
         members = [i for i, g in groups.items() if g == group]
         layer = program.layers[index]
-        title = (f"layer {index} (z = {layer.z:g} mm), like {len(members)} layer(s): "
-                 f"{_ranges(members)}")
-        written.append(draw_layer(out / f"layer_{index:04d}.png", program, geo.at(index), kinds, title))
+        title = (f"layer {index + 1} (z = {layer.z:g} mm), like {len(members)} layer(s): "
+                 f"{_ranges([i + 1 for i in members])}")
+        written.append(draw_layer(out / f"layer_{index + 1:04d}.png", program, geo.at(index), kinds, title))
     for rb in resolved:
         from loadpath.fea import analyze
 
@@ -107,10 +108,10 @@ def _draw(out: Path, program: Any, geo: Any, kinds: tuple[str, ...], resolved: A
         for g in reps:
             z = g.z - g.height / 2
             field = analysis.field(z)
-            title = (f"{rb.name}: principal stress ({field.principal}), "
-                     f"{'all layers' if rb.analysis == '2d' else f'layer {g.layer_index} (z = {g.z:g} mm)'}; "
+            which = "all layers" if rb.analysis == "2d" else f"layer {g.layer_index + 1} (z = {g.z:g} mm)"
+            title = (f"{rb.name}: principal stress ({field.principal}), {which}; "
                      f"residual {analysis.result.residual:.1e}")
-            name = out / f"stress_{safe}_{g.layer_index:04d}.png"
+            name = out / f"stress_{safe}_{g.layer_index + 1:04d}.png"
             written.append(draw_stress(name, field, g.outline, title))
     return written
 
