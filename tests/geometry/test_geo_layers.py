@@ -283,3 +283,23 @@ def test_filament_diameter_measured_from_the_walls(cura_ohs):
         assert [x.kind for x in b.blocks] == [x.kind for x in a.blocks]
         assert b.blocks[0].flow_width == pytest.approx(0.4, rel=5e-3)
     assert geometry.wall_spacing(p0) == pytest.approx(0.4, abs=0.005)  # (w0 + wx) / 2
+
+
+def test_distinct_layers_on_real_files(prusa_ohs, cura_ohs, prusa_tower, repo_root):
+    # PrusaSlicer shrinks the first layer (elephant-foot compensation): two outlines; Cura: one
+    (obj,) = _geo(prusa_ohs).objects
+    assert [g.layers for g in geometry.distinct_layers(obj)] == [(0,), tuple(range(1, 10))]
+    (obj,) = _geo(cura_ohs).objects
+    assert [g.layers for g in geometry.distinct_layers(obj)] == [tuple(range(10))]
+    assert [g.layers for g in geometry.distinct_layers(obj, key="domain")] == [tuple(range(10))]
+    # the twisted, tapered tower changes its outline every layer
+    (obj,) = _geo(prusa_tower).objects
+    assert len(geometry.distinct_layers(obj)) >= 110
+    # the shipped example: internal solid replaced on layers 2-9, in two groups (Solid infill and
+    # 100 % Internal infill differ in pitch), nothing to replace on the first and last layers
+    (obj,) = _geo(repo_root / "examples" / "ohs.gcode").objects
+    groups = geometry.distinct_layers(obj, key="replace", kinds=["solid"])
+    assert sorted(i for g in groups for i in g.layers) == list(range(1, 9))
+    assert len(groups) <= 2
+    body = obj.body()
+    assert len(body.slabs) == 10 and body.z_range == pytest.approx((0.0, 2.0))
