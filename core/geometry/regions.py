@@ -30,7 +30,7 @@ from loadpath._typing import Floats, Region
 from loadpath.geometry.ops import EMPTY, as_region, bead_union, clean
 from loadpath.tolerances import TOL
 
-__all__ = ["BlockLines", "footprints", "regions", "replace_region", "outside_distance", "check_tolerance",
+__all__ = ["BlockLines", "footprints", "regions", "outside_distance", "check_tolerance",
            "DENSE_PITCH"]
 
 DENSE_PITCH = 1.5
@@ -125,12 +125,6 @@ def regions(domain: Region, prints: list[Region]) -> list[Region]:
         others = [p for j, p in enumerate(prints) if j != i and not p.is_empty]
         out.append(clean(shapely.difference(domain, shapely.union_all(others))) if others else domain)
     return out
-
-
-def replace_region(domain: Region, prints: list[Region], kept: list[bool]) -> Region:
-    """Return the domain minus the footprints of the kept blocks (cleaned)."""
-    drop = [p for p, k in zip(prints, kept, strict=True) if k and not p.is_empty]
-    return clean(shapely.difference(domain, shapely.union_all(drop))) if drop else domain
 
 
 def outside_distance(b: BlockLines, region: Region) -> float:
