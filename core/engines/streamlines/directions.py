@@ -56,6 +56,8 @@ class DirectionGrid:
 
     Attributes
     ----------
+    field : StressField
+        The sampled field.
     spacing : float, mm
     mass_max : float
         Largest virtual mass on the grid (for diagnostics).
@@ -67,6 +69,7 @@ class DirectionGrid:
         g = max(float(spacing), float(np.sqrt(area / _MAX_NODES)))
         self.spacing = g
         self.region = region
+        self.field = field
         shapely.prepare(region)
         self.x0 = x0 - 2 * g
         self.y0 = y0 - 2 * g

@@ -214,6 +214,14 @@ def _faithful(
     spacing = params.min_spacing  # w + G_p
     settings = _trace_settings(params, _extent(region), 0.5 * spacing)
     t = time.perf_counter()
+    corners = getattr(grid.field, "corners", None)
+    if seeds is None and params.seeding == "centroids":
+        if corners is None:
+            raise SettingsError(
+                "seeding = 'centroids' needs a finite-element stress field; use seeding = 'density'"
+            )
+        c = np.asarray(corners, dtype=float).mean(axis=1)
+        seeds = c[grid.inside(c)]
     if seeds is None:
         # hexagonal lattice with the thesis's seed density: 2 / (sqrt(3) a^2) = rho
         a = float(np.sqrt(2.0 / (np.sqrt(3.0) * params.seed_density)))

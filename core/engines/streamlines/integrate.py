@@ -152,14 +152,7 @@ def _defined_fraction(grid: DirectionGrid, x: Points2, step: Points2) -> np.ndar
 
 def _clear_fraction(obstacles: SegmentIndex, a: Points2, b: Points2, clearance: float) -> np.ndarray:
     """Largest ``t`` (bisection) such that ``[a, a + t (b - a)]`` keeps ``clearance`` from obstacles."""
-    lo = np.zeros(len(a))
-    hi = np.ones(len(a))
-    for _ in range(_BISECT_SPACING):
-        mid = 0.5 * (lo + hi)
-        ok = obstacles.clear(a, a + mid[:, None] * (b - a), clearance)
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    return lo
+    return obstacles.clear_fraction(a, b, clearance, _BISECT_SPACING)
 
 
 def trace(

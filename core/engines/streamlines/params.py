@@ -59,6 +59,10 @@ class StreamlineParams:
         the region's size.
     seed_density : float, per mm²
         Faithful seeds per unit area when no seeds are given.
+    seeding : {"density", "centroids"}
+        Faithful seeds: a hexagonal lattice at ``seed_density``, or the centroids of the FE
+        elements (the thesis's choice, Sec. 4.2) when the field is a finite-element field
+        (it has ``corners``), inside the region.
     boundary_seed_gap : float, mm
         Default mode: largest distance between boundary seeds where the field runs along the
         boundary.
@@ -88,6 +92,7 @@ class StreamlineParams:
     max_turn_deg: float
     max_length: float = 0.0
     seed_density: float = 0.2
+    seeding: str = "density"
     boundary_seed_gap: float = 5.0
     gap_fill: bool = True
     max_waves: int = 6
@@ -112,6 +117,8 @@ class StreamlineParams:
                 f"streamlines width range {self.width_min:g}..{self.width_max:g} mm is empty; "
                 "give width_min <= width_max"
             )
+        if self.seeding not in ("density", "centroids"):
+            raise SettingsError(f"streamlines seeding = {self.seeding!r}; use 'density' or 'centroids'")
         if not 0 < self.max_turn_deg <= 180:
             raise SettingsError(f"streamlines max_turn_deg = {self.max_turn_deg!r} must be in (0, 180]")
         if self.min_length < 0 or self.max_length < 0:

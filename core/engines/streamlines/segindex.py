@@ -99,6 +99,38 @@ class SegmentIndex:
         out[rows[starts]] = np.minimum(out[rows[starts]], np.minimum.reduceat(d, starts))
         return out
 
+    def clear_fraction(self, p0: Points2, p1: Points2, radius: float, iterations: int = 5) -> Floats:
+        """Largest ``t`` in [0, 1] (bisection) with ``[p0, p0 + t (p1 - p0)]`` clear by ``radius``.
+
+        The candidate segments are found once for the whole query segment; the bisection then
+        only re-measures those.
+        """
+        n = len(p0)
+        lo = np.zeros(n)
+        if self.tree is None or n == 0:
+            return np.ones(n)
+        mid = 0.5 * (p0 + p1)
+        hq = 0.5 * np.linalg.norm(p1 - p0, axis=1)
+        rows, segs = self._pairs(mid, radius + self.half + float(np.max(hq)))
+        hi = np.ones(n)
+        if len(rows) == 0:
+            return hi
+        qa, qb = self.a[segs], self.b[segs]
+        starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
+        has = rows[starts]
+        free = np.ones(n, dtype=bool)
+        free[has] = False
+        lo[free] = 1.0
+        for _ in range(iterations):
+            t = 0.5 * (lo + hi)
+            end = p0 + t[:, None] * (p1 - p0)
+            d = segment_distance(p0[rows], end[rows], qa, qb)
+            ok = np.ones(n, dtype=bool)
+            ok[has] = np.minimum.reduceat(d, starts) >= radius
+            lo = np.where(ok & ~free, t, lo)
+            hi = np.where(ok | free, hi, t)
+        return lo
+
     def clear(self, p0: Points2, p1: Points2, radius: float) -> Bools:
         """Whether each query segment stays at least ``radius`` from every indexed segment."""
         return self.segment_distance(p0, p1, radius) >= radius

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pytest
 from loadpath import metrics as M
 from loadpath.engines.streamlines import generate, resolve_params
 from loadpath.engines.streamlines._lines import Lines
@@ -12,6 +13,8 @@ from loadpath.engines.streamlines.density import Selected, circumcircles, thesis
 from loadpath.engines.streamlines.directions import DirectionGrid
 from loadpath.engines.streamlines.gapfill import Raster, fill_rounds, thesis_gap_fill
 from loadpath.engines.streamlines.integrate import TraceSettings
+from loadpath.errors import SettingsError
+from loadpath.fea.field import FEStressField
 from loadpath.field import AnalyticField, kirsch_tensor
 from loadpath.toolpath import EngineInput
 from scipy.spatial import Delaunay
@@ -176,3 +179,18 @@ def test_kirsch_reference_is_the_field_we_think():
     t = kirsch_tensor(np.array([[10.0, 6.0]]), (10.0, 4.0), 2.0, 10.0)
     assert abs(t[0, 0] - 30.0) < 1e-9
     assert Point(10, 4).buffer(2).area > 0
+
+
+
+def test_faithful_seeds_at_element_centroids_of_an_fe_field():
+    """The thesis seeds at the FE element centroids (Sec. 4.2): one streamline per element."""
+    region = box(0, 0, 6, 4)
+    xs, ys = np.meshgrid(np.linspace(0, 6, 7), np.linspace(0, 4, 5))
+    pts = np.stack([xs.ravel(), ys.ravel()], axis=1)
+    tri = Delaunay(pts).simplices
+    field = FEStressField(pts[tri], np.tile([10.0, 0.0, 0.0], (len(tri), 3, 1)), 10.0)
+    tp = generate(EngineInput(region=region, field=field, pitch=PITCH), mode="faithful", seeding="centroids")
+    assert tp.stats["seeds"] == len(tri)
+    region2, f2 = open_hole(20, 8, 2)
+    with pytest.raises(SettingsError, match="finite-element"):
+        generate(EngineInput(region=region2, field=f2, pitch=PITCH), mode="faithful", seeding="centroids")
