@@ -126,8 +126,7 @@ def read_container(path: str | os.PathLike, *, strict: bool = True):
         The parsed program (``config`` from the slicer metadata for a binary file) and the container
         (None for a text file), for :func:`encode_like`.
     """
-    with open(path, "rb") as fh:
-        raw = fh.read()
+    raw = _read_bytes(path)
     if raw[:4] != BINARY_MAGIC:
         return parse_bytes(raw, strict=strict), None
     container = _decode_binary(raw, os.fspath(path))
@@ -140,6 +139,19 @@ def read_container(path: str | os.PathLike, *, strict: bool = True):
         slicer, _, version = producer.partition(" ")
         program = dataclasses.replace(program, dialect=Dialect(slicer, version, program.dialect.family))
     return program, container
+
+
+def _read_bytes(path: str | os.PathLike) -> bytes:
+    """The file's bytes; a missing or unreadable file is a one-line :class:`GCodeParseError`."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read()
+    except FileNotFoundError:
+        raise GCodeParseError(f"{os.fspath(path)} does not exist; check the path of the G-code file") from None
+    except IsADirectoryError:
+        raise GCodeParseError(f"{os.fspath(path)} is a folder, not a G-code file; give the path of a .gcode file") from None
+    except OSError as exc:
+        raise GCodeParseError(f"cannot read {os.fspath(path)} ({exc.strerror}); check its permissions") from None
 
 
 def _block_type(name: str):

@@ -113,3 +113,13 @@ def test_layer_without_perimeters_is_visible_to_the_geometry(prusa_ohs):
     broken = gcode.parse("\n".join(head + body + tail))
     assert not any(r.is_perimeter for r in broken.layers[4].roles)
     assert any(r.is_perimeter for r in broken.layers[3].roles)
+
+
+def test_missing_file_is_a_one_line_error(tmp_path):
+    from loadpath import gcode
+    from loadpath.errors import GCodeParseError
+
+    with pytest.raises(GCodeParseError, match="does not exist; check the path"):
+        gcode.read(tmp_path / "nope.gcode")
+    with pytest.raises(GCodeParseError, match="is a folder"):
+        gcode.read(tmp_path)
