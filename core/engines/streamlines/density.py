@@ -36,6 +36,7 @@ Two procedures:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -265,7 +266,7 @@ def circumcircles(a: Points2, b: Points2, c: Points2) -> tuple[Points2, Floats]:
 
 
 def thesis_density_control(
-    lines: Lines, region: Region, spacing: float, inside: object
+    lines: Lines, region: Region, spacing: float, inside: Callable[[Points2], Bools]
 ) -> tuple[Bools, dict[str, int]]:
     """Run the thesis's whole-streamline density control (App. C), with the guards of the module doc.
 

@@ -52,9 +52,9 @@ def lattice(region: Region, spacing: float) -> Points2:
     xs = np.arange(x0 + 0.25 * spacing, x1, spacing)
     gx, gy = np.meshgrid(xs, ys)
     gx = gx + 0.5 * spacing * (np.arange(len(ys)) % 2)[:, None]
-    gx, gy = gx.ravel(), gy.ravel()
-    inside = shapely.contains_xy(region, gx, gy)
-    return np.stack([gx[inside], gy[inside]], axis=1)
+    fx, fy = gx.ravel(), gy.ravel()
+    inside = shapely.contains_xy(region, fx, fy)
+    return np.stack([fx[inside], fy[inside]], axis=1)
 
 
 def rings(region: Region) -> list[Points2]:

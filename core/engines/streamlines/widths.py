@@ -21,8 +21,10 @@ within ``width_max`` counts as ``width_max``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
-from loadpath._typing import Floats, Points2, Region
+from loadpath._typing import Bools, Floats, Points2, Region
 from loadpath.engines.streamlines._lines import Lines
 from loadpath.engines.streamlines.density import conflicts
 from loadpath.engines.streamlines.seeding import rings, sample_ring
@@ -128,7 +130,7 @@ def tile(
     width_min: float,
     width_max: float,
     min_spacing: float,
-    inside: object,
+    inside: Callable[[Points2], Bools],
     max_turn_deg: float = 180.0,
 ) -> tuple[Lines, Floats]:
     """Bead cells: moved centre lines and local pitch (module docstring).
