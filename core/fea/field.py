@@ -5,8 +5,8 @@ A layer's field is a set of triangles with the stress tensor ``[sxx, syy, sxy]``
 * 2D analysis: the mesh's quadratic triangles with the recovered nodal stresses, interpolated
   quadratically (the same functions as the displacements);
 * 3D analysis: the section of the tetrahedral mesh by the plane ``z = layer middle``
-  (:func:`slice_tets`): its triangles carry the in-plane part of the 3D stress, taken on the cut
-  tetrahedron edges with the quadratic edge interpolation, and are interpolated linearly.
+  (:func:`slice_tets`): its triangles carry the in-plane part of the 3D stress as quadratic data,
+  which reproduces the tetrahedra's own interpolation on the plane exactly.
 
 Tensors are interpolated component by component (never direction vectors). Points are located with
 a bucket grid (:class:`~loadpath.fea.locate.TriangleLocator`); outside every triangle the tensor is NaN.
@@ -147,59 +147,75 @@ def field_from_2d(mesh: MeshData, stress: np.ndarray, scale: float, **kw: object
     return FEStressField(corners, stress[mesh.cells], scale, **kw)  # type: ignore[arg-type]
 
 
+def _tet_shape(L: np.ndarray, quadratic: bool) -> np.ndarray:
+    """tet4 / tet10 shape functions at barycentric coordinates ``(..., 4)`` -> ``(..., 4 | 10)``."""
+    if not quadratic:
+        return L
+    a, b = _TET_EDGES[:, 0], _TET_EDGES[:, 1]
+    return np.concatenate([L * (2 * L - 1), 4 * L[..., a] * L[..., b]], axis=-1)
+
+
 def slice_tets(mesh: MeshData, values: np.ndarray, z: float) -> tuple[np.ndarray, np.ndarray]:
     """Section of a tetrahedral mesh by the plane ``z``.
 
-    A corner exactly on the plane counts as below, so a mesh face lying in the plane is cut once
-    (by the cells above it).
+    Each cut tetrahedron gives a triangle or a quadrilateral (two triangles). The values on a section
+    triangle are those of the tetrahedron's own interpolation, taken at the triangle's corners and
+    edge midpoints: for ``tet10`` the field restricted to the plane is quadratic, so the section
+    triangles (as quadratic ``tri6`` data) reproduce it exactly. A corner exactly on the plane counts
+    as below, so a mesh face lying in the plane is cut once (by the cells above it).
 
     Parameters
     ----------
     mesh : MeshData
         ``tet4`` or ``tet10``.
     values : (n, c) float
-        Nodal values, interpolated along the cut edges (quadratically with mid-edge nodes).
+        Nodal values.
     z : float, mm
 
     Returns
     -------
     corners : (t, 3, 2) float, mm
-    tri_values : (t, 3, c) float
+    tri_values : (t, 6, c) float (``tet10``) or (t, 3, c) (``tet4``)
+        At the corners, then the midpoints of edges (0,1), (1,2), (2,0).
     """
+    quadratic = mesh.cells.shape[1] == 10
     cells = mesh.cells
     zc = mesh.points[cells[:, :4], 2] - z  # (m, 4)
     above = zc > 0
     code = above @ np.array([1, 2, 4, 8])
-    cut = (code > 0) & (code < 15)
+    cut = np.flatnonzero((code > 0) & (code < 15))
     cells, zc, code = cells[cut], zc[cut], code[cut]
     a, b = _TET_EDGES[:, 0], _TET_EDGES[:, 1]
     sa, sb = zc[:, a], zc[:, b]  # (m, 6)
     den = sa - sb
     t = np.clip(np.divide(sa, den, out=np.zeros_like(sa), where=den != 0), 0.0, 1.0)
-    pa = mesh.points[cells[:, a], :2]
-    pb = mesh.points[cells[:, b], :2]
-    pts = pa + t[..., None] * (pb - pa)  # (m, 6, 2)
-    va = values[cells[:, a]]
-    vb = values[cells[:, b]]
-    if cells.shape[1] == 10:
-        vm = values[cells[:, 4:10]]
-        tt = t[..., None]
-        vals = (1 - tt) * (1 - 2 * tt) * va + tt * (2 * tt - 1) * vb + 4 * tt * (1 - tt) * vm
-    else:
-        vals = va + t[..., None] * (vb - va)
-    tris_c = []
-    tris_v = []
+    # barycentric coordinates (in the tetrahedron) of the points where the plane cuts its edges
+    bary = np.zeros((len(cells), 6, 4))
+    rows = np.arange(6)
+    bary[:, rows, a] = 1.0 - t
+    bary[:, rows, b] += t
+    corners_xyz = mesh.points[cells[:, :4]]  # (m, 4, 3)
+    tri_cell, tri_bary = [], []
     for cd, edges in _TABLE.items():
         sel = np.flatnonzero(code == cd)
         if len(sel) == 0:
             continue
         polys = [edges[:3]] if len(edges) == 3 else [[edges[0], edges[1], edges[2]], [edges[0], edges[2], edges[3]]]
         for e in polys:
-            tris_c.append(pts[sel][:, e])
-            tris_v.append(vals[sel][:, e])
-    if not tris_c:
-        return np.zeros((0, 3, 2)), np.zeros((0, 3, values.shape[1]))
-    return np.concatenate(tris_c), np.concatenate(tris_v)
+            tri_cell.append(sel)
+            tri_bary.append(bary[sel][:, e])
+    nval = values.shape[1]
+    if not tri_cell:
+        return np.zeros((0, 3, 2)), np.zeros((0, 6 if quadratic else 3, nval))
+    tc = np.concatenate(tri_cell)
+    tb = np.concatenate(tri_bary)  # (t, 3, 4)
+    corners = np.einsum("tpk,tkd->tpd", tb, corners_xyz[tc])[:, :, :2]
+    if quadratic:
+        mids = 0.5 * (tb + tb[:, [1, 2, 0]])
+        tb = np.concatenate([tb, mids], axis=1)  # (t, 6, 4)
+    N = _tet_shape(tb, quadratic)  # (t, 3 | 6, 4 | 10)
+    tri_values = np.einsum("tpn,tnc->tpc", N, values[cells[tc]])
+    return corners, tri_values
 
 
 def field_from_slice(mesh: MeshData, stress: np.ndarray, z: float, scale: float, **kw: object) -> FEStressField:

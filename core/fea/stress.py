@@ -2,8 +2,9 @@
 
 Recovery: the cell stress ``D B u`` is evaluated at each cell's own nodes (for straight quadratic
 elements it is linear in the cell, so this is exact within the cell) and averaged over the cells
-sharing a node, weighted by cell size. For quadratic elements this nodal average is accurate at
-free edges such as holes (the open-hole Kt test, benchmarks.md §4).
+sharing a node, each cell counting once (as CalculiX does, so both give the same nodal stresses from
+the same displacements). For quadratic elements this nodal average is accurate at free edges such as
+holes: the open-hole Kt converges at about h^2 to within 0.5 % of the handbook value (tests).
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ def _voigt_strain(G: np.ndarray) -> np.ndarray:
 
 
 def nodal_stress(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Recovered nodal stresses: size-weighted average of the cells' own nodal values.
+    """Recovered nodal stresses: the mean of the cells' own values at each node.
 
     Returns
     -------
@@ -75,7 +76,7 @@ def nodal_stress(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> np.ndarray:
     """
     s = cell_stress(mesh, D, u)  # (m, k, nv)
     m, k, nv = s.shape
-    w = np.repeat(np.abs(mesh.measures), k)
+    w = np.ones(m * k)
     idx = mesh.cells.ravel()
     tot = np.bincount(idx, weights=w, minlength=len(mesh.points))
     out = np.zeros((len(mesh.points), nv))

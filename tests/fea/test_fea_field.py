@@ -96,9 +96,9 @@ def test_slice_of_a_tet_mesh_reproduces_nodal_values_and_covers_the_section():
         area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
         outline = slabs[0].outline if z < 2 else slabs[1].outline
         assert area == pytest.approx(outline.area, rel=1e-4)
-        # values on cut edges: exact for fields quadratic along the edges
-        p3 = np.column_stack([corners.reshape(-1, 2), np.full(corners.shape[0] * 3, z)])
-        expect = np.column_stack([p3[:, 0] ** 2, p3[:, 1] * p3[:, 2], p3[:, 2]])
+        # quadratic section data (corners, then edge midpoints): exact for quadratic nodal fields
+        pts = np.concatenate([corners, 0.5 * (corners + corners[:, [1, 2, 0]])], axis=1).reshape(-1, 2)
+        expect = np.column_stack([pts[:, 0] ** 2, pts[:, 1] * z, np.full(len(pts), z)])
         np.testing.assert_allclose(tv.reshape(-1, 3), expect, atol=1e-9)
 
 
