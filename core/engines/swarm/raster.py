@@ -3,11 +3,11 @@
 A swarm step asks for the field at every agent (about a hundred points), hundreds of times per
 layer.  Asking the :class:`~loadpath.field.StressField` each time costs its fixed overhead per call
 (point location in the finite-element mesh: about 0.5 ms for 90 points), more than the rest of the
-step.  :class:`FieldRaster` asks once, for the nodes of a grid of ``cell`` (default half the pitch)
-over the region, and then interpolates the **tensor** bilinearly (never direction vectors, which
-have no sign) and decomposes it in closed form (:func:`loadpath.field.principal_stresses`), exactly
-as :meth:`StressField.sample` does.  Nodes outside the part take the tensor of the nearest node
-inside, so points near the boundary interpolate from the part only.
+step.  :class:`FieldRaster` asks once, for the nodes of a grid of ``cell`` (the engine's default:
+half a pitch) over the region, and then interpolates the **tensor** bilinearly (never direction
+vectors, which have no sign) and decomposes it in closed form, as :meth:`StressField.sample` does.
+Nodes outside the part take the tensor of the nearest node inside, so points near the boundary
+interpolate from the part only.
 
 Rasters are cached per field (weakly) and reused for any region inside the rastered box with the
 same cell: a 2D analysis gives every layer of a body the same field, so only its first layer pays.

@@ -80,7 +80,9 @@ class SwarmParams:
         Spawn a new agent beyond a chain end that has no boundary in reach (off by default: the
         fill swarms cover what a front does not reach, more evenly than a front growing sideways).
     field_cell : float
-        Node spacing of the stress-field raster the steps sample (:mod:`.raster`), in pitches.
+        Node spacing of the stress-field raster the steps sample (:mod:`.raster`), in pitches (one
+        pitch gives the same beta and spacing on the specimen's FE field for a quarter of the
+        raster's cost, but loses coverage at small holes: 94.9 against 95.5 % on the small bracket).
     edge_gap : float
         A path that runs into the layer's edge ends this many pitches from it (across the edge).
     """
