@@ -23,11 +23,12 @@ move, absolute values are the rounded running total, so the sum written equals t
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Style", "STYLES", "Writer", "fmt"]
+__all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_many"]
 
 
 def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
@@ -49,6 +50,31 @@ def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
         elif s.startswith("-0."):
             s = "-" + s[2:]
     return s
+
+
+_TRAIL = re.compile(r"(\.\d*?)0+(?=\n)")
+_DOT = re.compile(r"\.(?=\n)")
+_NEG0 = re.compile(r"(?<=\n)-0(?=\n)")
+_LEAD = re.compile(r"(?<=\n)(-?)0\.")
+
+
+def fmt_many(values, decimals: int, leading_zero: bool = False) -> list[str]:
+    """:func:`fmt` of every value, formatted and trimmed in a few C-level passes.
+
+    Examples
+    --------
+    >>> fmt_many([0.6, -0.04, 199.3680001, 0.0, 100.0], 3)
+    ['.6', '-.04', '199.368', '0', '100']
+    """
+    vals = [float(v) for v in values]
+    if not vals:
+        return []
+    text = "\n" + (f"%.{decimals}f\n" * len(vals)) % tuple(vals)
+    text = _DOT.sub("", _TRAIL.sub(r"\1", text))
+    text = _NEG0.sub("0", text)
+    if not leading_zero:
+        text = _LEAD.sub(r"\1.", text)
+    return text[1:-1].split("\n")
 
 
 @dataclass(frozen=True)
@@ -244,9 +270,9 @@ class Writer:
             self._e_exact = float(c[-1])
             self.e = float(e_vals[-1])
         lz = self.style.leading_zero
-        xs = [fmt(v, 3, lz) for v in pts[1:, 0].tolist()]
-        ys = [fmt(v, 3, lz) for v in pts[1:, 1].tolist()]
-        es = [fmt(v, 5, lz) for v in e_vals.tolist()]
+        xs = fmt_many(pts[1:, 0], 3, lz)
+        ys = fmt_many(pts[1:, 1], 3, lz)
+        es = fmt_many(e_vals, 5, lz)
         has_e = np.abs(written) > 0
         wq = None
         if widths is not None and self.style.width:

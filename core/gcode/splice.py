@@ -65,12 +65,17 @@ class SpliceOptions:
         Widths, links, volumetric limit, volume matching.
     notes : bool
         Add the updated time / filament estimate after the slicer's footer lines.
+    volume_tol : float or None
+        A block whose new paths (after volume matching) would extrude more than this relative
+        difference from the slicer's is kept as sliced and reported in ``skipped`` (the engine left
+        too much of its region empty, or crowded it).  None: replace anyway.
     """
 
     flow: FlowModel
     motion: Motion = Motion()
     plan: PlanOptions = PlanOptions()
     notes: bool = True
+    volume_tol: float | None = 0.03
 
 
 @dataclass(frozen=True)
@@ -155,6 +160,17 @@ class SpliceResult:
     skipped: tuple[tuple[int, str], ...] = ()
     seconds_delta: float = 0.0
     stats: dict = field(default_factory=dict)
+
+    def output_ranges(self, program: Program, block: int) -> list[tuple[int, int]]:
+        """Output lines ``[a, z)`` that replaced block ``block``'s span (and its detached exit)."""
+        b = program.block(block)
+        wanted = {(b.span_start, b.span_stop), (b.exit_start, b.exit_stop)}
+        out, shift = [], 0
+        for a, z, k in sorted(self.edits):
+            if (a, z) in wanted and z > a:
+                out.append((a + shift, a + shift + k))
+            shift += k - (z - a)
+        return out
 
     def line_map(self, n_lines: int) -> np.ndarray:
         """Output line of every original line, -1 for replaced lines; ``(n_lines,) int64``."""
@@ -244,6 +260,10 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
         plan = plan_block(fill.paths, np.array([s0.x, s0.y]), height, feed, options.flow, options.plan,
                           region=fill.region, nominal_pitch=fill.nominal_pitch, flow_width=fill.flow_width,
                           target_filament=b.e)
+        if options.volume_tol is not None and b.e > 0 and abs(plan.filament / b.e - 1) > options.volume_tol:
+            skipped.append((fill.block, f"the new paths would extrude {plan.filament / b.e:.0%} of the slicer's "
+                                        "volume (the engine covered too little or too much of the region)"))
+            continue
         rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area)
         edits.append((b.span_start, b.span_stop, rw.span.encode("utf-8")))
         old_rows = [program.move_rows(b.span_start, b.span_stop)]

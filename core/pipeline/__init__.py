@@ -43,7 +43,7 @@ from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
 from loadpath.gcode.verify import SpliceCheck, check_splice
 from loadpath.pipeline.paths import Job, assign, plan_jobs, run_jobs, stagger
-from loadpath.pipeline.units import Unit, passthrough_reason, select_units
+from loadpath.pipeline.units import Unit, passthrough_reason, purge_blocks, select_units, unreliable_blocks
 from loadpath.toolpath import Path, Toolpaths
 
 __all__ = ["PipelineOptions", "PipelineResult", "JobResult", "run", "STAGES"]
@@ -207,7 +207,7 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
                               passthrough=reason)
 
     tell("geometry", 0, 1)
-    geo = geometry.layer_geometry(program)
+    geo = geometry.layer_geometry(program, check=False)  # blocks that fail its check are kept, below
     clock.lap("geometry")
     resolved = resolve(loadcase, geo.bodies())
     names = [rb.name for rb in resolved]
@@ -215,7 +215,16 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
         if obj.name not in names:
             warnings.append(f"object {obj.name!r} is not in the load case (object = {loadcase.object!r}): "
                             "passed through unchanged")
-    units = select_units(geo, names, options.replace, options.pitch)
+    purges = purge_blocks(program)
+    if purges:
+        warnings.append(f"{len(purges)} infill block(s) take the purge after a tool change (wipe into infill): kept")
+    unsure = unreliable_blocks(geo)
+    for block, dist in unsure.items():
+        b = program.block(block)
+        if geo_kind(geo, block) in options.replace:
+            warnings.append(f"layer {b.layer + 1}, {b.feature}: kept as sliced (its lines run {dist:.2f} mm outside "
+                            "the infill region found from the perimeters)")
+    units = select_units(geo, names, options.replace, options.pitch, exclude=purges | set(unsure))
     clock.lap("loadcase")
     if not units:
         kinds = ", ".join(options.replace)
@@ -270,6 +279,17 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
     clock.lap("check")
     return PipelineResult(sres.data, program, out, sres, check, tuple(job_results), analyses, geo, times,
                           tuple(warnings))
+
+
+def geo_kind(geo, block: int) -> str | None:
+    """The geometry's kind of a block (None when it is in no island)."""
+    for obj in geo.objects:
+        for lg in obj.layers:
+            for isl in lg.islands:
+                for b in isl.blocks:
+                    if b.block_index == block:
+                        return b.kind
+    return None
 
 
 def _simplified(paths, plan: PlanOptions) -> tuple[Path, ...]:

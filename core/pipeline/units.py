@@ -23,7 +23,7 @@ import shapely
 from loadpath._typing import Region
 from loadpath.geometry import InfillBlock, PrintGeometry
 
-__all__ = ["Unit", "select_units", "passthrough_reason", "FIXED_WIDTH_KINDS"]
+__all__ = ["Unit", "select_units", "passthrough_reason", "purge_blocks", "unreliable_blocks", "FIXED_WIDTH_KINDS"]
 
 FIXED_WIDTH_KINDS = ("sparse",)
 """Kinds printed at the slicer's own bead width (the paths' pitch is the sparse line spacing); the
@@ -90,6 +90,34 @@ def passthrough_reason(config: Mapping[str, str], cura_settings: Mapping[str, ob
     return None
 
 
+def purge_blocks(program) -> set[int]:
+    """Infill blocks that take the purge after a tool change (PrusaSlicer ``wipe_into_infill``).
+
+    With ``wipe_into_infill = 1`` the slicer purges the new filament into the infill printed first
+    after a tool change; those blocks are kept (interface.md: purges are kept out of the replaced
+    region).  Returns block indices.
+    """
+    if str(program.config.get("wipe_into_infill", "0")).split(",")[0].strip() != "1":
+        return set()
+    from loadpath.gcode.words import T
+
+    cmd = program.state.cmd
+    changes = np.flatnonzero((cmd >= T) & (cmd < T + 10_000))
+    starts = program.blocks["start"]
+    out = set()
+    for line in changes:
+        k = int(np.searchsorted(starts, line, side="right"))
+        while k < len(starts):
+            b = program.block(k)
+            if b.role.is_infill:
+                out.add(k)
+                break
+            if b.role.name != "WIPE_TOWER":
+                break
+            k += 1
+    return out
+
+
 def _median(values: Iterable[float], weights: Iterable[float]) -> float:
     v = np.asarray(list(values), dtype=float)
     w = np.asarray(list(weights), dtype=float)
@@ -98,8 +126,26 @@ def _median(values: Iterable[float], weights: Iterable[float]) -> float:
     return float(v[order][np.searchsorted(cw, cw[-1] / 2)]) if len(v) else float("nan")
 
 
+def unreliable_blocks(geo: PrintGeometry) -> dict[int, float]:
+    """Blocks whose own lines leave the region derived for them (open perimeters, ...): block -> mm.
+
+    The geometry's tolerance is :func:`loadpath.geometry.regions.check_tolerance` of the block's flow
+    width.  Such blocks are kept as sliced instead of failing the whole file.
+    """
+    from loadpath.geometry.regions import check_tolerance
+
+    out: dict[int, float] = {}
+    for obj in geo.objects:
+        for lg in obj.layers:
+            for isl in lg.islands:
+                for b in isl.blocks:
+                    if b.outside > check_tolerance(b.flow_width):
+                        out[b.block_index] = max(out.get(b.block_index, 0.0), float(b.outside))
+    return out
+
+
 def select_units(geo: PrintGeometry, objects: Sequence[str], replace: Sequence[str],
-                 pitch: float | None = None) -> list[Unit]:
+                 pitch: float | None = None, exclude: Iterable[int] = ()) -> list[Unit]:
     """The units of work of the named objects, in file order.
 
     Parameters
@@ -111,8 +157,11 @@ def select_units(geo: PrintGeometry, objects: Sequence[str], replace: Sequence[s
         Kinds to replace.
     pitch : float, mm, optional
         The user's pitch; default each unit's slicer pitch.
+    exclude : iterable of int
+        Blocks to keep whatever their kind (purges).
     """
     kinds = tuple(replace)
+    skip = set(exclude)
     out = []
     for obj in geo.objects:
         if obj.name not in objects:
@@ -120,7 +169,8 @@ def select_units(geo: PrintGeometry, objects: Sequence[str], replace: Sequence[s
         for lg in obj.layers:
             for isl in lg.islands:
                 for kind in kinds:
-                    blocks = tuple(b for b in isl.blocks if b.kind == kind and not b.region.is_empty)
+                    blocks = tuple(b for b in isl.blocks if b.kind == kind and not b.region.is_empty
+                                   and b.block_index not in skip)
                     if not blocks:
                         continue
                     region = shapely.union_all([b.region for b in blocks]) if len(blocks) > 1 else blocks[0].region

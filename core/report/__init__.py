@@ -1,1 +1,163 @@
-"""Reports."""
+"""The visual report of a run: one HTML page and ``metrics.json``.
+
+:func:`write_report` writes into a folder:
+
+``index.html``
+    the run (input, engine, settings and where each came from, warnings, time per stage), then per
+    distinct layer (one engine run, reused on the layers listed): the stress field, the slicer's
+    paths and the new paths coloured by alignment with the followed principal stress, the
+    histogram of spacing, and a table of metrics (beta, spacing variance, coverage, overlap, time,
+    extruded volume before and after);
+``metrics.json``
+    the same numbers for scripts;
+``layer-<n>.svg``, ``layer-<n>-detail.svg``
+    each distinct layer's figure, and its close-up around the most stressed point, on their own
+    (the README shows one).
+
+Pure Python and numpy: no plotting library is needed.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from loadpath import __version__
+from loadpath.report.layers import LayerReport, layer_report
+from loadpath.report.svg import colorbar
+
+__all__ = ["write_report", "LayerReport", "layer_report"]
+
+_METRIC_ROWS = (
+    ("beta", "alignment beta (paper Eq. 14)", "{:.4f}"),
+    ("beta_curved", "beta where the field curves", "{:.4f}"),
+    ("spacing_mean", "spacing mean / pitch", "{:.3f}"),
+    ("spacing_var", "spacing variance (/ pitch^2)", "{:.4f}"),
+    ("spacing_p5", "spacing 5th percentile / pitch", "{:.3f}"),
+    ("coverage", "coverage", "{:.4f}"),
+    ("overlap", "overlap", "{:.4f}"),
+    ("n_paths", "paths", "{:.0f}"),
+    ("length_mm", "printed length, mm", "{:.0f}"),
+    ("travel_mm", "travel inside the blocks, mm", "{:.0f}"),
+    ("crossings", "crossings", "{:.0f}"),
+)
+
+
+def _num(v: Any, f: str) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "–"
+    return f.format(v)
+
+
+def write_report(directory: Path, result, settings, times: dict[str, float], source: str = "",
+                 with_metrics: bool = True) -> Path:
+    """Write the report of a pipeline result (see the module docstring).
+
+    Parameters
+    ----------
+    directory : Path
+        Created if needed.
+    result : loadpath.pipeline.PipelineResult
+    settings : loadpath.plugin.settings.Settings
+    times : dict of str -> float, s
+    source : str
+        Input file name.
+    with_metrics : bool
+        Compute the metrics (a second or so per distinct layer).
+
+    Returns
+    -------
+    Path
+        ``index.html``.
+    """
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    farea = math.pi * settings.filament_diameter ** 2 / 4
+    layers: list[LayerReport] = []
+    for k, jr in enumerate(result.jobs):
+        unit = jr.units[0]
+        nums = ", ".join(str(u.layer + 1) for u in jr.units)
+        title = f"{unit.object}, {unit.kind} infill, layers {nums} (z = {unit.z:g} mm)"
+        lr = layer_report(jr, result.program, result.output, result.splice, jr.job.input.field, title, farea,
+                          with_metrics)
+        (directory / f"layer-{k + 1}.svg").write_text(lr.figure, encoding="utf-8")
+        (directory / f"layer-{k + 1}-detail.svg").write_text(lr.detail, encoding="utf-8")
+        layers.append(lr)
+    data = {
+        "loadpath": __version__, "source": source, "dialect": result.program.dialect.name,
+        "changed": result.changed, "passthrough": result.passthrough, "warnings": list(result.warnings),
+        "times_s": {k: float(v) for k, v in times.items()},
+        "settings": settings.as_dict() if settings is not None else {},
+        "settings_sources": dict(settings.sources) if settings is not None else {},
+        "print_time_change_s": result.splice.seconds_delta if result.splice else 0.0,
+        "check": {"problems": result.check.problems if result.check else [],
+                  "volume_ratio": {str(k): v for k, v in (result.check.volume_ratio if result.check else {}).items()}},
+        "layers": [lr.numbers for lr in layers],
+        "blocks": [dict(vars(b)) for b in (result.splice.blocks if result.splice else ())],
+    }
+    (directory / "metrics.json").write_text(json.dumps(data, indent=1, default=_json), encoding="utf-8")
+    page = directory / "index.html"
+    page.write_text(_html(data, layers, settings), encoding="utf-8")
+    return page
+
+
+def _json(o: Any) -> Any:
+    if hasattr(o, "item"):
+        return o.item()
+    if isinstance(o, (set, tuple)):
+        return list(o)
+    return str(o)
+
+
+def _html(data: dict, layers: list[LayerReport], settings) -> str:
+    e = html.escape
+    rows = "".join(f"<tr><td>{e(k)}</td><td>{v:.3f}</td></tr>" for k, v in data["times_s"].items())
+    sett = ""
+    if settings is not None:
+        sett = "".join(f"<tr><td>{e(k)}</td><td>{e(str(v))}</td><td>{e(settings.source(k))}</td></tr>"
+                       for k, v in data["settings"].items())
+    warn = "".join(f"<li>{e(w)}</li>" for w in data["warnings"]) or "<li>none</li>"
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'><title>loadpath report</title>",
+        "<style>body{font-family:sans-serif;max-width:1000px;margin:auto;padding:1em}"
+        "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #ccc;padding:2px 8px;"
+        "text-align:right}td:first-child,th:first-child{text-align:left}"
+        "details{margin:0.5em 0}section{margin-top:2em;border-top:2px solid #ddd}</style></head><body>",
+        f"<h1>loadpath report: {e(data['source'])}</h1>",
+        f"<p>{e(data['dialect'])}; engine <b>{e(str(data['settings'].get('engine')))}</b>; "
+        f"{len(layers)} distinct layer(s); print time change (kinematic estimate) "
+        f"{data['print_time_change_s']:+.0f} s; {'infill replaced' if data['changed'] else 'file unchanged'}.</p>",
+        f"<h2>Warnings</h2><ul>{warn}</ul>",
+        f"<h2>Time per stage (s)</h2><table>{rows}</table>",
+        f"<details><summary>Settings and where they came from</summary><table><tr><th>setting</th><th>value</th>"
+        f"<th>from</th></tr>{sett}</table></details>",
+        f"<p>Colours: {colorbar('alignment |s . p| (paths); |s| / scale (field)')}</p>",
+    ]
+    for lr in layers:
+        n = lr.numbers
+        old, new = n.get("old", {}), n.get("new", {})
+        mrows = "".join(f"<tr><td>{e(label)}</td><td>{_num(old.get(key), f)}</td><td>{_num(new.get(key), f)}</td>"
+                        "</tr>" for key, label, f in _METRIC_ROWS)
+        extra = [("extruded volume, mm³", n.get("volume_old_mm3"), n.get("volume_new_mm3"), "{:.1f}"),
+                 ("print time of the blocks (kinematic), s", n.get("print_s_old"), n.get("print_s_new"), "{:.1f}"),
+                 ("mean |s . p| of the printed segments", n.get("alignment_mean_old"), n.get("alignment_mean_new"),
+                  "{:.4f}")]
+        mrows += "".join(f"<tr><td>{e(lab)}</td><td>{_num(a, f)}</td><td>{_num(b, f)}</td></tr>"
+                         for lab, a, b, f in extra)
+        parts += [
+            f"<section><h2>{e(lr.title)}</h2>",
+            f"<p>pitch {n['pitch_mm']:.3f} mm, slicer's flow width {n['flow_width_mm']:.3f} mm, principal "
+            f"{e(n['principal'])}; engine {n['engine_s']:.2f} s for {n['n_paths_engine']} paths; staggered by half "
+            f"a pitch on layers {e(', '.join(map(str, n['staggered_layers'])) or 'none')}.</p>",
+            lr.figure,
+            "<p>Close-up around the largest hole, else the most stressed point (colour = alignment |s . p|):</p>",
+            lr.detail,
+            f"<table><tr><th>metric</th><th>slicer</th><th>loadpath</th></tr>{mrows}</table>",
+            lr.hist,
+            "</section>",
+        ]
+    parts.append("</body></html>")
+    return "\n".join(parts)

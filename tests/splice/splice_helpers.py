@@ -7,6 +7,8 @@ so the splicer is tested on real files independently of the FEA and the engines.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import shapely
 from loadpath import gcode
@@ -87,12 +89,12 @@ def own_paths_fill(program, i, flow_width):
     return BlockFill(i, out, None, flow_width=flow_width)
 
 
-def run_splice(program, fills, **overrides):
+def run_splice(program, fills, volume_tol=0.03, **overrides):
     """Splice with the file's own settings; returns (result, output program, check)."""
     s = S.resolve(program)
     if overrides:
         s = s.with_values(overrides, "test")
-    opts = S.splice_options(s)
+    opts = dataclasses.replace(S.splice_options(s), volume_tol=volume_tol)
     result = splice(program, fills, opts)
     out = gcode.parse(result.data)
     regions = {f.block: f.region for f in fills if f.region is not None}

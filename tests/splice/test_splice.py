@@ -211,7 +211,7 @@ def test_flow_model_reproduces_the_slicers_own_e(sliced, slicer, settings, width
         h = float(np.median(mv["height"]))
         bead = float(np.median(mv["width"])) if width is None else width
         fills.append(own_paths_fill(program, i, flow.flow_width(bead, h)))
-    result, out, check = run_splice(program, fills, match_volume=False)
+    result, out, check = run_splice(program, fills, volume_tol=None, match_volume=False)
     for f in fills:
         b = program.block(f.block)
         orig = program.moves[b.moves]
@@ -238,7 +238,7 @@ def test_variable_width_follows_pitch_and_is_clamped(sliced):
         pitch = 0.41 * (1.0 + 1.5 * np.sin((x.mean() + pts[:, 0]) / 7.0) ** 2)  # 0.41 .. 1.03 mm
         paths.append(ToolPath(pts, pitch))
     fill = base.__class__(i, tuple(paths), base.region, nominal_pitch=0.41)
-    result, out, check = run_splice(program, [fill], match_volume=False)
+    result, out, check = run_splice(program, [fill], volume_tol=None, match_volume=False)
     widths = [float(w) for w in re.findall(r"^;WIDTH:([0-9.]+)", out.text, re.M)]
     lmap = result.line_map(program.n_lines)
     new = np.ones(out.n_lines, dtype=bool)
@@ -259,8 +259,8 @@ def test_variable_width_follows_pitch_and_is_clamped(sliced):
 def test_volumetric_limit_lowers_the_feedrate(sliced):
     program = gcode.read(sliced("prusa", "ohs", "solid"))
     fills = rectilinear_fills(program, infill_blocks(program)[:2], pitch_scale=2.0)  # wide beads
-    result, out, check = run_splice(program, fills, max_volumetric_speed=4.0, width_max=2.5, max_correction=0.0,
-                                    match_volume=False)
+    result, out, check = run_splice(program, fills, volume_tol=None, max_volumetric_speed=4.0, width_max=2.5,
+                                    max_correction=0.0, match_volume=False)
     lmap = result.line_map(program.n_lines)
     new = np.ones(out.n_lines, dtype=bool)
     new[lmap[lmap >= 0]] = False
@@ -310,7 +310,7 @@ def test_block_replaced_by_nothing_keeps_the_machine_state(sliced):
     i = infill_blocks(program)[3]
     from loadpath.gcode.splice import BlockFill
 
-    result, out, check = run_splice(program, [BlockFill(i, ())])
+    result, out, check = run_splice(program, [BlockFill(i, ())], volume_tol=None)
     # only the volume and feature checks complain (the layer lost its FILL), nothing about the state
     assert len(check.problems) == 2
     assert "extrudes 0.000 mm" in check.problems[0] and "became" in check.problems[1]
@@ -342,3 +342,14 @@ def test_binary_gcode_is_spliced_and_written_back_as_binary(tmp_path):
     assert reread.n_lines == out.n_lines
     assert layer_features(reread) == layer_features(program)
     assert gcode.encode_like(None, result.data) == result.data
+
+
+def test_block_whose_paths_miss_the_volume_is_kept_and_reported(sliced):
+    """An engine that leaves most of a region empty: the block is kept as sliced, with the reason."""
+    program = gcode.read(sliced("prusa", "ohs", "solid"))
+    i = infill_blocks(program)[1]
+    fill = rectilinear_fills(program, [i], pitch_scale=3.0)[0]  # a third of the lines
+    result, out, check = run_splice(program, [fill])
+    assert [k for k, _ in result.skipped] == [i]
+    assert "of the slicer's volume" in result.skipped[0][1]
+    assert check.problems == []
