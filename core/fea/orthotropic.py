@@ -121,7 +121,8 @@ class PrintedMaterial:
             raise SettingsError(f"material {self.name!r}: nu23 = {self.nu23} must lie in (-1, 1)")
         if not np.all(np.linalg.eigvalsh(self.compliance_3d()) > 0):
             raise SettingsError(
-                f"material {self.name!r}: E1 = {self.E1}, E2 = {self.E2}, nu12 = {self.nu12}, nu23 = {self.nu23} "
+                f"material {self.name!r}: E1 = {self.E1}, E2 = {self.E2}, nu12 = {self.nu12}, "
+                f"nu23 = {self.nu23} "
                 "is not positive definite; need nu12^2 < E1 / E2 and |nu23| < 1 - 2 nu12^2 E2 / E1"
             )
 
@@ -169,7 +170,13 @@ class PrintedMaterial:
 # Relative stiffness between toolpaths depends on the ratios E2/E1 and G12/E1 only.
 # Density: PLA 1.24 g/cm³ (Prusament PLA data sheet; the MK3S filament preset of the tests).
 PLA_PRINTED = PrintedMaterial(
-    "PLA (printed, 100 % infill)", E1=3209.0, E2=2899.0, G12=1195.0, nu12=0.33, nu23=0.35, density=1.24,
+    "PLA (printed, 100 % infill)",
+    E1=3209.0,
+    E2=2899.0,
+    G12=1195.0,
+    nu12=0.33,
+    nu23=0.35,
+    density=1.24,
     source="Casavola et al., Materials & Design 90 (2016) 453-458 (PLA lamina, classical laminate theory)",
 )
 """Default printed material: PLA (source in the code above)."""
@@ -178,7 +185,13 @@ PLA_PRINTED = PrintedMaterial(
 # FDM 3D-printed parts", Composites Part B 113 (2017) 371-380, as used by the thesis (Murugan, §3.6,
 # thesis-digest.md §4.3): fully filled printed ABS, E_L 2010, E_T 1671, G_LT 641 MPa, nu_LT 0.32.
 ABS_PRINTED = PrintedMaterial(
-    "ABS (printed, 100 % infill)", E1=2010.0, E2=1671.0, G12=641.0, nu12=0.32, nu23=0.35, density=1.04,
+    "ABS (printed, 100 % infill)",
+    E1=2010.0,
+    E2=1671.0,
+    G12=641.0,
+    nu12=0.32,
+    nu23=0.35,
+    density=1.04,
     source="Alaimo et al., Composites Part B 113 (2017) 371-380, via Murugan's thesis §3.6",
 )
 """Printed ABS of the thesis's MBB experiment."""
@@ -212,7 +225,8 @@ class FillModel:
             raise SettingsError(f"fill model {self.kind!r} is unknown; use 'linear' or 'nmo'")
         if not (0.0 < self.v_a < 1.0 and self.s_L > 0 and 0.0 < self.f1 < 1.0 < self.f2):
             raise SettingsError(
-                f"NMO parameters v_a = {self.v_a}, s_L = {self.s_L}, f1 = {self.f1}, f2 = {self.f2} are invalid; "
+                f"NMO parameters v_a = {self.v_a}, s_L = {self.s_L}, f1 = {self.f1}, f2 = {self.f2} "
+                "are invalid; "
                 "need 0 < v_a < 1, s_L > 0, 0 < f1 < 1 < f2"
             )
 
@@ -284,7 +298,7 @@ def rotate(C_local: np.ndarray, theta: np.ndarray | float) -> np.ndarray:
 
 
 def direction_moments(theta: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
-    """The four moments ``[<cos 2t>, <sin 2t>, <cos 4t>, <sin 4t>]`` of a set of directions.
+    """Return the four moments ``[<cos 2t>, <sin 2t>, <cos 4t>, <sin 4t>]`` of a set of directions.
 
     Parameters
     ----------
@@ -321,7 +335,11 @@ def averaging_weights(moments: np.ndarray) -> np.ndarray:
 
 
 def ply_matrices(
-    material: PrintedMaterial, fill: np.ndarray, model: FillModel = LINEAR, dim: int = 2, max_fill: float = 1.25
+    material: PrintedMaterial,
+    fill: np.ndarray,
+    model: FillModel = LINEAR,
+    dim: int = 2,
+    max_fill: float = 1.25,
 ) -> np.ndarray:
     """Local (filament-axes) matrices at the given fills, ``(m, nv, nv)`` MPa.
 

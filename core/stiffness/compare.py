@@ -122,7 +122,7 @@ class CompareRow:
 
 
 def infill_paths(program: Program, layer: int, object_code: int, diameter: float) -> list[Path]:
-    """The infill extrusions of one object in one layer as polylines, each vertex's pitch its flow width."""
+    """Return the infill extrusions of one object in one layer as polylines (vertex pitch = flow width)."""
     from loadpath.geometry import flow_widths
 
     sl = slice(*_layer_rows(program, layer))
@@ -140,7 +140,7 @@ def infill_paths(program: Program, layer: int, object_code: int, diameter: float
     starts = np.flatnonzero(brk)
     out = []
     for s, e in zip(starts, [*starts[1:], len(r)], strict=True):
-        pts = np.vstack([a[s:e], b[e - 1:e]])
+        pts = np.vstack([a[s:e], b[e - 1 : e]])
         w = fw[r[s:e]]
         out.append(Path(pts, np.append(w, w[-1])))
     return out
@@ -152,13 +152,16 @@ def _layer_rows(program: Program, layer: int) -> tuple[int, int]:
     return rows.start, rows.stop
 
 
-def _path_metrics(program: Program, geo_obj: Any, rb: ResolvedBody, iso: Analysis, diameter: float,
-                  pitch: float) -> tuple[float, float, float, float]:
+def _path_metrics(
+    program: Program, geo_obj: Any, rb: ResolvedBody, iso: Analysis, diameter: float, pitch: float
+) -> tuple[float, float, float, float]:
     """Pooled (sum m cos, sum m, covered area, domain area) of a body's infill."""
     layers = [g for g in geo_obj.layers if not g.domain.is_empty]
     if rb.analysis == "3d" and len(layers) > _MAX_BETA_LAYERS:
         layers = [layers[i] for i in np.linspace(0, len(layers) - 1, _MAX_BETA_LAYERS).round().astype(int)]
-    cov_at = set(np.linspace(0, len(layers) - 1, min(len(layers), _MAX_COVERAGE_LAYERS)).round().astype(int).tolist())
+    cov_at = set(
+        np.linspace(0, len(layers) - 1, min(len(layers), _MAX_COVERAGE_LAYERS)).round().astype(int).tolist()
+    )
     mc = ms = cov = area = 0.0
     for i, g in enumerate(layers):
         paths = infill_paths(program, g.layer_index, geo_obj.code, diameter)
@@ -180,7 +183,7 @@ def _path_metrics(program: Program, geo_obj: Any, rb: ResolvedBody, iso: Analysi
 def evaluate_file(
     source: str | os.PathLike[str] | Program,
     loadcase: LoadCase,
-    options: StiffnessOptions = StiffnessOptions(),
+    options: StiffnessOptions | None = None,
     meshes: dict[Any, MeshData] | None = None,
     name: str | None = None,
 ) -> FileResult:
@@ -207,6 +210,7 @@ def evaluate_file(
     """
     from loadpath import gcode, geometry
 
+    options = StiffnessOptions() if options is None else options
     if isinstance(source, Program):
         program = source
     else:
@@ -222,7 +226,11 @@ def evaluate_file(
     mc = ms = cov = area = 0.0
     for rb in rbs:
         obj = geo.object(rb.name)
-        key = (rb.analysis, tuple(s.outline.wkb for s in rb.body.slabs), tuple((s.z0, s.z1) for s in rb.body.slabs))
+        key = (
+            rb.analysis,
+            tuple(s.outline.wkb for s in rb.body.slabs),
+            tuple((s.z0, s.z1) for s in rb.body.slabs),
+        )
         mesh = None if meshes is None else meshes.get(key)
         if mesh is None:
             mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
@@ -241,7 +249,7 @@ def evaluate_file(
 def compare_files(
     files: Sequence[str | os.PathLike[str]],
     loadcase: LoadCase,
-    options: StiffnessOptions = StiffnessOptions(),
+    options: StiffnessOptions | None = None,
 ) -> tuple[list[CompareRow], list[FileResult]]:
     """Evaluate several files under one load case, relative to the first.
 
@@ -252,25 +260,37 @@ def compare_files(
     """
     if not files:
         raise LoadCaseError("compare needs at least one G-code file")
+    options = StiffnessOptions() if options is None else options
     meshes: dict[Any, MeshData] = {}
     results = [evaluate_file(f, loadcase, options, meshes) for f in files]
     n0 = len(results[0].predictions)
     for r in results[1:]:
         if len(r.predictions) != n0:
             raise LoadCaseError(
-                f"{r.file}: the load case applies to {len(r.predictions)} object(s), but to {n0} in {results[0].file}; "
+                f"{r.file}: the load case applies to {len(r.predictions)} object(s), "
+                f"but to {n0} in {results[0].file}; "
                 "compare files of the same part (or name the object with object = in the load case)"
             )
     ref = results[0]
     rows = [
-        CompareRow(r.file, r.compliance, r.peak_displacement, ref.compliance / r.compliance, r.beta, r.coverage, r.mass,
-                   (ref.compliance * ref.mass) / (r.compliance * r.mass))
+        CompareRow(
+            r.file,
+            r.compliance,
+            r.peak_displacement,
+            ref.compliance / r.compliance,
+            r.beta,
+            r.coverage,
+            r.mass,
+            (ref.compliance * ref.mass) / (r.compliance * r.mass),
+        )
         for r in results
     ]
     return rows, results
 
 
-def gains(baseline: Prediction | FileResult, design: Prediction | FileResult, top: Prediction | FileResult) -> dict[str, float]:
+def gains(
+    baseline: Prediction | FileResult, design: Prediction | FileResult, top: Prediction | FileResult
+) -> dict[str, float]:
     """Gains of a design over a baseline, absolute and per mass, and as shares of the ceiling's gains.
 
     ``gain = c_base / c_design - 1``; per mass ``(c m)_base / (c m)_design - 1``; shares are the

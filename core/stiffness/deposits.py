@@ -26,7 +26,9 @@ from loadpath.toolpath import Path, Toolpaths
 __all__ = ["Deposits", "from_program", "from_toolpaths", "PART_ROLES"]
 
 PART_ROLES = tuple(
-    r for r in Role if r not in (Role.NONE, Role.SKIRT, Role.SUPPORT, Role.SUPPORT_INTERFACE, Role.WIPE_TOWER, Role.CUSTOM)
+    r
+    for r in Role
+    if r not in (Role.NONE, Role.SKIRT, Role.SUPPORT, Role.SUPPORT_INTERFACE, Role.WIPE_TOWER, Role.CUSTOM)
 )
 """Roles whose material belongs to the part (perimeters, every infill, gap fill, ironing, ...)."""
 
@@ -91,9 +93,17 @@ class Deposits:
         return float(np.sum(self.volume))
 
     def select(self, mask: np.ndarray) -> Deposits:
-        """The beads where ``mask`` is true."""
+        """Return the beads where ``mask`` is true."""
         m = np.asarray(mask)
-        return Deposits(self.start[m], self.end[m], self.z0[m], self.height[m], self.volume[m], self.layer[m], self.role[m])
+        return Deposits(
+            self.start[m],
+            self.end[m],
+            self.z0[m],
+            self.height[m],
+            self.volume[m],
+            self.layer[m],
+            self.role[m],
+        )
 
     @staticmethod
     def concat(parts: Iterable[Deposits]) -> Deposits:
@@ -101,13 +111,19 @@ class Deposits:
         ps = list(parts)
         if not ps:
             return _empty()
-        return Deposits(*(np.concatenate([getattr(p, f) for p in ps]) for f in
-                          ("start", "end", "z0", "height", "volume", "layer", "role")))
+        return Deposits(
+            *(
+                np.concatenate([getattr(p, f) for p in ps])
+                for f in ("start", "end", "z0", "height", "volume", "layer", "role")
+            )
+        )
 
 
 def _empty() -> Deposits:
     z = np.zeros(0)
-    return Deposits(np.zeros((0, 2)), np.zeros((0, 2)), z, z, z, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    return Deposits(
+        np.zeros((0, 2)), np.zeros((0, 2)), z, z, z, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    )
 
 
 def from_program(
@@ -117,7 +133,7 @@ def from_program(
     roles: Sequence[Role] = PART_ROLES,
     exclude_blocks: Iterable[int] = (),
 ) -> Deposits:
-    """The extrusions of one object of a G-code file.
+    """Return the extrusions of one object of a G-code file.
 
     Parameters
     ----------
@@ -125,7 +141,8 @@ def from_program(
     object_code : int, optional
         Index into ``program.objects`` (``-1``: moves outside any object label); default every move.
     filament_diameter : float, mm, optional
-        Default: from the file's configuration (:func:`loadpath.geometry.filament_diameter`).
+        Default: :func:`loadpath.geometry.filament_diameter` (the configuration, else measured from
+        the wall spacing).
     roles : sequence of Role
         Roles that count (default :data:`PART_ROLES`: not skirt, supports, wipe tower, purge lines).
     exclude_blocks : iterable of int
@@ -145,14 +162,18 @@ def from_program(
     from loadpath.geometry import filament_diameter as _diameter
 
     m = program.moves
-    d = _diameter(program) if filament_diameter is None else float(filament_diameter)
+    if filament_diameter is None:
+        found = _diameter(program)  # (diameter, where it came from)
+        d = float(found[0] if isinstance(found, tuple) else found)
+    else:
+        d = float(filament_diameter)
     keep = m["extrude"] & (m["layer"] >= 0) & np.isin(m["role"], np.asarray(roles, dtype=np.int64))
     keep &= (m["height"] > 0) & np.isfinite(m["height"]) & (m["e"] > 0)
     if object_code is not None:
         keep &= m["object"] == object_code
     for b in exclude_blocks:
         row = program.blocks[int(b)]
-        keep[int(row["move_start"]):int(row["move_stop"])] = False
+        keep[int(row["move_start"]) : int(row["move_stop"])] = False
     r = np.flatnonzero(keep)
     start = np.column_stack([m["x0"][r], m["y0"][r]])
     end = np.column_stack([m["x1"][r], m["y1"][r]])
@@ -163,8 +184,15 @@ def from_program(
         raise GeometryError(f"{what} extrudes nothing inside any layer; is this a sliced part?")
     h = m["height"][r]
     vol = m["e"][r] * (np.pi * d * d / 4.0)
-    return Deposits(start, end, m["z1"][r] - h, h.astype(float), vol, m["layer"][r].astype(np.int64),
-                    m["role"][r].astype(np.int64))
+    return Deposits(
+        start,
+        end,
+        m["z1"][r] - h,
+        h.astype(float),
+        vol,
+        m["layer"][r].astype(np.int64),
+        m["role"][r].astype(np.int64),
+    )
 
 
 def from_toolpaths(
@@ -174,7 +202,7 @@ def from_toolpaths(
     layer: int,
     role: Role = Role.SOLID_INFILL,
 ) -> Deposits:
-    """An engine's paths as beads whose flow width is the local pitch (what the splicer extrudes).
+    """Turn an engine's paths into beads whose flow width is the local pitch (what the splicer extrudes).
 
     Parameters
     ----------
@@ -203,6 +231,15 @@ def from_toolpaths(
     a, b, w, length = a[ok], b[ok], w[ok], length[ok]
     n = len(a)
     if not np.all(w > 0):
-        raise GeometryError(f"layer {layer}: engine paths carry a non-positive local pitch; the flow width must be positive")
-    return Deposits(a, b, np.full(n, z_top - height), np.full(n, float(height)), w * height * length,
-                    np.full(n, int(layer), dtype=np.int64), np.full(n, int(role), dtype=np.int64))
+        raise GeometryError(
+            f"layer {layer}: engine paths carry a non-positive local pitch; the flow width must be positive"
+        )
+    return Deposits(
+        a,
+        b,
+        np.full(n, z_top - height),
+        np.full(n, float(height)),
+        w * height * length,
+        np.full(n, int(layer), dtype=np.int64),
+        np.full(n, int(role), dtype=np.int64),
+    )

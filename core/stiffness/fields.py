@@ -126,7 +126,9 @@ class PlyFields:
         return np.mod(0.5 * np.arctan2(s, c), np.pi), np.hypot(c, s) / tot
 
 
-def _samples(dep: Deposits, rows: Ints, res: float, nz: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _samples(
+    dep: Deposits, rows: Ints, res: float, nz: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Sample points of beads ``rows``: (points (p, 2), z (p,), bead row (p,), volume share (p,))."""
     a, b = dep.start[rows], dep.end[rows]
     d = b - a
@@ -180,7 +182,9 @@ def tet_section(mesh: MeshData, z: float) -> tuple[np.ndarray, Ints]:
     p = pa + t[..., None] * (pb - pa)  # (k, 6, 2)
     cnt = crosses.sum(axis=1, keepdims=True)
     centre = np.sum(np.where(crosses[..., None], p, 0.0), axis=1) / cnt
-    ang = np.where(crosses, np.arctan2(p[..., 1] - centre[:, None, 1], p[..., 0] - centre[:, None, 0]), np.inf)
+    ang = np.where(
+        crosses, np.arctan2(p[..., 1] - centre[:, None, 1], p[..., 0] - centre[:, None, 0]), np.inf
+    )
     order = np.argsort(ang, axis=1)
     q = np.take_along_axis(p, order[..., None], axis=1)  # valid points first, by angle
     tris = [q[:, [0, 1, 2]]]
@@ -270,7 +274,9 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
             for j in range(4):
                 mom[:, j] += np.bincount(idx, weights=wi * harm[seg[inside], j], minlength=n_ply * m)
     if not np.any(vol > 0):
-        raise GeometryError("no extruded material lies inside the part outline; the G-code and the part do not overlap")
+        raise GeometryError(
+            "no extruded material lies inside the part outline; the G-code and the part do not overlap"
+        )
     vol = vol.reshape(n_ply, m)
     mom = mom.reshape(n_ply, m, 4)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -282,8 +288,17 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
     else:
         fill = vol / measure[None, :]
         weight = np.ones(1)
-    return PlyFields(layers.astype(np.int64), heights, weight, fill, moments, vol, lost, float(resolution),
-                     (_adjacency(mesh), measure))
+    return PlyFields(
+        layers.astype(np.int64),
+        heights,
+        weight,
+        fill,
+        moments,
+        vol,
+        lost,
+        float(resolution),
+        (_adjacency(mesh), measure),
+    )
 
 
 def _adjacency(mesh: MeshData):  # type: ignore[no-untyped-def]

@@ -102,7 +102,10 @@ def draw_energy(pred: Prediction, path: str | os.PathLike[str], title: str = "")
 
 
 def draw_prediction(pred: Prediction, folder: str | os.PathLike[str], stem: str) -> list[Path]:
-    """Both pictures of one prediction into ``folder`` as ``<stem>_orientation.png`` and ``<stem>_energy.png``."""
+    """Draw both pictures of a prediction into ``folder`` (``<stem>_orientation.png``, ``_energy.png``)."""
     d = Path(folder)
     d.mkdir(parents=True, exist_ok=True)
-    return [draw_orientation(pred, d / f"{stem}_orientation.png"), draw_energy(pred, d / f"{stem}_energy.png")]
+    return [
+        draw_orientation(pred, d / f"{stem}_orientation.png"),
+        draw_energy(pred, d / f"{stem}_energy.png"),
+    ]

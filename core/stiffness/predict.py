@@ -51,7 +51,15 @@ from loadpath.mesh.sizing import DEFAULT_PITCH, MeshSize, default_mesh_size
 from loadpath.stiffness.deposits import Deposits
 from loadpath.stiffness.fields import DEFAULT_RESOLUTION, PlyFields, sample_deposits
 
-__all__ = ["StiffnessOptions", "Prediction", "stiffness_mesh", "material_matrices", "predict", "ceiling", "solve_printed"]
+__all__ = [
+    "StiffnessOptions",
+    "Prediction",
+    "stiffness_mesh",
+    "material_matrices",
+    "predict",
+    "ceiling",
+    "solve_printed",
+]
 
 _CHUNK = 40000
 
@@ -143,7 +151,9 @@ class Prediction:
         return self.compliance * self.mass
 
 
-def stiffness_mesh(rb: ResolvedBody, pitch: float = DEFAULT_PITCH, size: MeshSize | float | None = None) -> MeshData:
+def stiffness_mesh(
+    rb: ResolvedBody, pitch: float = DEFAULT_PITCH, size: MeshSize | float | None = None
+) -> MeshData:
     """Mesh a body for the stiffness model.
 
     Default sizes: :func:`~loadpath.mesh.sizing.default_mesh_size` with the bulk size capped at
@@ -171,8 +181,11 @@ def material_matrices(fields: PlyFields, material: PrintedMaterial, model: FillM
 
 def _energy(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> Floats:
     """Strain energy per element, ``(m,)`` N mm (exact quadrature for straight elements)."""
-    xi, w = (triangle_rule(2) if mesh.dim == 2 else tetra_rule(2)) if mesh.is_quadratic else (
-        triangle_rule(1) if mesh.dim == 2 else tetra_rule(1))
+    xi, w = (
+        (triangle_rule(2) if mesh.dim == 2 else tetra_rule(2))
+        if mesh.is_quadratic
+        else (triangle_rule(1) if mesh.dim == 2 else tetra_rule(1))
+    )
     ue = np.asarray(u, dtype=float).ravel()[cell_dofs(mesh)]
     out = np.zeros(len(mesh.cells))
     t = mesh.thickness if mesh.dim == 2 else 1.0
@@ -186,7 +199,10 @@ def _energy(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> Floats:
 
 
 def solve_printed(
-    rb: ResolvedBody, mesh: MeshData, D: np.ndarray, name: str | None = None,
+    rb: ResolvedBody,
+    mesh: MeshData,
+    D: np.ndarray,
+    name: str | None = None,
 ) -> tuple[Analysis, float, float, Floats, float]:
     """Solve the load case with per-element matrices.
 
@@ -213,7 +229,8 @@ def solve_printed(
     total = float(energy.sum())
     if not (compliance > 0 and abs(2.0 * total - compliance) <= 1e-6 * compliance + 1e-12):
         raise SolverError(
-            f"object {name or rb.name!r}: compliance f.u = {compliance:.6g} N mm disagrees with twice the strain energy "
+            f"object {name or rb.name!r}: compliance f.u = {compliance:.6g} N mm disagrees with twice "
+            "the strain energy "
             f"{2 * total:.6g} N mm; the printed material matrices are not positive definite"
         )
     vol = np.abs(mesh.measures) * (mesh.thickness if mesh.dim == 2 else 1.0)
@@ -224,7 +241,7 @@ def solve_printed(
 def predict(
     rb: ResolvedBody,
     deposits: Deposits,
-    options: StiffnessOptions = StiffnessOptions(),
+    options: StiffnessOptions | None = None,
     mesh: MeshData | None = None,
 ) -> Prediction:
     """Predict the stiffness of a printed body from its deposits.
@@ -244,6 +261,7 @@ def predict(
     Prediction
     """
     t0 = time.perf_counter()
+    options = StiffnessOptions() if options is None else options
     if mesh is None:
         mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
     t1 = time.perf_counter()
@@ -255,11 +273,26 @@ def predict(
     angle, strength = fields.direction()
     vol = fields.total_volume
     return Prediction(
-        name=rb.name, compliance=c, strain_energy=energy, peak_displacement=peak,
-        mass=vol * 1e-3 * options.material.density, volume=vol, analysis=an, D=D, energy_density=density,
-        angle=angle, strength=strength, fill=fields.mean_fill(), fields=fields,
-        info={"times": {"mesh": t1 - t0, "material": t2 - t1, "solve": t3 - t2}, "elements": len(mesh.cells),
-              "lost_volume": fields.lost, "residual": an.result.residual, "analysis": rb.analysis},
+        name=rb.name,
+        compliance=c,
+        strain_energy=energy,
+        peak_displacement=peak,
+        mass=vol * 1e-3 * options.material.density,
+        volume=vol,
+        analysis=an,
+        D=D,
+        energy_density=density,
+        angle=angle,
+        strength=strength,
+        fill=fields.mean_fill(),
+        fields=fields,
+        info={
+            "times": {"mesh": t1 - t0, "material": t2 - t1, "solve": t3 - t2},
+            "elements": len(mesh.cells),
+            "lost_volume": fields.lost,
+            "residual": an.result.residual,
+            "analysis": rb.analysis,
+        },
     )
 
 
@@ -274,12 +307,12 @@ def _principal_angle(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> Floats:
 
 def ceiling(
     rb: ResolvedBody,
-    options: StiffnessOptions = StiffnessOptions(),
+    options: StiffnessOptions | None = None,
     mesh: MeshData | None = None,
     iterations: int = 12,
     rtol: float = 1e-5,
 ) -> Prediction:
-    """The model's ceiling: every element fully filled along its principal stress (module docstring).
+    """Compute the model's ceiling: every element fully filled along its principal stress (module docstring).
 
     Parameters
     ----------
@@ -298,6 +331,7 @@ def ceiling(
         ``info["history"]``: compliance of every iterate (N mm).
     """
     t0 = time.perf_counter()
+    options = StiffnessOptions() if options is None else options
     if mesh is None:
         mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
     m = len(mesh.cells)
@@ -322,10 +356,24 @@ def ceiling(
     c, (an, energy, density, peak, D, angle) = best
     vol = float(np.sum(np.abs(mesh.measures)) * (mesh.thickness if mesh.dim == 2 else 1.0))
     return Prediction(
-        name=rb.name, compliance=c, strain_energy=energy, peak_displacement=peak,
-        mass=vol * 1e-3 * options.material.density, volume=vol, analysis=an, D=D, energy_density=density,
-        angle=np.mod(angle, np.pi), strength=ones, fill=ones, fields=None,
-        info={"history": history, "times": {"total": time.perf_counter() - t0}, "elements": m,
-              "residual": an.result.residual, "analysis": rb.analysis},
+        name=rb.name,
+        compliance=c,
+        strain_energy=energy,
+        peak_displacement=peak,
+        mass=vol * 1e-3 * options.material.density,
+        volume=vol,
+        analysis=an,
+        D=D,
+        energy_density=density,
+        angle=np.mod(angle, np.pi),
+        strength=ones,
+        fill=ones,
+        fields=None,
+        info={
+            "history": history,
+            "times": {"total": time.perf_counter() - t0},
+            "elements": m,
+            "residual": an.result.residual,
+            "analysis": rb.analysis,
+        },
     )
-

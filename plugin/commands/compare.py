@@ -20,18 +20,43 @@ HELP = "predicted stiffness of G-code files under a load case, relative to the f
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     """Register the command's arguments."""
-    parser.add_argument("files", nargs="+", metavar="FILE.gcode", help="G-code files of the same part; the first is the reference")
+    parser.add_argument(
+        "files",
+        nargs="+",
+        metavar="FILE.gcode",
+        help="G-code files of the same part; the first is the reference",
+    )
     parser.add_argument("--loadcase", required=True, metavar="CASE.toml", help="the load case (interface.md)")
     parser.add_argument("--json", metavar="FILE", help="also write the rows as a JSON list of objects")
-    parser.add_argument("--report", metavar="DIR", help="draw the orientation field and strain energy density per file into DIR")
-    parser.add_argument("--material", choices=("pla", "abs"), default="pla",
-                        help="printed material of the model (default pla; sources in loadpath.fea.orthotropic)")
-    parser.add_argument("--fill-model", choices=("linear", "nmo"), default="linear",
-                        help="stiffness against fill: linear (default) or the thesis's spacing-dependent model")
-    parser.add_argument("--resolution", type=float, default=None, metavar="MM",
-                        help="sampling step of the beads (default 0.1 mm; coarser is faster and noisier)")
-    parser.add_argument("--ceiling", action="store_true",
-                        help="also print the model's ceiling (every element filled along its principal stress)")
+    parser.add_argument(
+        "--report",
+        metavar="DIR",
+        help="draw the orientation field and strain energy density per file into DIR",
+    )
+    parser.add_argument(
+        "--material",
+        choices=("pla", "abs"),
+        default="pla",
+        help="printed material of the model (default pla; sources in loadpath.fea.orthotropic)",
+    )
+    parser.add_argument(
+        "--fill-model",
+        choices=("linear", "nmo"),
+        default="linear",
+        help="stiffness against fill: linear (default) or the thesis's spacing-dependent model",
+    )
+    parser.add_argument(
+        "--resolution",
+        type=float,
+        default=None,
+        metavar="MM",
+        help="sampling step of the beads (default 0.1 mm; coarser is faster and noisier)",
+    )
+    parser.add_argument(
+        "--ceiling",
+        action="store_true",
+        help="also print the model's ceiling (every element filled along its principal stress)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -41,19 +66,34 @@ def run(args: argparse.Namespace) -> int:
     from loadpath.stiffness.compare import CompareRow
 
     lc = loadcase.read(args.loadcase)
-    opts = stiffness.StiffnessOptions(material=PLA_PRINTED if args.material == "pla" else ABS_PRINTED,
-                                      fill_model=LINEAR if args.fill_model == "linear" else NMO,
-                                      resolution=args.resolution or stiffness.DEFAULT_RESOLUTION)
+    opts = stiffness.StiffnessOptions(
+        material=PLA_PRINTED if args.material == "pla" else ABS_PRINTED,
+        fill_model=LINEAR if args.fill_model == "linear" else NMO,
+        resolution=args.resolution or stiffness.DEFAULT_RESOLUTION,
+    )
     rows, results = stiffness.compare_files(args.files, lc, opts)
     if args.ceiling:
         tops = [stiffness.ceiling(p.analysis.resolved, opts, mesh=p.mesh) for p in results[0].predictions]
         c, m = sum(t.compliance for t in tops), sum(t.mass for t in tops)
         ref = results[0]
-        rows.append(CompareRow("(model ceiling)", c, max(t.peak_displacement for t in tops), ref.compliance / c,
-                               float("nan"), float("nan"), m, ref.compliance * ref.mass / (c * m)))
+        rows.append(
+            CompareRow(
+                "(model ceiling)",
+                c,
+                max(t.peak_displacement for t in tops),
+                ref.compliance / c,
+                float("nan"),
+                float("nan"),
+                m,
+                ref.compliance * ref.mass / (c * m),
+            )
+        )
     print(_table(rows))
-    print(f"model: {opts.material.name}, {opts.fill_model.kind} fill; "
-          f"{', '.join(sorted({p.analysis.resolved.analysis for r in results for p in r.predictions}))} analysis")
+    print(
+        f"model: {opts.material.name}, {opts.fill_model.kind} fill; "
+        f"{', '.join(sorted({p.analysis.resolved.analysis for r in results for p in r.predictions}))} "
+        "analysis"
+    )
     if args.json:
         _write_atomic(Path(args.json), json.dumps([r.as_dict() for r in rows], indent=2) + "\n")
     if args.report:
@@ -72,15 +112,19 @@ def _safe(name: str) -> str:
 
 
 def _table(rows) -> str:  # type: ignore[no-untyped-def]
-    head = (f"{'file':<32} {'compliance N mm':>16} {'peak disp mm':>13} {'rel. stiffness':>15} "
-            f"{'per mass':>9} {'mass g':>8} {'beta':>7} {'coverage':>9}")
+    head = (
+        f"{'file':<32} {'compliance N mm':>16} {'peak disp mm':>13} {'rel. stiffness':>15} "
+        f"{'per mass':>9} {'mass g':>8} {'beta':>7} {'coverage':>9}"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
         name = r.file if len(r.file) <= 32 else "..." + r.file[-29:]
         beta = "-" if r.beta != r.beta else f"{r.beta:.4f}"
         cov = "-" if r.coverage != r.coverage else f"{100 * r.coverage:.1f} %"
-        lines.append(f"{name:<32} {r.compliance:>16.5g} {r.peak_displacement:>13.5g} {r.relative_stiffness:>15.4f} "
-                     f"{r.relative_specific_stiffness:>9.4f} {r.mass:>8.3f} {beta:>7} {cov:>9}")
+        lines.append(
+            f"{name:<32} {r.compliance:>16.5g} {r.peak_displacement:>13.5g} {r.relative_stiffness:>15.4f} "
+            f"{r.relative_specific_stiffness:>9.4f} {r.mass:>8.3f} {beta:>7} {cov:>9}"
+        )
     return "\n".join(lines)
 
 

@@ -28,8 +28,10 @@ def rectangle_tri6(length: float, width: float, nx: int, ny: int, thickness: flo
             a, b, c, d = (2 * i, 2 * j), (2 * i + 2, 2 * j), (2 * i + 2, 2 * j + 2), (2 * i, 2 * j + 2)
             for tri in ((a, b, c), (a, c, d)):
                 corners = [node(*p) for p in tri]
-                mids = [node((tri[k][0] + tri[(k + 1) % 3][0]) // 2, (tri[k][1] + tri[(k + 1) % 3][1]) // 2)
-                        for k in range(3)]
+                mids = [
+                    node((tri[k][0] + tri[(k + 1) % 3][0]) // 2, (tri[k][1] + tri[(k + 1) % 3][1]) // 2)
+                    for k in range(3)
+                ]
                 cells.append(corners + mids)
     cells = np.array(cells)
     used = np.unique(cells)
@@ -44,7 +46,7 @@ _TET10_EDGES = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]
 def box_tet10(size: tuple[float, float, float], n: tuple[int, int, int]) -> MeshData:
     """Each of ``n`` cubes split into six tet10 (Kuhn), over ``[0, size]``."""
     g = [2 * k + 1 for k in n]
-    axes = [np.linspace(0.0, s, k) for s, k in zip(size, g)]
+    axes = [np.linspace(0.0, s, k) for s, k in zip(size, g, strict=True)]
     X, Y, Z = np.meshgrid(*axes, indexing="ij")
     pts = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
 

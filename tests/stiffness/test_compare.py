@@ -20,9 +20,17 @@ def digest(path):
 @pytest.fixture(scope="module")
 def prusa_pair(sliced):
     cross = sliced("prusa", "ohs", "solid")  # rectilinear at 45 degrees, alternating: cross-hatching
-    aligned = sliced("prusa", "ohs", "solid", fill_pattern="alignedrectilinear", fill_angle=0,
-                     top_fill_pattern="alignedrectilinear", bottom_fill_pattern="alignedrectilinear",
-                     bottom_solid_layers=1, top_solid_layers=1)
+    aligned = sliced(
+        "prusa",
+        "ohs",
+        "solid",
+        fill_pattern="alignedrectilinear",
+        fill_angle=0,
+        top_fill_pattern="alignedrectilinear",
+        bottom_fill_pattern="alignedrectilinear",
+        bottom_solid_layers=1,
+        top_solid_layers=1,
+    )
     return cross, aligned
 
 
@@ -34,8 +42,22 @@ def test_compare_prints_and_writes_rows_relative_to_the_first_file(prusa_pair, t
     before = {p: digest(p) for p in (cross, aligned)}
     out = tmp_path / "rows.json"
     rep = tmp_path / "report"
-    status = main(["compare", str(cross), str(aligned), str(again), "--loadcase", str(CASE), "--json", str(out),
-                   "--report", str(rep), "--resolution", "0.2"])
+    status = main(
+        [
+            "compare",
+            str(cross),
+            str(aligned),
+            str(again),
+            "--loadcase",
+            str(CASE),
+            "--json",
+            str(out),
+            "--report",
+            str(rep),
+            "--resolution",
+            "0.2",
+        ]
+    )
     assert status == 0
     text = capsys.readouterr().out
     assert "relative" in text.lower() or "rel. stiffness" in text
@@ -54,8 +76,10 @@ def test_compare_prints_and_writes_rows_relative_to_the_first_file(prusa_pair, t
     # 1000 N on 36 x 2 mm over 150 mm of PLA (E about 3 GPa): about 0.7 mm
     assert 0.4 < c["peak_displacement"] < 1.2
     assert sorted(p.name for p in rep.glob("*.png")) == sorted(
-        f"{i:02d}_{stem}_ohs.stl_{kind}.png" for i, stem in ((1, cross.stem), (2, aligned.stem), (3, again.stem))
-        for kind in ("energy", "orientation"))
+        f"{i:02d}_{stem}_ohs.stl_{kind}.png"
+        for i, stem in ((1, cross.stem), (2, aligned.stem), (3, again.stem))
+        for kind in ("energy", "orientation")
+    )
     assert {p: digest(p) for p in (cross, aligned)} == before  # inputs untouched
 
 
@@ -63,8 +87,23 @@ def test_compare_prints_and_writes_rows_relative_to_the_first_file(prusa_pair, t
 def test_compare_cura_against_prusaslicer_and_the_ceiling(prusa_pair, sliced, tmp_path, capsys):
     cura = sliced("cura", "ohs", "solid")
     out = tmp_path / "rows.json"
-    assert main(["compare", str(prusa_pair[0]), str(cura), "--loadcase", str(CASE), "--json", str(out),
-                 "--resolution", "0.2", "--ceiling"]) == 0
+    assert (
+        main(
+            [
+                "compare",
+                str(prusa_pair[0]),
+                str(cura),
+                "--loadcase",
+                str(CASE),
+                "--json",
+                str(out),
+                "--resolution",
+                "0.2",
+                "--ceiling",
+            ]
+        )
+        == 0
+    )
     rows = json.loads(out.read_text())
     assert rows[-1]["file"] == "(model ceiling)" and rows[-1]["beta"] is None
     # Cura's solid lines also alternate +-45: within a few per cent of PrusaSlicer's cross-hatching

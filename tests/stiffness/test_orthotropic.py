@@ -55,7 +55,9 @@ def test_moments_are_sign_free():
 
 def test_linear_fill_scales_every_component():
     v = np.array([0.2, 0.7, 1.0])
-    np.testing.assert_allclose(ply_matrices(PLA_PRINTED, v, LINEAR), v[:, None, None] * PLA_PRINTED.plane_stress())
+    np.testing.assert_allclose(
+        ply_matrices(PLA_PRINTED, v, LINEAR), v[:, None, None] * PLA_PRINTED.plane_stress()
+    )
 
 
 def test_nmo_reproduces_the_thesis_constants():

@@ -71,8 +71,15 @@ def test_material_is_conserved_between_beads_and_elements(mesh2d):
 
 def test_ceiling_bounds_every_straight_design_and_aligned_beats_cross_hatching(rb2d, mesh2d):
     opts = StiffnessOptions(resolution=0.1)
-    designs = {name: predict(rb2d, lines(a), opts, mesh2d) for name, a in
-               {"aligned": [0.0], "cross": [45.0, -45.0], "0/90": [0.0, 90.0], "transverse": [90.0]}.items()}
+    designs = {
+        name: predict(rb2d, lines(a), opts, mesh2d)
+        for name, a in {
+            "aligned": [0.0],
+            "cross": [45.0, -45.0],
+            "0/90": [0.0, 90.0],
+            "transverse": [90.0],
+        }.items()
+    }
     top = ceiling(rb2d, opts, mesh2d)
     for name, p in designs.items():
         assert p.compliance > top.compliance, name
@@ -92,7 +99,7 @@ def test_missing_material_makes_the_part_softer(rb2d, mesh2d):
     opts = StiffnessOptions(resolution=0.1)
     full = predict(rb2d, lines([0.0]), opts, mesh2d)
     dep = lines([0.0])
-    holed = dep.select(~((np.abs(dep.start[:, 1] - 4.0) < 1.0)))  # two bead rows removed near y = 4 mm
+    holed = dep.select(~(np.abs(dep.start[:, 1] - 4.0) < 1.0))  # two bead rows removed near y = 4 mm
     gap = predict(rb2d, holed, opts, mesh2d)
     assert gap.compliance > full.compliance
     assert gap.mass < full.mass

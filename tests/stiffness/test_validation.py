@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 import shapely
 from loadpath import metrics
+from loadpath.fea import Problem, solve
 from loadpath.fea.boundary import facets_of, load_vector
 from loadpath.fea.orthotropic import ABS_PRINTED, LINEAR, PLA_PRINTED, direction_moments, printed_matrices
-from loadpath.fea import Problem, solve
 from loadpath.loadcase.model import Load, SideSelector
 from loadpath.stiffness import Deposits, from_toolpaths, material_matrices, sample_deposits
 from meshes import box_tet10, rectangle_tri6
@@ -36,8 +36,9 @@ L, W, T, F = 20.0, 4.0, 1.0, 100.0
 def closed_form(mat, theta):
     c, s = np.cos(theta), np.sin(theta)
     inv_ex = c**4 / mat.E1 + (1 / mat.G12 - 2 * mat.nu12 / mat.E1) * c * c * s * s + s**4 / mat.E2
-    s16 = ((2 / mat.E1 + 2 * mat.nu12 / mat.E1 - 1 / mat.G12) * c**3 * s
-           - (2 / mat.E2 + 2 * mat.nu12 / mat.E1 - 1 / mat.G12) * c * s**3)
+    s16 = (2 / mat.E1 + 2 * mat.nu12 / mat.E1 - 1 / mat.G12) * c**3 * s - (
+        2 / mat.E2 + 2 * mat.nu12 / mat.E1 - 1 / mat.G12
+    ) * c * s**3
     return 1.0 / inv_ex, s16
 
 
@@ -129,13 +130,19 @@ def test_cross_plied_paths_equal_the_laminate_of_their_plies():
     """Alternating 0/90 layers through the chain = the thickness-weighted mean of the two plies."""
     mesh = rectangle_tri6(L, W, 20, 4, thickness=1.0)
     region = shapely.box(-2, -2, L + 2, W + 2)
-    parts = [from_toolpaths(metrics.rectilinear(region, 0.45, 90.0 * (k % 2)), (k + 1) * 0.25, 0.25, k) for k in range(4)]
+    parts = [
+        from_toolpaths(metrics.rectilinear(region, 0.45, 90.0 * (k % 2)), (k + 1) * 0.25, 0.25, k)
+        for k in range(4)
+    ]
     fields = sample_deposits(mesh, Deposits.concat(parts), resolution=0.05)
     from loadpath.fea.orthotropic import LINEAR
+
     D_paths = material_matrices(fields, PLA_PRINTED, LINEAR, 2)
     m = len(mesh.cells)
-    D_direct = 0.5 * (printed_matrices(PLA_PRINTED, np.ones(m), moments_at(0.0, m))
-                      + printed_matrices(PLA_PRINTED, np.ones(m), moments_at(np.pi / 2, m)))
+    D_direct = 0.5 * (
+        printed_matrices(PLA_PRINTED, np.ones(m), moments_at(0.0, m))
+        + printed_matrices(PLA_PRINTED, np.ones(m), moments_at(np.pi / 2, m))
+    )
     assert bar_compliance(mesh, D_paths) == pytest.approx(bar_compliance(mesh, D_direct), rel=5e-3)
     _, strength = fields.direction()
     assert np.max(strength) < 0.02  # a cross-plied stack has no dominant direction
