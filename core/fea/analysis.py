@@ -8,8 +8,10 @@ solves, and returns an :class:`Analysis`; :meth:`Analysis.field` / :func:`field_
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -106,6 +108,8 @@ def analyze(
     D: np.ndarray | None = None,
     method: str = "auto",
     scale_percentile: float = 99.0,
+    model: str | Path | None = None,
+    model_transform: np.ndarray | None = None,
 ) -> Analysis:
     """Mesh, load, check, solve.
 
@@ -123,6 +127,11 @@ def analyze(
     method : {"auto", "direct", "amg-cg"}
     scale_percentile : float
         Percentile of ``|s|`` used as the fields' normalising stress.
+    model : str or Path, optional
+        An STL of the part (``--model``): meshed instead of the layer outlines (always a 3D
+        analysis), placed with :func:`~loadpath.mesh.place.place_stl` on the body's first layer.
+    model_transform : (4, 4) float, optional
+        Explicit placement of the STL (rotated or scaled parts).
 
     Returns
     -------
@@ -136,6 +145,18 @@ def analyze(
         The solve failed or its residual is too large.
     """
     t0 = time.perf_counter()
+    if model is not None and mesh is None:
+        from loadpath.mesh.gmsh_mesher import mesh_stl
+        from loadpath.mesh.place import place_stl
+
+        if rb.analysis != "3d":
+            rb = dataclasses.replace(rb, analysis="3d", reason="an STL model was given")
+        body = rb.body
+        T = place_stl(model, body.slabs[0].outline, transform=model_transform)
+        largest = max(body.slabs, key=lambda s: s.outline.area).outline
+        sz = default_mesh_size(largest, pitch) if size is None else size
+        h = sz if not isinstance(sz, MeshSize) else float(np.sqrt(sz.h * sz.h_min))
+        mesh = mesh_stl(model, h, transform=T)
     if mesh is None:
         mesh = build_mesh(rb, size, pitch)
     elif (mesh.dim == 2) != (rb.analysis == "2d"):
