@@ -70,7 +70,7 @@ def layer_features(program: Program) -> list[set[str]]:
 
 
 def check_splice(original: Program, output: Program, result: SpliceResult, volume_tol: float = 0.03,
-                 regions: Mapping[int, Region] | None = None) -> SpliceCheck:
+                 regions: Mapping[int, Region] | None = None, retract_length: float = 0.0) -> SpliceCheck:
     """Check a splice (see the module docstring).
 
     Parameters
@@ -81,6 +81,9 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
         Largest accepted relative difference of a block's extruded filament.
     regions : mapping of block -> region, optional
         Replace regions; enables check 7.
+    retract_length : float, mm
+        The retraction the splicer was told to use (new lines may hold back this much even when the
+        file itself never did).
     """
     problems: list[str] = []
     n = original.n_lines
@@ -155,7 +158,7 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
     # 4. retraction bounds in new lines
     new_lines = np.ones(output.n_lines, dtype=bool)
     new_lines[j_k] = False
-    max_r = max(float(so.retracted.max(initial=0.0)), 0.0) + 1e-4
+    max_r = max(float(so.retracted.max(initial=0.0)), retract_length, 0.0) + 1e-4
     r_new = sn.retracted[new_lines]
     if len(r_new) and (r_new.min() < -1e-4 or r_new.max() > max_r):
         problems.append(f"new lines retract {r_new.max():.5f} mm / prime {-r_new.min():.5f} mm beyond what "

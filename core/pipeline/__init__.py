@@ -272,7 +272,8 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
     check = None
     if options.check:
         regions = {f.block: f.region for f in fills if f.region is not None}
-        check = check_splice(program, out, sres, volume_tol=options.volume_tol, regions=regions)
+        check = check_splice(program, out, sres, volume_tol=options.volume_tol, regions=regions,
+                             retract_length=splice_options.motion.retraction.length)
         if check.problems:
             raise SpliceError(f"the new G-code failed its check ({len(check.problems)} problem(s); first: "
                               f"{check.problems[0]}); nothing was written: please report this with the file")

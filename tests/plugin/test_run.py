@@ -1,0 +1,164 @@
+"""``loadpath run`` and ``loadpath demo`` as a user meets them: exit status, files, stderr (interface.md)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+from loadpath import gcode
+from loadpath.plugin.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+CASE = """version = 1
+[[supports]]
+name = "clamp"
+where = { side = "x_min", within = 10.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "pull"
+where = { side = "x_max", within = 10.0 }
+force = [1000.0, 0.0, 0.0]
+"""
+
+
+@pytest.fixture()
+def work(tmp_path, sliced):
+    """A folder with the specimen (PrusaSlicer, 100 % infill) and a load case."""
+    src = sliced("prusa", "ohs", "solid")
+    g = tmp_path / "part.gcode"
+    shutil.copyfile(src, g)
+    case = tmp_path / "case.toml"
+    case.write_text(CASE, encoding="utf-8")
+    return tmp_path, g, case
+
+
+def _leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+
+
+def test_run_writes_next_to_the_input_and_leaves_it_untouched(work, capsys):
+    folder, g, case = work
+    before = g.read_bytes()
+    assert main(["run", str(g), "--loadcase", str(case), "--engine", "streamlines"]) == 0
+    out = folder / "part.loadpath.gcode"
+    assert out.is_file() and g.read_bytes() == before
+    program, result = gcode.read(g), gcode.read(out)
+    assert result.dialect == program.dialect and len(result.layers) == len(program.layers)
+    assert out.read_bytes() != before
+    err = capsys.readouterr().err
+    assert "\r" not in err  # no progress bar when stderr is not a terminal
+    assert _leftovers(folder) == []
+
+
+def test_run_output_and_report(work):
+    folder, g, case = work
+    out = folder / "sub" / "x.gcode"
+    out.parent.mkdir()
+    rep = folder / "report"
+    assert main(["run", str(g), "--loadcase", str(case), "--engine", "streamlines", "-o", str(out),
+                 "--report", str(rep)]) == 0
+    assert out.is_file()
+    html = (rep / "index.html").read_text(encoding="utf-8")
+    assert "<svg" in html and "alignment" in html
+    data = json.loads((rep / "metrics.json").read_text(encoding="utf-8"))
+    assert data["changed"] and data["layers"]
+    layer = data["layers"][0]
+    for key in ("beta", "spacing_var", "coverage", "overlap"):
+        assert layer["new"][key] is not None and layer["old"][key] is not None
+    assert layer["new"]["beta"] > layer["old"]["beta"]  # the point of it all
+    assert layer["volume_new_mm3"] == pytest.approx(layer["volume_old_mm3"], rel=0.03)
+    assert set(data["times_s"]) >= {"parse", "geometry", "fea", "paths", "splice", "check", "write"}
+    assert (rep / "layer-1.svg").is_file() and (rep / "layer-1-detail.svg").is_file()
+
+
+def test_in_place_is_atomic(work):
+    folder, g, case = work
+    before = g.read_bytes()
+    assert main(["run", str(g), "--loadcase", str(case), "--engine", "streamlines", "--in-place"]) == 0
+    assert g.read_bytes() != before
+    assert not (folder / "part.loadpath.gcode").exists()
+    assert _leftovers(folder) == []
+    gcode.read(g)
+
+
+def test_failure_is_one_line_and_leaves_everything_untouched(work, capsys):
+    folder, g, case = work
+    before = g.read_bytes()
+    bad = folder / "bad.toml"
+    bad.write_text(CASE.replace('side = "x_max", within = 10.0', "x_min = 500.0"), encoding="utf-8")
+    assert main(["run", str(g), "--loadcase", str(bad), "--in-place"]) == 1
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("loadpath: ") and "selects no boundary" in lines[0]
+    assert g.read_bytes() == before
+    assert _leftovers(folder) == [] and not (folder / "part.loadpath.gcode").exists()
+
+
+def test_on_failure_keep_exits_zero_with_a_warning(work, capsys):
+    folder, g, case = work
+    before = g.read_bytes()
+    bad = folder / "bad.toml"
+    bad.write_text("version = 1\n", encoding="utf-8")
+    out = folder / "out.gcode"
+    assert main(["run", str(g), "--loadcase", str(bad), "-o", str(out), "--on-failure", "keep"]) == 0
+    err = capsys.readouterr().err
+    assert "warning" in err and "kept the slicer's G-code" in err
+    assert g.read_bytes() == before and out.read_bytes() == before
+
+
+@pytest.mark.parametrize("args,match", [
+    (["--set", "nonsense=1"], "unknown"),
+    (["--pitch", "-1"], "pitch"),
+    (["--replace", "walls"], "walls"),
+])
+def test_bad_options_are_one_line(work, capsys, args, match):
+    folder, g, case = work
+    assert main(["run", str(g), "--loadcase", str(case), *args]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and match in err[0]
+
+
+def test_missing_input_is_one_line(tmp_path, capsys):
+    case = tmp_path / "case.toml"
+    case.write_text(CASE, encoding="utf-8")
+    assert main(["run", str(tmp_path / "nope.gcode"), "--loadcase", str(case)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "does not exist" in err[0]
+
+
+def test_cura_settings_json_drive_travel_and_retraction(tmp_path, sliced):
+    """--slicer-settings: what the Cura plugin passes (Cura's own keys) sets the new travels."""
+    g = sliced("cura", "ohs", "solid")
+    case = tmp_path / "case.toml"
+    case.write_text(CASE, encoding="utf-8")
+    js = tmp_path / "cura.json"
+    js.write_text(json.dumps({"global": {"speed_travel": 150, "retraction_combing": "off"},
+                              "extruders": [{"retraction_amount": 1.5, "retraction_retract_speed": 30,
+                                             "retraction_prime_speed": 20, "material_diameter": 1.75,
+                                             "retraction_min_travel": 0.5, "machine_nozzle_size": 0.4}]}))
+    out = tmp_path / "out.gcode"
+    assert main(["run", str(g), "--loadcase", str(case), "--engine", "streamlines", "-o", str(out),
+                 "--slicer-settings", str(js)]) == 0
+    text = out.read_text()
+    assert "G0 F9000 X" in text  # 150 mm/s travels
+    program = gcode.read(out)
+    r = program.moves[program.moves["retract"]]
+    assert (abs(r["e"] + 1.5) < 1e-4).any() and (r["f"] == 1800).any()
+
+
+@pytest.mark.slow
+def test_demo_writes_result_and_report(tmp_path, monkeypatch, capsys):
+    """`loadpath demo` (the README's first command): the shipped example end to end, default engine."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo"]) == 0
+    out = tmp_path / "loadpath-demo"
+    assert (out / "ohs.loadpath.gcode").is_file()
+    assert (out / "report" / "index.html").is_file()
+    data = json.loads((out / "report" / "metrics.json").read_text())
+    assert data["settings"]["engine"] == "swarm" and data["changed"]
+    assert "loadpath demo" in capsys.readouterr().out
+    assert os.path.getsize(out / "ohs.loadpath.gcode") > 100_000
