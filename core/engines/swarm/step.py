@@ -94,7 +94,7 @@ class SwarmParams:
     min_gap: float = 0.5
     margin: float = 0.25
     ray_reach: float = 2.5
-    merge_reach: float = 2.5
+    merge_reach: float = 5.0
     grow_free_ends: bool = False
     field_cell: float = 0.5
     edge_gap: float = 0.25
@@ -319,9 +319,13 @@ def _remove_blocked(st: SwarmState, t: Points2, sdir: Points2, mass: Floats, ctx
         reach = np.where(hit, dist - gap / np.maximum(np.where(hit, cos, 1.0), 0.5), 0.0)
         go = (reach > 0.1 * ctx.pitch) & (reach <= ctx.pitch)
         q = st.pos[ends[go]] + reach[go, None] * sdir[ends[go]]
-        fine = ctx.grid.free_path(st.pos[ends[go]], q, st.pid[ends[go]]) & ctx.grid.clear_of(
-            q, st.pid[ends[go]], (ctx.params.min_gap + 1.0 / 12.0) * ctx.pitch
+        gp = st.pid[ends[go]]
+        clear = ctx.grid.clear_of(
+            np.concatenate([q, 0.5 * (q + st.pos[ends[go]])]),
+            np.concatenate([gp, gp]),
+            (ctx.params.min_gap + 1.0 / 12.0) * ctx.pitch,
         )
+        fine = ctx.grid.free_path(st.pos[ends[go]], q, gp) & clear[: len(q)] & clear[len(q) :]
         # two ends converging on one boundary (a front heading into a hole) must not finish
         # closer than the gap to each other: keep the first of any such pair
         fi = np.flatnonzero(fine)
@@ -521,18 +525,22 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
     alive = ~moving | (ctx.domain.inside(x) & ctx.grid.free_cells(cells, pid) & clear)
     chain = tab[:, _CHAIN]
     head = tab[:, _H]
-    if chain[-1] != chain[0]:
-        # agents of different chains are no neighbours of each other, and the grid does not hold
-        # this step's moves yet: two chains closing in (around a corner, behind a hole) could put
-        # agents side by side; the later one in chain order gives way
-        idx = np.flatnonzero(alive & moving)
-        pairs = cKDTree(x[idx]).query_pairs(min_gap, output_type="ndarray")
-        if len(pairs):
-            a, b = idx[pairs[:, 0]], idx[pairs[:, 1]]
-            other = chain[a] != chain[b]
-            if np.any(other):
-                alive[np.maximum(a[other], b[other])] = False
-                ctx.count("killed_other_chain", int(np.count_nonzero(other)))
+    # the grid does not hold this step's moves yet: two agents of one step may not come within
+    # half a pitch of each other's new point or the middle of each other's move (chains closing in
+    # around a corner or behind a hole, neighbours whose moves cut across); the later one gives way
+    idx = np.flatnonzero(alive & moving)
+    pairs = cKDTree(x[idx]).query_pairs(min_gap + 1.5 * ctx.pitch, output_type="ndarray")
+    if len(pairs):
+        a, b = idx[pairs[:, 0]], idx[pairs[:, 1]]
+        # distance between the two moves (segments start -> x): at an end of one of them
+        d = np.minimum(
+            np.minimum(_point_segment(x[a], start[b], x[b]), _point_segment(x[b], start[a], x[a])),
+            np.minimum(_point_segment(start[a], start[b], x[b]), _point_segment(start[b], start[a], x[a])),
+        )
+        near = d < min_gap
+        if np.any(near):
+            alive[np.maximum(a[near], b[near])] = False
+            ctx.count("killed_same_step", len(np.unique(np.maximum(a[near], b[near]))))
     for _ in range(8):
         idx = np.flatnonzero(alive & moving)
         if len(idx) < 2:
@@ -551,6 +559,15 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
         alive[idx[victim]] = False
         ctx.count("killed_too_close", len(np.unique(victim)))
     return alive, cells, samples
+
+
+def _point_segment(p: Points2, a: Points2, b: Points2) -> Floats:
+    """Distance from points to segments ``a -> b``, (n,)."""
+    e = b - a
+    den = np.add.reduce(e * e, axis=1)
+    u = np.add.reduce((p - a) * e, axis=1) / np.where(den > 0, den, 1.0)
+    q = a + np.minimum(np.maximum(u, 0.0), 1.0)[:, None] * e - p
+    return np.sqrt(np.add.reduce(q * q, axis=1))
 
 
 def _local_pitch(tab: np.ndarray, x: Points2, ctx: Context) -> Floats:
