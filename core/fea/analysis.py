@@ -16,9 +16,6 @@ from typing import Any
 
 import numpy as np
 import shapely
-from scipy.spatial import cKDTree
-from shapely.geometry.base import BaseGeometry
-
 from loadpath.errors import LoadCaseError
 from loadpath.fea.boundary import Facets, check_rigid, facets_of, load_vector, pick, support_dofs
 from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice
@@ -28,6 +25,8 @@ from loadpath.field import principal_stresses
 from loadpath.loadcase.resolve import ResolvedBody
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.sizing import MeshSize, default_mesh_size
+from scipy.spatial import cKDTree
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["Analysis", "analyze", "field_for_layer", "build_mesh", "stress_scale"]
 
@@ -67,11 +66,13 @@ class Analysis:
         return self.resolved.analysis
 
     def field(self, z: float | None = None, principal: str = "max_abs") -> FEStressField:
-        """The stress field of the layer at height ``z`` (see :func:`field_for_layer`)."""
+        """Return the stress field of the layer at height ``z`` (see :func:`field_for_layer`)."""
         return field_for_layer(self, z, principal)
 
 
-def build_mesh(rb: ResolvedBody, size: MeshSize | float | None = None, pitch: float | None = None) -> MeshData:
+def build_mesh(
+    rb: ResolvedBody, size: MeshSize | float | None = None, pitch: float | None = None
+) -> MeshData:
     """Mesh a resolved body for its analysis (2D outline or 3D prism stack).
 
     Parameters
@@ -188,8 +189,9 @@ def _picked(mesh: MeshData, facets: Facets, sel: Any, rb: ResolvedBody) -> np.nd
     m = pick(mesh, facets, sel)
     if not np.any(m):
         raise LoadCaseError(
-            f"{rb.loadcase.source}: {sel.role} {sel.name!r} ({sel.selector.describe()}) selects no element faces of the "
-            f"mesh of object {rb.name!r}; part bounding box is {rb.body.describe_bounds()}; widen the selector"
+            f"{rb.loadcase.source}: {sel.role} {sel.name!r} ({sel.selector.describe()}) selects no element "
+            f"faces of the mesh of object {rb.name!r}; part bounding box is {rb.body.describe_bounds()}; "
+            "widen the selector"
         )
     return m
 
@@ -216,7 +218,9 @@ def stress_scale(
     s1, s2, _, _ = principal_stresses(_inplane(stress))
     mag = np.maximum(np.abs(s1), np.abs(s2))
     k = mesh.cells.shape[1]
-    w = np.bincount(mesh.cells.ravel(), weights=np.repeat(np.abs(mesh.measures) / k, k), minlength=len(mesh.points))
+    w = np.bincount(
+        mesh.cells.ravel(), weights=np.repeat(np.abs(mesh.measures) / k, k), minlength=len(mesh.points)
+    )
     lo, hi = rb.body.bounds
     reach = 0.05 * float(np.linalg.norm((hi - lo)[: mesh.dim]))
     keep = (w > 0) & np.isfinite(mag)
@@ -236,7 +240,7 @@ def stress_scale(
 
 
 def field_for_layer(analysis: Analysis, z: float | None = None, principal: str = "max_abs") -> FEStressField:
-    """The stress field of the layer at height ``z``.
+    """Return the stress field of the layer at height ``z``.
 
     A 2D analysis gives the same field for every layer of the body; a 3D analysis the section of
     the tetrahedral mesh at ``z`` (use the middle of the layer).

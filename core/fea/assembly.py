@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-
 from loadpath.fea.elements import ELEMENTS, tetra_rule, triangle_rule
 from loadpath.mesh.data import MeshData
 
@@ -105,7 +104,9 @@ def constitutive(D: np.ndarray, mesh: MeshData) -> np.ndarray:
         return np.broadcast_to(D, (len(mesh.cells), nv, nv))
     if D.shape == (len(mesh.cells), nv, nv):
         return D
-    raise ValueError(f"D must be ({nv}, {nv}) or ({len(mesh.cells)}, {nv}, {nv}) for this mesh, got {D.shape}")
+    raise ValueError(
+        f"D must be ({nv}, {nv}) or ({len(mesh.cells)}, {nv}, {nv}) for this mesh, got {D.shape}"
+    )
 
 
 def _rule(mesh: MeshData) -> tuple[np.ndarray, np.ndarray]:

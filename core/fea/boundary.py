@@ -1,5 +1,7 @@
-"""Supports and loads on a mesh: which boundary facets a selection picks, the constrained dofs,
-the load vector, and the rigid-body check done before solving.
+"""Supports and loads on a mesh.
+
+Which boundary facets a selection picks, the constrained dofs, the load vector, and the rigid-body
+check done before solving.
 
 Facets are picked with the same tests the load case used on the body (:mod:`loadpath.loadcase.select`):
 the facet centroid inside the selector's box, or on the picked hole ring. Meshes are made to
@@ -19,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-
 from loadpath.errors import LoadCaseError
 from loadpath.fea.elements import ELEMENTS, line_rule, triangle_rule
 from loadpath.loadcase.model import Load, Support
@@ -145,7 +146,8 @@ def load_vector(mesh: MeshData, facets: Facets, picked: np.ndarray, load: Load, 
     along = float(raw @ (F / Fn))
     if along <= 1e-6 * facets.area[idx].sum() or not np.any(contact):
         raise LoadCaseError(
-            f"load {load.name!r} on object {body!r}: a bearing load needs a force across the hole, got {list(load.force)}; "
+            f"load {load.name!r} on object {body!r}: a bearing load needs a force across the hole, "
+            f"got {list(load.force)}; "
             "use a box or side selector for a force along the hole axis"
         )
     p0 = Fn / along
@@ -183,7 +185,14 @@ def rigid_modes(points: np.ndarray) -> tuple[np.ndarray, list[str]]:
     m[:, 1, 3], m[:, 2, 3] = -z, y  # about x
     m[:, 0, 4], m[:, 2, 4] = z, -x  # about y
     m[:, 0, 5], m[:, 1, 5] = -y, x  # about z
-    names = ["translate along x", "translate along y", "translate along z", "rotate about x", "rotate about y", "rotate about z"]
+    names = [
+        "translate along x",
+        "translate along y",
+        "translate along z",
+        "rotate about x",
+        "rotate about y",
+        "rotate about z",
+    ]
     return m.reshape(n * 3, 6), names
 
 
@@ -227,14 +236,19 @@ def check_rigid(mesh: MeshData, fixed: np.ndarray, rb: ResolvedBody) -> None:
         where = ""
         if len(np.unique(comp[used])) > 1:
             lo, hi = mesh.points[nodes].min(axis=0), mesh.points[nodes].max(axis=0)
-            where = " (the piece at " + ", ".join(f"{a} {lo[i]:.1f}..{hi[i]:.1f}" for i, a in enumerate("xyz"[:d])) + ")"
+            where = (
+                " (the piece at "
+                + ", ".join(f"{a} {lo[i]:.1f}..{hi[i]:.1f}" for i, a in enumerate("xyz"[:d]))
+                + ")"
+            )
         dim_note = ""
         if d == 3 and any("z" in f for f in free):
             dim_note = f"; it is analysed in 3D because {rb.reason}"
         names_s = ", ".join(repr(s.name) for s, _ in rb.supports)
         raise LoadCaseError(
-            f"{rb.loadcase.source}: object {rb.name!r}{where} is free to {' and '.join(free)}: the supports ({names_s}) "
-            f"do not hold it{dim_note}; add a support (e.g. fix = [\"x\", \"y\", \"z\"] on a side) or fix more directions"
+            f"{rb.loadcase.source}: object {rb.name!r}{where} is free to {' and '.join(free)}: "
+            f"the supports ({names_s}) do not hold it{dim_note}; "
+            'add a support (e.g. fix = ["x", "y", "z"] on a side) or fix more directions'
         )
 
 

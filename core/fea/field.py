@@ -15,12 +15,11 @@ a bucket grid (:class:`~loadpath.fea.locate.TriangleLocator`); outside every tri
 from __future__ import annotations
 
 import numpy as np
-from shapely.geometry.base import BaseGeometry
-
 from loadpath._typing import Points2, Region, Stress2
 from loadpath.fea.locate import TriangleLocator
 from loadpath.field import StressField, _check_principal
 from loadpath.mesh.data import MeshData
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["FEStressField", "slice_tets", "field_from_2d", "field_from_slice"]
 
@@ -200,7 +199,11 @@ def slice_tets(mesh: MeshData, values: np.ndarray, z: float) -> tuple[np.ndarray
         sel = np.flatnonzero(code == cd)
         if len(sel) == 0:
             continue
-        polys = [edges[:3]] if len(edges) == 3 else [[edges[0], edges[1], edges[2]], [edges[0], edges[2], edges[3]]]
+        polys = (
+            [edges[:3]]
+            if len(edges) == 3
+            else [[edges[0], edges[1], edges[2]], [edges[0], edges[2], edges[3]]]
+        )
         for e in polys:
             tri_cell.append(sel)
             tri_bary.append(bary[sel][:, e])
@@ -218,7 +221,9 @@ def slice_tets(mesh: MeshData, values: np.ndarray, z: float) -> tuple[np.ndarray
     return corners, tri_values
 
 
-def field_from_slice(mesh: MeshData, stress: np.ndarray, z: float, scale: float, **kw: object) -> FEStressField:
+def field_from_slice(
+    mesh: MeshData, stress: np.ndarray, z: float, scale: float, **kw: object
+) -> FEStressField:
     """Field of the section ``z`` of a 3D mesh with nodal stresses ``(n, 6)`` (in-plane part kept)."""
     inplane = stress[:, [0, 1, 5]]
     corners, vals = slice_tets(mesh, inplane, z)

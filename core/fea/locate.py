@@ -58,7 +58,9 @@ class TriangleLocator:
         hi = c.max(axis=1)
         valid = np.flatnonzero(ok)
         if len(valid) == 0:
-            self.grid = _Grid(np.zeros(2), 1.0, (1, 1), np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64))
+            self.grid = _Grid(
+                np.zeros(2), 1.0, (1, 1), np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)
+            )
             return
         size = np.sqrt(np.abs(det[valid]) * 0.5)
         step = float(cell_factor * max(np.median(size), 1e-9))

@@ -9,7 +9,6 @@ The assembly accepts one matrix or one per element, ``(m, 3, 3)`` / ``(m, 6, 6)`
 from __future__ import annotations
 
 import numpy as np
-
 from loadpath.errors import SettingsError
 from loadpath.loadcase.model import Material
 
@@ -29,7 +28,10 @@ def plane_stress(E: float, nu: float) -> np.ndarray:  # noqa: N803
 
 
 def isotropic_3d(E: float, nu: float) -> np.ndarray:  # noqa: N803
-    """Isotropic 3D matrix from Lamé's ``lambda = E nu / ((1 + nu)(1 - 2 nu))``, ``mu = E / (2 (1 + nu))``, (6, 6) MPa."""
+    """Isotropic 3D matrix, (6, 6) MPa.
+
+    From Lamé's ``lambda = E nu / ((1 + nu)(1 - 2 nu))`` and ``mu = E / (2 (1 + nu))``.
+    """
     _check(E, nu)
     lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
     mu = E / (2.0 * (1.0 + nu))

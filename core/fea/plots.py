@@ -12,10 +12,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from shapely.geometry.base import BaseGeometry
-
 from loadpath.field import StressField
 from loadpath.loadcase.resolve import ResolvedBody
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["draw_field", "draw_selectors", "save_png"]
 
@@ -121,7 +120,9 @@ def draw_selectors(ax: Any, resolved: ResolvedBody, z: float | None = None) -> N
                 lo, hi = body.bounds
                 scale = 0.08 * float(np.max(hi[:2] - lo[:2])) / np.hypot(force[0], force[1])
                 ax.annotate(
-                    "", xy=(c.x + force[0] * scale, c.y + force[1] * scale), xytext=(c.x, c.y),
+                    "",
+                    xy=(c.x + force[0] * scale, c.y + force[1] * scale),
+                    xytext=(c.x, c.y),
                     arrowprops={"arrowstyle": "->", "color": color, "linewidth": 1.5},
                 )
     ax.set_aspect("equal")
@@ -130,7 +131,9 @@ def draw_selectors(ax: Any, resolved: ResolvedBody, z: float | None = None) -> N
     ax.set_title(f"{resolved.name}: {resolved.analysis.upper()} ({resolved.reason})", fontsize="small")
 
 
-def save_png(path: str | Path, field: StressField, resolved: ResolvedBody, z: float | None = None, title: str = "") -> Path:
+def save_png(
+    path: str | Path, field: StressField, resolved: ResolvedBody, z: float | None = None, title: str = ""
+) -> Path:
     """Write a PNG with the selections (left) and the stress field (right).
 
     Returns

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-
 from loadpath.errors import SolverError
 from loadpath.fea.assembly import constitutive, stiffness
 from loadpath.fea.boundary import rigid_modes
@@ -94,7 +93,9 @@ class FEAResult:
     info: dict[str, Any] = field(default_factory=dict)
 
 
-def solve(problem: Problem, method: str = "auto", rtol: float = 0.1 * TOL.fea_residual, K: sp.spmatrix | None = None) -> FEAResult:
+def solve(
+    problem: Problem, method: str = "auto", rtol: float = 0.1 * TOL.fea_residual, K: sp.spmatrix | None = None
+) -> FEAResult:
     """Solve a linear-elastic problem.
 
     Parameters
@@ -124,7 +125,11 @@ def solve(problem: Problem, method: str = "auto", rtol: float = 0.1 * TOL.fea_re
         K = stiffness(mesh, problem.D)
     t1 = time.perf_counter()
     fixed = np.asarray(problem.fixed, dtype=np.int64)
-    vals = np.zeros(len(fixed)) if problem.fixed_values is None else np.asarray(problem.fixed_values, dtype=float)
+    vals = (
+        np.zeros(len(fixed))
+        if problem.fixed_values is None
+        else np.asarray(problem.fixed_values, dtype=float)
+    )
     order = np.argsort(fixed, kind="stable")
     fixed, vals = fixed[order], vals[order]
     uniq, first = np.unique(fixed, return_index=True)
@@ -141,7 +146,9 @@ def solve(problem: Problem, method: str = "auto", rtol: float = 0.1 * TOL.fea_re
     b = (f - K @ u)[free]
     nb = float(np.linalg.norm(b))
     if nb == 0.0:
-        raise SolverError("the load vector is zero: no load reaches the free part of the mesh; check the load selectors")
+        raise SolverError(
+            "the load vector is zero: no load reaches the free part of the mesh; check the load selectors"
+        )
     if method == "auto":
         method = "direct" if len(free) <= DIRECT_LIMIT[d] else "amg-cg"
     iters = 0
@@ -154,12 +161,15 @@ def solve(problem: Problem, method: str = "auto", rtol: float = 0.1 * TOL.fea_re
             raise ValueError(f"method must be 'auto', 'direct' or 'amg-cg', not {method!r}")
     t2 = time.perf_counter()
     if not np.all(np.isfinite(x)):
-        raise SolverError("the FEA solution is not finite; the stiffness matrix is singular (is the part held?)")
+        raise SolverError(
+            "the FEA solution is not finite; the stiffness matrix is singular (is the part held?)"
+        )
     u[free] = x
     res = float(np.linalg.norm((K @ u - f)[free]) / nb)
     if res > TOL.fea_residual:
         raise SolverError(
-            f"the FEA solve did not converge: relative residual {res:.2e} > {TOL.fea_residual:.0e} ({method}, {iters} iterations); "
+            f"the FEA solve did not converge: relative residual {res:.2e} > {TOL.fea_residual:.0e} "
+            f"({method}, {iters} iterations); "
             "try a coarser mesh or check that the part is held"
         )
     reactions = (K @ u - f).reshape(-1, d)
@@ -180,8 +190,11 @@ def solve(problem: Problem, method: str = "auto", rtol: float = 0.1 * TOL.fea_re
 
 
 def _one_blas_thread() -> contextlib.AbstractContextManager[object]:
-    """BLAS limited to one thread: the solvers call it on short vectors and small blocks, where
-    threads only add synchronisation (10-50x slower on a busy 2-core machine)."""
+    """Limit BLAS to one thread.
+
+    The solvers call it on short vectors and small blocks, where threads only add synchronisation
+    (10-50x slower on a busy 2-core machine).
+    """
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:  # pragma: no cover
@@ -190,14 +203,18 @@ def _one_blas_thread() -> contextlib.AbstractContextManager[object]:
 
 
 def _direct(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
-    """SuperLU with a symmetric ordering (minimum degree on A + A^T, diagonal pivots first: 5-10x
-    less fill and time than the default column ordering on these matrices), plus one step of
-    iterative refinement."""
+    """Solve with SuperLU, plus one step of iterative refinement.
+
+    A symmetric ordering (minimum degree on A + A^T, diagonal pivots first) gives 5-10x less fill
+    and time than the default column ordering on these matrices.
+    """
     with np.errstate(all="ignore"):
         try:
             lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
         except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
-            raise SolverError(f"the stiffness matrix is singular ({exc}); the part is not held against rigid motion") from exc
+            raise SolverError(
+                f"the stiffness matrix is singular ({exc}); the part is not held against rigid motion"
+            ) from exc
         x = lu.solve(b)
         x += lu.solve(b - A @ x)
     return np.asarray(x)
@@ -229,7 +246,9 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.einsum("i,i->", a, b))
 
 
-def _amg_cg(K: sp.csr_matrix, b: np.ndarray, free_mask: np.ndarray, mesh: MeshData, rtol: float) -> tuple[np.ndarray, int]:
+def _amg_cg(
+    K: sp.csr_matrix, b: np.ndarray, free_mask: np.ndarray, mesh: MeshData, rtol: float
+) -> tuple[np.ndarray, int]:
     """Preconditioned conjugate gradients on the reduced system.
 
     Preconditioner: one multigrid V-cycle whose first coarsening goes from the quadratic mesh to its
@@ -254,7 +273,13 @@ def _amg_cg(K: sp.csr_matrix, b: np.ndarray, free_mask: np.ndarray, mesh: MeshDa
     # needs) at half the cost of symmetric sweeps on both sides
     pre = ("block_gauss_seidel", {"sweep": "forward"})
     post = ("block_gauss_seidel", {"sweep": "backward"})
-    sa = {"symmetry": "symmetric", "strength": "evolution", "smooth": "energy", "coarse_solver": "splu", "max_coarse": 500}
+    sa = {
+        "symmetry": "symmetric",
+        "strength": "evolution",
+        "smooth": "energy",
+        "coarse_solver": "splu",
+        "max_coarse": 500,
+    }
     if mesh.is_quadratic:
         Pn = _p1_prolongation(mesh)
         P = sp.bsr_matrix(sp.kron(Pn, sp.eye(d), format="csr"), blocksize=(d, d))

@@ -10,7 +10,6 @@ holes: the open-hole Kt converges at about h^2 to within 0.5 % of the handbook v
 from __future__ import annotations
 
 import numpy as np
-
 from loadpath.fea.assembly import constitutive, gradients
 from loadpath.fea.elements import ELEMENTS
 from loadpath.mesh.data import MeshData

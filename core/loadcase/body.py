@@ -13,18 +13,17 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely.geometry import MultiPolygon, Polygon
-from shapely.geometry.polygon import orient
-
 from loadpath._typing import Region
 from loadpath.errors import GeometryError
 from loadpath.tolerances import TOL
+from shapely.geometry import MultiPolygon, Polygon
+from shapely.geometry.polygon import orient
 
 __all__ = ["Slab", "Body", "merge_slabs", "outline_difference", "polygons_of"]
 
 
 def polygons_of(region: Region) -> list[Polygon]:
-    """The polygons of a Polygon or MultiPolygon (empty parts dropped)."""
+    """Return the polygons of a Polygon or MultiPolygon (empty parts dropped)."""
     if isinstance(region, Polygon):
         return [] if region.is_empty else [region]
     return [p for p in region.geoms if not p.is_empty]
@@ -32,7 +31,10 @@ def polygons_of(region: Region) -> list[Polygon]:
 
 def _clean(region: Region, where: str) -> Region:
     if not isinstance(region, (Polygon, MultiPolygon)):
-        raise GeometryError(f"{where}: the part outline must be a shapely Polygon or MultiPolygon, got {type(region).__name__}")
+        raise GeometryError(
+            f"{where}: the part outline must be a shapely Polygon or MultiPolygon, "
+            f"got {type(region).__name__}"
+        )
     if region.is_empty or region.area <= 0:
         raise GeometryError(f"{where}: the part outline is empty; check the layer's perimeters")
     if not region.is_valid:
@@ -90,10 +92,11 @@ class Body:
         slabs = tuple(self.slabs)
         if not slabs:
             raise GeometryError(f"object {self.name!r} has no layers")
-        for a, b in zip(slabs[:-1], slabs[1:]):
+        for a, b in zip(slabs[:-1], slabs[1:], strict=True):
             if abs(b.z0 - a.z1) > 1e3 * TOL.length_mm:
                 raise GeometryError(
-                    f"object {self.name!r}: layers are not contiguous (one ends at z = {a.z1}, the next starts at "
+                    f"object {self.name!r}: layers are not contiguous (one ends at z = {a.z1}, "
+                    "the next starts at "
                     f"z = {b.z0}); give consecutive z ranges"
                 )
         object.__setattr__(self, "slabs", slabs)
@@ -122,7 +125,7 @@ class Body:
         return ", ".join(f"{a} {lo[i]:.3f}..{hi[i]:.3f}" for i, a in enumerate("xyz"))
 
     def slab_at(self, z: float) -> Slab | None:
-        """The slab containing height ``z`` (the lower one on a shared face), or None."""
+        """Return the slab containing height ``z`` (the lower one on a shared face), or None."""
         for s in self.slabs:
             if s.z0 - TOL.length_mm <= z <= s.z1 + TOL.length_mm:
                 return s

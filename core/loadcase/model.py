@@ -63,7 +63,7 @@ class Selector:
     """Base class of the three ``where = {...}`` forms; each selects part of a part's boundary."""
 
     def describe(self) -> str:
-        """The selector as the user wrote it, for messages (e.g. ``side = "x_min", within = 10.0``)."""
+        """Describe the selector as written, for messages (``side = "x_min", within = 10.0``)."""
         raise NotImplementedError
 
     @property

@@ -71,7 +71,9 @@ def read(path: str | Path) -> LoadCase:
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
-        raise LoadCaseError(f"cannot read load case {str(p)!r}: {exc.strerror or exc}; check the path") from exc
+        raise LoadCaseError(
+            f"cannot read load case {str(p)!r}: {exc.strerror or exc}; check the path"
+        ) from exc
     except UnicodeDecodeError as exc:
         raise LoadCaseError(f"load case {str(p)!r} is not UTF-8 text; save it as UTF-8 TOML") from exc
     return parse(text, source=p.name)
@@ -111,7 +113,8 @@ class _Ctx:
         for key in table:
             if key not in allowed:
                 raise self.fail(
-                    f"unknown key {key!r} in {where}; expected one of {', '.join(allowed)} (check the spelling)"
+                    f"unknown key {key!r} in {where}; expected one of {', '.join(allowed)} "
+                    "(check the spelling)"
                 )
 
     def table(self, value: Any, where: str) -> Mapping[str, Any]:
@@ -132,7 +135,9 @@ class _Ctx:
             hint = f"one of {', '.join(repr(c) for c in choices)}" if choices else "a string in quotes"
             raise self.fail(f"{where} = {value!r} must be {hint}")
         if choices is not None and value not in choices:
-            raise self.fail(f"{where} = {value!r} is not valid; use one of {', '.join(repr(c) for c in choices)}")
+            raise self.fail(
+                f"{where} = {value!r} is not valid; use one of {', '.join(repr(c) for c in choices)}"
+            )
         return value
 
     def vector(self, value: Any, where: str, n: int, unit: str) -> tuple[float, ...]:
@@ -169,7 +174,9 @@ def from_dict(data: Mapping[str, Any], source: str = "load case") -> LoadCase:
     if obj is not None:
         obj = c.string(obj, "object")
         if not obj.strip():
-            raise c.fail("object = '' is empty; give the object's name as the slicer wrote it, or leave it out")
+            raise c.fail(
+                "object = '' is empty; give the object's name as the slicer wrote it, or leave it out"
+            )
     frame = c.string(data.get("frame", "bed"), "frame", ("bed", "part"))
 
     material = _material(c, data.get("material"))
@@ -267,11 +274,15 @@ def _load(c: _Ctx, t: Mapping[str, Any], i: int) -> Load:
     if has_f:
         force = c.vector(t["force"], f"{label}.force", 3, "N")
         if all(f == 0.0 for f in force):
-            raise c.fail(f"{label}.force = {list(force)} is zero; give the total force in N, e.g. [1000.0, 0.0, 0.0]")
+            raise c.fail(
+                f"{label}.force = {list(force)} is zero; give the total force in N, e.g. [1000.0, 0.0, 0.0]"
+            )
         return Load(name=name, where=sel, force=(force[0], force[1], force[2]))
     p = c.number(t["pressure"], f"{label}.pressure", "MPa")
     if p == 0.0:
-        raise c.fail(f"{label}.pressure = 0 is zero; give a non-zero pressure in MPa (positive pushes on the part)")
+        raise c.fail(
+            f"{label}.pressure = 0 is zero; give a non-zero pressure in MPa (positive pushes on the part)"
+        )
     return Load(name=name, where=sel, pressure=p)
 
 
@@ -279,11 +290,14 @@ def _selector(c: _Ctx, value: Any, where: str) -> Selector:
     t = c.table(value, where)
     keys = set(t)
     if not keys:
-        raise c.fail(f"{where} is empty; use {{ side = .., within = .. }}, box bounds, or {{ hole_near = .., radius = .. }}")
+        raise c.fail(
+            f"{where} is empty; use {{ side = .., within = .. }}, box bounds, "
+            "or { hole_near = .., radius = .. }"
+        )
     if keys & {"side", "within"}:
         c.keys(t, ("side", "within"), where)
         if "side" not in t or "within" not in t:
-            raise c.fail(f"{where} needs both side and within, e.g. {{ side = \"x_min\", within = 5.0 }}")
+            raise c.fail(f'{where} needs both side and within, e.g. {{ side = "x_min", within = 5.0 }}')
         side = c.string(t["side"], f"{where}.side", SIDES)
         within = c.number(t["within"], f"{where}.within", "mm")
         if within < 0:
@@ -292,7 +306,9 @@ def _selector(c: _Ctx, value: Any, where: str) -> Selector:
     if keys & {"hole_near", "radius"}:
         c.keys(t, ("hole_near", "radius"), where)
         if "hole_near" not in t or "radius" not in t:
-            raise c.fail(f"{where} needs both hole_near and radius, e.g. {{ hole_near = [75.0, 18.0], radius = 5.0 }}")
+            raise c.fail(
+                f"{where} needs both hole_near and radius, e.g. {{ hole_near = [75.0, 18.0], radius = 5.0 }}"
+            )
         near = c.vector(t["hole_near"], f"{where}.hole_near", 2, "mm")
         radius = c.number(t["radius"], f"{where}.radius", "mm")
         if radius <= 0:
@@ -339,7 +355,9 @@ def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
     if "replace" in t:
         r = t["replace"]
         if not isinstance(r, list) or not r:
-            raise c.fail(f"toolpath.replace = {r!r} must be a non-empty list of {', '.join(map(repr, _REPLACE))}")
+            raise c.fail(
+                f"toolpath.replace = {r!r} must be a non-empty list of {', '.join(map(repr, _REPLACE))}"
+            )
         for kind in r:
             c.string(kind, "toolpath.replace[]", _REPLACE)
         replace = tuple(dict.fromkeys(r))

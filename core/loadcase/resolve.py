@@ -15,12 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely.geometry.base import BaseGeometry
-
 from loadpath.errors import LoadCaseError
 from loadpath.loadcase.body import Body, merge_slabs
 from loadpath.loadcase.model import HoleSelector, Load, LoadCase, Support
 from loadpath.loadcase.select import Selection, nearest_hole, select
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["ResolvedBody", "resolve", "resolve_body"]
 
@@ -87,11 +86,11 @@ class ResolvedBody:
         return shapely.line_merge(shapely.unary_union(parts))
 
     def refine_lines(self) -> list[BaseGeometry]:
-        """Picked side-wall lines (xy), where the mesh is refined."""
+        """Return the picked side-wall lines (xy), where the mesh is refined."""
         return [g for s in self.selections if (g := s.lines) is not None]
 
     def split_points(self) -> np.ndarray:
-        """Ends of the picked side-wall pieces, ``(n, 2)`` mm: outline vertices the mesh must have."""
+        """Return the ends of the picked side-wall pieces, ``(n, 2)`` mm: vertices the mesh must have."""
         pts = []
         for s in self.selections:
             if s.lower is None:
@@ -118,7 +117,9 @@ class ResolvedBody:
         return out
 
 
-def resolve(loadcase: LoadCase, bodies: Iterable[Body], analysis: str | None = None) -> tuple[ResolvedBody, ...]:
+def resolve(
+    loadcase: LoadCase, bodies: Iterable[Body], analysis: str | None = None
+) -> tuple[ResolvedBody, ...]:
     """Apply a load case to the bodies of a print.
 
     Parameters
@@ -145,7 +146,8 @@ def resolve(loadcase: LoadCase, bodies: Iterable[Body], analysis: str | None = N
         if not chosen:
             names = ", ".join(repr(b.name) for b in bodies) or "none"
             raise LoadCaseError(
-                f"{loadcase.source}: object = {loadcase.object!r} is not in the G-code (objects found: {names}); "
+                f"{loadcase.source}: object = {loadcase.object!r} is not in the G-code "
+                f"(objects found: {names}); "
                 "fix the name or remove the key"
             )
         bodies = chosen
@@ -195,7 +197,11 @@ def _empty_message(lc: LoadCase, body: Body, sel: Selection) -> str:
             _, d = nearest_hole(s.outline, p)
             best = min(best, d)
         extra = "; the part has no holes" if math.isinf(best) else f"; the nearest hole is {best:.3f} mm away"
-    frame = ' (selector coordinates are relative to its minimum corner: frame = "part")' if lc.frame == "part" else ""
+    frame = (
+        ' (selector coordinates are relative to its minimum corner: frame = "part")'
+        if lc.frame == "part"
+        else ""
+    )
     return (
         f"{lc.source}: {what} selects no boundary of object {body.name!r}{extra}; "
         f"part bounding box is {body.describe_bounds()}{frame}"

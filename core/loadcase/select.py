@@ -18,12 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, MultiLineString, Point, Polygon
-from shapely.geometry.base import BaseGeometry
-
 from loadpath.loadcase.body import Body, polygons_of
 from loadpath.loadcase.model import BoxSelector, HoleSelector, Selector, SideSelector
 from loadpath.tolerances import TOL
+from shapely.geometry import LineString, MultiLineString, Point, Polygon
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["Selection", "select", "exposed_faces", "box_of", "selection_eps"]
 
@@ -69,11 +68,11 @@ class Selection:
         return float(sum(g.area for _, g in self.faces))
 
     def measure(self, analysis: str) -> float:
-        """Picked area in a ``"2d"`` (side walls only) or ``"3d"`` analysis, mm²."""
+        """Return the picked area in a ``"2d"`` (side walls only) or ``"3d"`` analysis, mm²."""
         return self.area_lateral + (self.area_faces if analysis == "3d" else 0.0)
 
     def lines_at(self, z: float) -> BaseGeometry | None:
-        """The picked side-wall lines at height ``z`` (xy), or None when nothing is picked there."""
+        """Return the picked side-wall lines at height ``z`` (xy), or None when nothing is picked."""
         parts = []
         for z0, z1, g in self.lateral:
             if z0 - TOL.length_mm <= z <= z1 + TOL.length_mm and not g.is_empty:
@@ -96,7 +95,7 @@ def selection_eps(body: Body) -> float:
 
 
 def box_of(selector: Selector, body: Body, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The bed-frame box of a side or box selector.
+    """Return the bed-frame box of a side or box selector.
 
     Parameters
     ----------
@@ -129,7 +128,7 @@ def box_of(selector: Selector, body: Body, origin: np.ndarray) -> tuple[np.ndarr
 
 
 def exposed_faces(body: Body) -> list[tuple[float, BaseGeometry, int]]:
-    """The horizontal faces of the body's boundary.
+    """Return the horizontal faces of the body's boundary.
 
     Returns
     -------
@@ -138,7 +137,7 @@ def exposed_faces(body: Body) -> list[tuple[float, BaseGeometry, int]]:
     """
     s = body.slabs
     out: list[tuple[float, BaseGeometry, int]] = [(s[0].z0, s[0].outline, -1)]
-    for a, b in zip(s[:-1], s[1:]):
+    for a, b in zip(s[:-1], s[1:], strict=True):
         up = shapely.difference(a.outline, b.outline)
         down = shapely.difference(b.outline, a.outline)
         if up.area > 0:
@@ -212,7 +211,7 @@ def select(selector: Selector, body: Body, origin: np.ndarray, name: str, role: 
 
 
 def nearest_hole(slab_outline: BaseGeometry, point: tuple[float, float]) -> tuple[BaseGeometry | None, float]:
-    """The interior ring of an outline nearest to a point, and its distance (0 inside the hole)."""
+    """Return the interior ring of an outline nearest to a point, and its distance (0 inside it)."""
     rings = [r for p in polygons_of(slab_outline) for r in p.interiors]
     if not rings:
         return None, math.inf

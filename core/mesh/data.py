@@ -16,7 +16,6 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
-
 from loadpath._typing import Cells, Ints
 
 __all__ = ["MeshData", "CELL_TYPES", "FACETS"]

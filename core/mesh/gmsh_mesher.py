@@ -20,13 +20,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from shapely.geometry.base import BaseGeometry
-
 from loadpath._typing import Points2, Region
 from loadpath.errors import MeshingError, ToolMissingError
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.outline import decimate, prepare_rings, refine_groups
 from loadpath.mesh.sizing import MeshSize
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["mesh_2d", "mesh_stl", "orient_tets", "GMSH_TRI6", "GMSH_TET10"]
 
@@ -46,7 +45,7 @@ def _gmsh() -> Any:
 
 @contextlib.contextmanager
 def _session(name: str) -> Iterator[Any]:
-    """An initialised gmsh with our options and an empty model; finalised afterwards."""
+    """Initialise gmsh with our options and an empty model; finalise it afterwards."""
     gmsh = _gmsh()
     with _LOCK:
         gmsh.initialize(["-noenv"], readConfigFiles=False, interruptible=False)
@@ -193,12 +192,15 @@ def mesh_2d(
                 keep = None
                 if split_at is not None and len(split_at):
                     sp = np.asarray(split_at, dtype=float).reshape(-1, 2)
-                    keep = np.min(np.linalg.norm(c[:, None, :] - sp[None, :, :], axis=2), axis=1) <= 1e-3 * sz.h_min
+                    keep = (
+                        np.min(np.linalg.norm(c[:, None, :] - sp[None, :, :], axis=2), axis=1)
+                        <= 1e-3 * sz.h_min
+                    )
                 c = decimate(c, 0.2 * sz.h_min, closed=False, keep=keep)
                 if len(c) < 2:
                     continue
                 pts = [point(x, y) for x, y in c]
-                tags = [geo.addLine(a, b) for a, b in zip(pts[:-1], pts[1:]) if a != b]
+                tags = [geo.addLine(a, b) for a, b in zip(pts[:-1], pts[1:], strict=True) if a != b]
                 mid = np.asarray(part.interpolate(0.5, normalized=True).coords)[0]
                 embedded.append((_surface_of(polys, mid), tags))
         geo.synchronize()
@@ -212,7 +214,9 @@ def mesh_2d(
     points = points[:, :2]
     cells = _orient_tri(points, cells)
     stats = {"t_gmsh": time.perf_counter() - t0, "h": sz.h, "h_min": sz.h_min, "h_bc": sz.h_bc}
-    return MeshData(points, cells, "tri6" if order == 2 else "tri3", thickness=thickness, z_range=z_range, stats=stats)
+    return MeshData(
+        points, cells, "tri6" if order == 2 else "tri3", thickness=thickness, z_range=z_range, stats=stats
+    )
 
 
 def _surface_of(polys: list[list[np.ndarray]], p: np.ndarray) -> int:
@@ -232,7 +236,11 @@ def _extract(gmsh: Any, dim: int, etype: int, k: int) -> tuple[np.ndarray, np.nd
     coords = np.asarray(coords).reshape(-1, 3)
     tags = np.asarray(tags, dtype=np.int64)
     etypes, _, enodes = gmsh.model.mesh.getElements(dim)
-    conn = [np.asarray(n, dtype=np.int64).reshape(-1, k) for t, n in zip(etypes, enodes) if t == etype]
+    conn = [
+        np.asarray(n, dtype=np.int64).reshape(-1, k)
+        for t, n in zip(etypes, enodes, strict=True)
+        if t == etype
+    ]
     if not conn or sum(len(c) for c in conn) == 0:
         raise MeshingError("gmsh produced no elements; the geometry may be degenerate (check the outline)")
     lookup = np.full(int(tags.max()) + 1, -1, dtype=np.int64)

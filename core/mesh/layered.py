@@ -28,19 +28,25 @@ from collections.abc import Sequence
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString
-from shapely.geometry.base import BaseGeometry
-
 from loadpath.loadcase.body import Slab
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.gmsh_mesher import mesh_2d, orient_tets
 from loadpath.mesh.sizing import MeshSize
+from shapely.geometry import LineString
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["mesh_3d", "split_prisms", "promote_tet10"]
 
 # symmetries of the prism (0,1,2 bottom; 3,4,5 above them) bringing vertex k to position 0
 _PRISM_PERM = np.array(
-    [[0, 1, 2, 3, 4, 5], [1, 2, 0, 4, 5, 3], [2, 0, 1, 5, 3, 4], [3, 5, 4, 0, 2, 1], [4, 3, 5, 1, 0, 2], [5, 4, 3, 2, 1, 0]]
+    [
+        [0, 1, 2, 3, 4, 5],
+        [1, 2, 0, 4, 5, 3],
+        [2, 0, 1, 5, 3, 4],
+        [3, 5, 4, 0, 2, 1],
+        [4, 3, 5, 1, 0, 2],
+        [5, 4, 3, 2, 1, 0],
+    ]
 )
 _SPLIT_A = np.array([[0, 1, 2, 5], [0, 1, 5, 4], [0, 4, 5, 3]])  # diagonal 1-5 on face (1, 2, 5, 4)
 _SPLIT_B = np.array([[0, 1, 2, 4], [0, 4, 2, 5], [0, 4, 5, 3]])  # diagonal 2-4
@@ -106,18 +112,24 @@ def _cut(
             if hi[a] >= hi_b[a] - tol or _near(hi[a], xy[:, a], tol):
                 hi[a] = hi_b[a] + pad
         for zb in (lo[2], hi[2]):
-            if zs[0] + tol < zb < zs[-1] - tol and not _near(zb, zs, tol) and not _near(zb, np.array(cuts_z), tol):
+            if (
+                zs[0] + tol < zb < zs[-1] - tol
+                and not _near(zb, zs, tol)
+                and not _near(zb, np.array(cuts_z), tol)
+            ):
                 cuts_z.append(float(zb))
         if lo[0] > lo_b[0] - pad or lo[1] > lo_b[1] - pad or hi[0] < hi_b[0] + pad or hi[1] < hi_b[1] + pad:
             rects.append(shapely.box(lo[0], lo[1], hi[0], hi[1]))
     stack: list[Slab] = []
     for s in slabs:
         edges = [s.z0, *sorted(z for z in cuts_z if s.z0 < z < s.z1), s.z1]
-        stack.extend(Slab(a, b, s.outline) for a, b in zip(edges[:-1], edges[1:]))
+        stack.extend(Slab(a, b, s.outline) for a, b in zip(edges[:-1], edges[1:], strict=True))
     return stack, rects
 
 
-def _inner_lines(stack: Sequence[Slab], rects: Sequence[BaseGeometry], union: BaseGeometry, tol: float) -> list[LineString]:
+def _inner_lines(
+    stack: Sequence[Slab], rects: Sequence[BaseGeometry], union: BaseGeometry, tol: float
+) -> list[LineString]:
     """Outline and box edges strictly inside the union of the outlines, noded at their crossings."""
     edges = [s.outline.boundary for s in stack] + [shapely.intersection(r.boundary, union) for r in rects]
     noded = shapely.unary_union(edges)
@@ -173,9 +185,18 @@ def mesh_3d(
     inner = _inner_lines(stack, rects, union, tol)
     # every vertex of an inner line that lies on the outside boundary must be a boundary vertex too
     ends = np.array([c[:2] for ln in inner for c in ln.coords]).reshape(-1, 2)
-    on_edge = shapely.distance(union.boundary, shapely.points(ends)) <= 1e-6 * (1.0 + sz.h) if len(ends) else np.zeros(0, bool)
+    on_edge = (
+        shapely.distance(union.boundary, shapely.points(ends)) <= 1e-6 * (1.0 + sz.h)
+        if len(ends)
+        else np.zeros(0, bool)
+    )
     m2 = mesh_2d(
-        union, sz, refine_at=refine_at, split_at=ends[on_edge], order=1, embed=inner,
+        union,
+        sz,
+        refine_at=refine_at,
+        split_at=ends[on_edge],
+        order=1,
+        embed=inner,
         refine_outlines=[s.outline for s in stack],
     )
     t_gmsh = m2.stats["t_gmsh"]

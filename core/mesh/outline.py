@@ -14,19 +14,20 @@ from collections.abc import Sequence
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Point
-from shapely.geometry.base import BaseGeometry
-from shapely.geometry.polygon import orient
-
 from loadpath._typing import Points2
 from loadpath.errors import MeshingError
 from loadpath.loadcase.body import polygons_of
 from loadpath.mesh.sizing import MeshSize, reentrant_corners
+from shapely.geometry import LineString, Point
+from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
 
 __all__ = ["prepare_rings", "decimate", "insert_points", "sample", "refine_groups"]
 
 
-def decimate(c: np.ndarray, min_len: float, closed: bool = True, keep: np.ndarray | None = None) -> np.ndarray:
+def decimate(
+    c: np.ndarray, min_len: float, closed: bool = True, keep: np.ndarray | None = None
+) -> np.ndarray:
     """Drop vertices closer than ``min_len`` to their predecessor.
 
     Never a vertex marked in ``keep``, never the ends of an open line, never two neighbours in one
@@ -96,7 +97,9 @@ def insert_points(coords: np.ndarray, extra: np.ndarray, tol: float) -> tuple[np
     return c, dist <= tol
 
 
-def prepare_rings(outline: BaseGeometry, size: MeshSize, split_at: Points2 | None = None) -> list[list[np.ndarray]]:
+def prepare_rings(
+    outline: BaseGeometry, size: MeshSize, split_at: Points2 | None = None
+) -> list[list[np.ndarray]]:
     """Clean rings per polygon: ``[[exterior, hole, ...], ...]``, each ``(n, 2)`` without repeat.
 
     Exteriors counter-clockwise, holes clockwise.
@@ -118,7 +121,10 @@ def prepare_rings(outline: BaseGeometry, size: MeshSize, split_at: Points2 | Non
 
 
 def sample(geom: BaseGeometry, step: float) -> np.ndarray:
-    """Points along lines and ring boundaries (every ``step`` mm, ends included), or the points themselves, ``(n, 2)``."""
+    """Sample points along lines and ring boundaries (every ``step`` mm, ends included), ``(n, 2)``.
+
+    Points are returned as they are.
+    """
     out = []
     for g in getattr(geom, "geoms", [geom]):
         if g.is_empty:

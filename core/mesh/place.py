@@ -13,11 +13,10 @@ from pathlib import Path
 
 import numpy as np
 import shapely
-from shapely.geometry import Polygon
-
 from loadpath._typing import Region
 from loadpath.errors import GeometryError, MeshingError, ToolMissingError
 from loadpath.loadcase.body import outline_difference
+from shapely.geometry import Polygon
 
 __all__ = ["place_stl", "footprint"]
 
@@ -34,7 +33,10 @@ def _trimesh(path: str | Path):  # type: ignore[no-untyped-def]
     if mesh.is_empty or len(mesh.faces) == 0:
         raise MeshingError(f"STL file {p.name!r} has no triangles")
     if not mesh.is_watertight:
-        raise MeshingError(f"STL model {p.name!r} is not closed (watertight); repair it (e.g. in the slicer) and export it again")
+        raise MeshingError(
+            f"STL model {p.name!r} is not closed (watertight); "
+            "repair it (e.g. in the slicer) and export it again"
+        )
     return mesh
 
 
@@ -71,7 +73,7 @@ def place_stl(
     transform: np.ndarray | None = None,
     tol: float = 0.5,
 ) -> np.ndarray:
-    """The transform that puts an STL model where the G-code has it.
+    """Return the transform that puts an STL model where the G-code has it.
 
     Parameters
     ----------
@@ -109,7 +111,9 @@ def place_stl(
     placed.apply_transform(T)
     foot = footprint(placed, float(placed.bounds[0, 2]) + 0.5 * first_layer_height)
     if foot.is_empty:
-        raise GeometryError(f"STL model {Path(path).name!r} has no footprint at the first layer; is it a closed solid in mm?")
+        raise GeometryError(
+            f"STL model {Path(path).name!r} has no footprint at the first layer; is it a closed solid in mm?"
+        )
     if transform is None:
         c, g = foot.centroid, first_layer.centroid
         T2 = np.eye(4)
@@ -121,8 +125,10 @@ def place_stl(
         fx0, fy0, fx1, fy1 = foot.bounds
         gx0, gy0, gx1, gy1 = first_layer.bounds
         raise GeometryError(
-            f"STL model {Path(path).name!r} does not match the G-code's first layer: footprint {fx1 - fx0:.1f} x {fy1 - fy0:.1f} mm "
+            f"STL model {Path(path).name!r} does not match the G-code's first layer: "
+            f"footprint {fx1 - fx0:.1f} x {fy1 - fy0:.1f} mm "
             f"vs first layer {gx1 - gx0:.1f} x {gy1 - gy0:.1f} mm, mean distance {d:.2f} mm after placing; "
-            "if the part was rotated or scaled in the slicer, give the transform explicitly (--model-transform)"
+            "if the part was rotated or scaled in the slicer, "
+            "give the transform explicitly (--model-transform)"
         )
     return T

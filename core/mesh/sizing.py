@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-
 from loadpath._typing import Region
 from loadpath.loadcase.body import polygons_of
 
@@ -54,7 +53,7 @@ class MeshSize:
 
     @classmethod
     def uniform(cls, h: float) -> MeshSize:
-        """The same size everywhere (no grading)."""
+        """Return the same size everywhere (no grading)."""
         return cls(h, h, h)
 
 
@@ -101,7 +100,9 @@ def reentrant_corners(outline: Region, min_turn_deg: float = 20.0) -> np.ndarray
     """
     out = []
     lim = math.sin(math.radians(min_turn_deg))
-    for poly in polygons_of(shapely.geometry.polygon.orient(outline, 1.0) if outline.geom_type == "Polygon" else outline):
+    for poly in polygons_of(
+        shapely.geometry.polygon.orient(outline, 1.0) if outline.geom_type == "Polygon" else outline
+    ):
         poly = shapely.geometry.polygon.orient(poly, 1.0)
         for ring in [poly.exterior, *poly.interiors]:
             c = np.asarray(ring.coords)[:-1, :2]

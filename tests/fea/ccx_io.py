@@ -15,7 +15,12 @@ import numpy as np
 
 # CalculiX face numbers: tri edges (1-2, 2-3, 3-1); tet faces (1-2-3, 1-4-2, 2-4-3, 3-4-1)
 TRI_FACES = {frozenset((0, 1)): 1, frozenset((1, 2)): 2, frozenset((2, 0)): 3}
-TET_FACES = {frozenset((0, 1, 2)): 1, frozenset((0, 3, 1)): 2, frozenset((1, 3, 2)): 3, frozenset((2, 3, 0)): 4}
+TET_FACES = {
+    frozenset((0, 1, 2)): 1,
+    frozenset((0, 3, 1)): 2,
+    frozenset((1, 3, 2)): 3,
+    frozenset((2, 3, 0)): 4,
+}
 
 
 def write_deck(
@@ -122,7 +127,10 @@ def read_frd(path: Path, n_nodes: int) -> dict[str, np.ndarray]:
 
 
 def to_voigt(ccx_stress: np.ndarray, dim: int) -> np.ndarray:
-    """CalculiX ``SXX SYY SZZ SXY SYZ SZX`` -> ours (2D ``[sxx, syy, sxy]``, 3D ``[sxx, syy, szz, syz, sxz, sxy]``)."""
+    """Reorder CalculiX ``SXX SYY SZZ SXY SYZ SZX`` into ours.
+
+    2D ``[sxx, syy, sxy]``, 3D ``[sxx, syy, szz, syz, sxz, sxy]``.
+    """
     s = ccx_stress
     if dim == 2:
         return s[:, [0, 1, 3]]

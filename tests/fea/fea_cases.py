@@ -5,9 +5,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from shapely.geometry import Point, box
-
 from loadpath.loadcase import Body, parse
+from shapely.geometry import Point, box
 
 W, L, T, D_HOLE, F = 36.0, 150.0, 2.0, 6.0, 1000.0
 CENTRE = (75.0, 18.0)
@@ -42,7 +41,9 @@ def open_hole_outline(n_seg: int = 128):
 
 def open_hole_body(n_seg: int = 128, layers: int = 1) -> Body:
     dz = T / layers
-    return Body.from_layers("specimen", [(i * dz, (i + 1) * dz, open_hole_outline(n_seg)) for i in range(layers)])
+    return Body.from_layers(
+        "specimen", [(i * dz, (i + 1) * dz, open_hole_outline(n_seg)) for i in range(layers)]
+    )
 
 
 def open_hole_case(source: str = "open_hole.toml"):

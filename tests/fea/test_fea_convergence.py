@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
+import loadpath.loadcase as lc
 import numpy as np
 import pytest
-from shapely.geometry import box
-
-import loadpath.loadcase as lc
 from fea_cases import KT_HANDBOOK, hole_segments, kt_at_hole, open_hole_body, open_hole_case, rate
 from loadpath.fea import analyze, load_vector
 from loadpath.mesh import MeshSize
+from shapely.geometry import box
 
 E, NU = 3500.0, 0.35
 BEAM_L, BEAM_H, BEAM_T, P = 100.0, 10.0, 1.0, 1.0
@@ -22,7 +21,7 @@ def _tip_deflection(h: float) -> float:
         f'[[loads]]\nname = "tip"\nwhere = {{ side = "x_max", within = 0.0 }}\nforce = [0.0, {-P}, 0.0]\n',
         "cantilever.toml",
     )
-    rb, = lc.resolve(case, [lc.Body.from_layers("beam", [(0.0, BEAM_T, box(0, 0, BEAM_L, BEAM_H))])])
+    (rb,) = lc.resolve(case, [lc.Body.from_layers("beam", [(0.0, BEAM_T, box(0, 0, BEAM_L, BEAM_H))])])
     a = analyze(rb, size=MeshSize.uniform(h))
     f = load_vector(a.mesh, a.facets, a.picked["tip"], rb.loads[0][0]).reshape(-1, 2)
     # the work-conjugate tip deflection: load . displacement / P
@@ -51,7 +50,7 @@ def test_open_hole_kt_converges_to_the_handbook_value():
     kt = []
     for h in hs:
         # the hole polygon is refined with the mesh, so the geometry converges to the circle too
-        rb, = lc.resolve(case, [open_hole_body(hole_segments(h))])
+        (rb,) = lc.resolve(case, [open_hole_body(hole_segments(h))])
         a = analyze(rb, size=MeshSize(3.0, h, 1.0))
         assert a.result.residual < 1e-10
         kt.append(kt_at_hole(a.mesh.points, a.result.stress))

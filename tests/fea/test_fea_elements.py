@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from loadpath.fea.assembly import strain_matrix
 from loadpath.fea.elements import ELEMENTS, line_rule, tetra_rule, triangle_rule
 from loadpath.fea.material import isotropic_3d, plane_stress, rotate_plane_stress
@@ -35,7 +34,9 @@ def test_quadrature_rules_are_exact_to_their_degree():
     for degree, rule in [(2, triangle_rule(2)), (4, triangle_rule(4))]:
         p, w = rule
         for a in [(i, j) for i in range(degree + 1) for j in range(degree + 1 - i)]:
-            assert np.sum(w * p[:, 0] ** a[0] * p[:, 1] ** a[1]) == pytest.approx(simplex_monomial(a), rel=1e-12)
+            assert np.sum(w * p[:, 0] ** a[0] * p[:, 1] ** a[1]) == pytest.approx(
+                simplex_monomial(a), rel=1e-12
+            )
     p, w = tetra_rule(2)
     for a in [(i, j, k) for i in range(3) for j in range(3) for k in range(3) if i + j + k <= 2]:
         assert np.sum(w * np.prod(p**a, axis=1)) == pytest.approx(simplex_monomial(a), rel=1e-12)
@@ -46,9 +47,15 @@ def test_quadrature_rules_are_exact_to_their_degree():
 def test_constitutive_matrices():
     E, nu = 3500.0, 0.35
     S = np.linalg.inv(plane_stress(E, nu))  # compliance: exx = (sxx - nu syy) / E, gxy = 2 (1 + nu) sxy / E
-    np.testing.assert_allclose(S, [[1 / E, -nu / E, 0], [-nu / E, 1 / E, 0], [0, 0, 2 * (1 + nu) / E]], rtol=1e-12)
+    np.testing.assert_allclose(
+        S, [[1 / E, -nu / E, 0], [-nu / E, 1 / E, 0], [0, 0, 2 * (1 + nu) / E]], rtol=1e-12
+    )
     S3 = np.linalg.inv(isotropic_3d(E, nu))
-    assert S3[0, 0] == pytest.approx(1 / E) and S3[0, 1] == pytest.approx(-nu / E) and S3[3, 3] == pytest.approx(2 * (1 + nu) / E)
+    assert (
+        S3[0, 0] == pytest.approx(1 / E)
+        and S3[0, 1] == pytest.approx(-nu / E)
+        and S3[3, 3] == pytest.approx(2 * (1 + nu) / E)
+    )
 
 
 def test_rotated_orthotropic_matrix():
@@ -74,4 +81,6 @@ def test_strain_matrix_gives_the_symmetric_gradient():
     u = rng.normal(size=(10, 3))
     G = np.einsum("kj,ki->ij", dN[0], u)
     eps = strain_matrix(dN)[0] @ u.ravel()
-    np.testing.assert_allclose(eps, [G[0, 0], G[1, 1], G[2, 2], G[1, 2] + G[2, 1], G[0, 2] + G[2, 0], G[0, 1] + G[1, 0]])
+    np.testing.assert_allclose(
+        eps, [G[0, 0], G[1, 1], G[2, 2], G[1, 2] + G[2, 1], G[0, 2] + G[2, 0], G[0, 1] + G[1, 0]]
+    )

@@ -1,24 +1,23 @@
-"""The per-layer stress field (the StressField contract): interpolation, outside, slices, scale, load entry."""
+"""The per-layer stress field (StressField contract): interpolation, outside, slices, scale, load entry."""
 
 from __future__ import annotations
 
+import loadpath.loadcase as lc
 import numpy as np
 import pytest
 import shapely
-from shapely.geometry import Point, box
-
-import loadpath.loadcase as lc
 from fea_cases import SIGMA_GROSS, open_hole_body, open_hole_case
 from loadpath.fea import FEStressField, analyze, field_for_layer, slice_tets
 from loadpath.fea.field import field_from_2d
 from loadpath.field import StressField
 from loadpath.loadcase import Slab
 from loadpath.mesh import MeshSize, mesh_2d, mesh_3d
+from shapely.geometry import Point, box
 
 
 @pytest.fixture(scope="module")
 def specimen():
-    rb, = lc.resolve(open_hole_case(), [open_hole_body(96)])
+    (rb,) = lc.resolve(open_hole_case(), [open_hole_body(96)])
     return analyze(rb, size=MeshSize(3.0, 0.3, 1.0))
 
 
@@ -56,7 +55,9 @@ def test_far_field_is_uniaxial_and_the_hole_edge_carries_kt(specimen):
     assert edge.sigma[0] / SIGMA_GROSS == pytest.approx(3.09, rel=0.03)
     # the other principal stress is nearly zero there, so "tensile" and "max_abs" agree and
     # "compressive" picks the small one across
-    assert f.with_principal("tensile").sample(np.array([[75.0, 21.01]])).sigma[0] == pytest.approx(edge.sigma[0], rel=0.01)
+    assert f.with_principal("tensile").sample(np.array([[75.0, 21.01]])).sigma[0] == pytest.approx(
+        edge.sigma[0], rel=0.01
+    )
     comp = f.with_principal("compressive").sample(np.array([[75.0, 21.01]]))
     assert abs(comp.sigma[0]) < 0.05 * edge.sigma[0] and abs(comp.direction[0, 1]) > 0.99
 
@@ -65,7 +66,7 @@ def test_scale_is_a_percentile_away_from_supports_and_loads():
     case = open_hole_case()
     scales, peaks = [], []
     for h_bc in (1.5, 0.15):  # same mesh at the hole, refined at the supports and loads
-        rb, = lc.resolve(case, [open_hole_body(64)])
+        (rb,) = lc.resolve(case, [open_hole_body(64)])
         a = analyze(rb, size=MeshSize(3.0, 0.15, h_bc))
         scales.append(a.scale)
         peaks.append(np.abs(a.result.stress).max())
@@ -87,7 +88,10 @@ def test_field_knows_where_the_load_enters(specimen):
 
 
 def test_slice_of_a_tet_mesh_reproduces_nodal_values_and_covers_the_section():
-    slabs = [Slab(0.0, 2.0, box(0, 0, 10, 8).difference(Point(5, 4).buffer(1.5))), Slab(2.0, 5.0, box(0, 0, 6, 8))]
+    slabs = [
+        Slab(0.0, 2.0, box(0, 0, 10, 8).difference(Point(5, 4).buffer(1.5))),
+        Slab(2.0, 5.0, box(0, 0, 6, 8)),
+    ]
     m = mesh_3d(slabs, MeshSize(1.5, 0.5, 1.0))
     vals = np.column_stack([m.points[:, 0] ** 2, m.points[:, 1] * m.points[:, 2], m.points[:, 2]])
     for z in (0.7, 1.9999, 3.3):
@@ -109,7 +113,7 @@ def test_3d_field_of_a_uniform_bar_and_of_each_layer():
         '[[supports]]\nname = "bottom"\nwhere = { side = "z_min", within = 0.0 }\nfix = ["z"]\n'
         '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 0.0 }\nforce = [90.0, 0.0, 0.0]\n'
     )
-    rb, = lc.resolve(case, [lc.Body.from_layers("bar", [(0, 3.0, box(0, 0, 30, 10))])], analysis="3d")
+    (rb,) = lc.resolve(case, [lc.Body.from_layers("bar", [(0, 3.0, box(0, 0, 30, 10))])], analysis="3d")
     a = analyze(rb, size=MeshSize(3.0, 1.5, 2.0))
     for z in (0.4, 1.5, 2.9):
         f = a.field(z)

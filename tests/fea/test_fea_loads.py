@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
+import loadpath.loadcase as lc
 import numpy as np
 import pytest
-from shapely.geometry import Point, box
-
-import loadpath.loadcase as lc
 from fea_cases import open_hole_body
 from loadpath.errors import LoadCaseError
 from loadpath.fea import analyze, facets_of, load_vector, pick
 from loadpath.mesh import MeshSize
+from shapely.geometry import Point, box
 
 PLATE = box(0, 0, 60, 20).difference(Point(45, 10).buffer(4, quad_segs=16))
 CLAMP = '[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 2.0 }\nfix = ["x", "y", "z"]\n'
@@ -22,13 +21,16 @@ def _body(outline=PLATE, layers=((0.0, 3.0),)):
 
 def _solve(loads: str, analysis: str = "2d", supports: str = CLAMP, body=None):
     case = lc.parse("version = 1\n" + supports + loads, "case.toml")
-    rb, = lc.resolve(case, [body or _body()], analysis=analysis)
+    (rb,) = lc.resolve(case, [body or _body()], analysis=analysis)
     return rb, analyze(rb, size=MeshSize(4.0, 1.2, 2.0))
 
 
 @pytest.mark.parametrize("analysis", ["2d", "3d"])
 def test_force_is_a_uniform_traction_with_the_given_resultant(analysis):
-    rb, a = _solve('[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 5.0 }\nforce = [120.0, -30.0, 0.0]\n', analysis)
+    rb, a = _solve(
+        '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 5.0 }\nforce = [120.0, -30.0, 0.0]\n',
+        analysis,
+    )
     d = a.mesh.dim
     f = load_vector(a.mesh, a.facets, a.picked["pull"], rb.loads[0][0]).reshape(-1, d)
     np.testing.assert_allclose(f.sum(axis=0)[:2], [120.0, -30.0], rtol=1e-12)
@@ -45,7 +47,9 @@ def test_same_resultant_in_2d_and_3d():
     loads = '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 5.0 }\nforce = [120.0, 0.0, 0.0]\n'
     _, a2 = _solve(loads, "2d")
     _, a3 = _solve(loads, "3d")
-    np.testing.assert_allclose(a2.result.reactions.sum(axis=0)[0], a3.result.reactions.sum(axis=0)[0], rtol=1e-8)
+    np.testing.assert_allclose(
+        a2.result.reactions.sum(axis=0)[0], a3.result.reactions.sum(axis=0)[0], rtol=1e-8
+    )
 
 
 def test_pressure_acts_normal_to_the_boundary():
@@ -61,7 +65,10 @@ def test_pressure_acts_normal_to_the_boundary():
 
 @pytest.mark.parametrize("analysis", ["2d", "3d"])
 def test_bearing_load_presses_on_the_half_of_the_hole_facing_the_force(analysis):
-    rb, a = _solve('[[loads]]\nname = "pin"\nwhere = { hole_near = [45, 10], radius = 5 }\nforce = [80.0, 0.0, 0.0]\n', analysis)
+    rb, a = _solve(
+        '[[loads]]\nname = "pin"\nwhere = { hole_near = [45, 10], radius = 5 }\nforce = [80.0, 0.0, 0.0]\n',
+        analysis,
+    )
     d = a.mesh.dim
     f = load_vector(a.mesh, a.facets, a.picked["pin"], rb.loads[0][0]).reshape(-1, d)
     np.testing.assert_allclose(f.sum(axis=0)[:2], [80.0, 0.0], atol=1e-9)
@@ -77,21 +84,41 @@ def test_bearing_load_presses_on_the_half_of_the_hole_facing_the_force(analysis)
 
 
 def test_bearing_load_along_the_hole_axis_is_refused():
-    with pytest.raises(LoadCaseError, match=r"load 'pin' on object 'plate': a bearing load needs a force across the hole"):
-        _solve('[[loads]]\nname = "pin"\nwhere = { hole_near = [45, 10], radius = 5 }\nforce = [0.0, 0.0, 50.0]\n', "3d")
+    with pytest.raises(
+        LoadCaseError, match=r"load 'pin' on object 'plate': a bearing load needs a force across the hole"
+    ):
+        _solve(
+            '[[loads]]\nname = "pin"\nwhere = { hole_near = [45, 10], radius = 5 }\n'
+            "force = [0.0, 0.0, 50.0]\n",
+            "3d",
+        )
 
 
 @pytest.mark.parametrize(
     "supports, analysis, match",
     [
-        ('[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.0 }\nfix = ["x"]\n', "2d",
-         r"object 'plate' is free to translate along y: the supports \('clamp'\) do not hold it; add a support"),
-        ('[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.0 }\nfix = ["x", "y"]\n', "3d",
-         r"free to translate along z: the supports \('clamp'\) do not hold it; it is analysed in 3D because requested"),
-        ('[[supports]]\nname = "pin"\nwhere = { hole_near = [45, 10], radius = 5 }\nfix = ["z"]\n', "2d",
-         r"free to translate along x and translate along y and rotate about z"),
-        ('[[supports]]\nname = "rail"\nwhere = { side = "y_min", within = 0.0 }\nfix = ["y"]\n', "2d",
-         r"free to translate along x: the supports \('rail'\)"),
+        (
+            '[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.0 }\nfix = ["x"]\n',
+            "2d",
+            r"object 'plate' is free to translate along y: the supports \('clamp'\) do not hold it; "
+            r"add a support",
+        ),
+        (
+            '[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.0 }\nfix = ["x", "y"]\n',
+            "3d",
+            r"free to translate along z: the supports \('clamp'\) do not hold it; "
+            r"it is analysed in 3D because requested",
+        ),
+        (
+            '[[supports]]\nname = "pin"\nwhere = { hole_near = [45, 10], radius = 5 }\nfix = ["z"]\n',
+            "2d",
+            r"free to translate along x and translate along y and rotate about z",
+        ),
+        (
+            '[[supports]]\nname = "rail"\nwhere = { side = "y_min", within = 0.0 }\nfix = ["y"]\n',
+            "2d",
+            r"free to translate along x: the supports \('rail'\)",
+        ),
     ],
 )
 def test_free_body_is_detected_before_solving(supports, analysis, match):
@@ -105,13 +132,17 @@ def test_each_island_must_be_held():
 
     two = MultiPolygon([box(0, 0, 20, 10), box(30, 0, 50, 10)])
     loads = '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforce = [10.0, 0.0, 0.0]\n'
-    with pytest.raises(LoadCaseError, match=r"object 'plate' \(the piece at x 30\.0\.\.50\.0, y 0\.0\.\.10\.0\) is free to"):
+    with pytest.raises(
+        LoadCaseError, match=r"object 'plate' \(the piece at x 30\.0\.\.50\.0, y 0\.0\.\.10\.0\) is free to"
+    ):
         _solve(loads, body=_body(two))
 
 
 def test_selection_smaller_than_an_element_still_lands_on_the_mesh():
     # the mesh follows the selector: a 0.3 mm strip of the end is picked exactly
-    rb, a = _solve('[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 0.3 }\nforce = [10.0, 0.0, 0.0]\n')
+    rb, a = _solve(
+        '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 0.3 }\nforce = [10.0, 0.0, 0.0]\n'
+    )
     c = a.facets.centroid[a.picked["pull"]]
     assert np.all(c[:, 0] >= 59.7 - 1e-9)
     assert a.facets.area[a.picked["pull"]].sum() == pytest.approx((20 + 2 * 0.3) * 3.0, rel=1e-4)
@@ -119,10 +150,11 @@ def test_selection_smaller_than_an_element_still_lands_on_the_mesh():
 
 def test_open_hole_reactions_balance_the_pull():
     case = lc.parse(
-        "version = 1\n" + CLAMP.replace("within = 2.0", "within = 0.5")
+        "version = 1\n"
+        + CLAMP.replace("within = 2.0", "within = 0.5")
         + '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 0.5 }\nforce = [1000.0, 0.0, 0.0]\n'
     )
-    rb, = lc.resolve(case, [open_hole_body(64)])
+    (rb,) = lc.resolve(case, [open_hole_body(64)])
     a = analyze(rb, size=MeshSize(3.0, 0.6, 1.0))
     np.testing.assert_allclose(a.result.reactions.sum(axis=0), [-1000.0, 0.0], atol=1e-6)
     assert pick(a.mesh, facets_of(a.mesh), rb.supports[0][1]).sum() == a.picked["clamp"].sum()

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
+import loadpath.loadcase as lc
 import numpy as np
 import pytest
-from shapely.geometry import Point, Polygon, box
-
-import loadpath.loadcase as lc
 from loadpath.fea import Problem, analyze, isotropic_3d, plane_stress, solve, stiffness
 from loadpath.loadcase import Slab
 from loadpath.mesh import MeshSize, mesh_2d, mesh_3d
+from shapely.geometry import Point, Polygon, box
 
 # an irregular outline with a hole, so the mesh has every element shape
 PATCH = Polygon([(0, 0), (10, 0), (11, 6), (4, 8), (-1, 5)]).difference(Point(4, 3).buffer(1.3, quad_segs=5))
@@ -42,10 +41,15 @@ def test_displacement_patch_3d(method):
     D = isotropic_3d(3500.0, 0.35)
     U = m.points @ A3.T + [0.1, -0.2, 0.3]
     bn = np.unique(m.boundary[0])
-    r = solve(Problem(m, D, np.zeros(m.points.size), (bn[:, None] * 3 + np.arange(3)).ravel(), U[bn].ravel()), method=method)
+    r = solve(
+        Problem(m, D, np.zeros(m.points.size), (bn[:, None] * 3 + np.arange(3)).ravel(), U[bn].ravel()),
+        method=method,
+    )
     tol = 1e-14 if method == "direct" else 1e-11  # the iterative solve stops at a 1e-9 relative residual
     np.testing.assert_allclose(r.u, U, atol=tol)
-    np.testing.assert_allclose(r.stress, np.broadcast_to(D @ _voigt(A3), r.stress.shape), atol=1e3 * tol * 3500)
+    np.testing.assert_allclose(
+        r.stress, np.broadcast_to(D @ _voigt(A3), r.stress.shape), atol=1e3 * tol * 3500
+    )
 
 
 def test_traction_patch_2d_and_3d():
@@ -60,7 +64,7 @@ def test_traction_patch_2d_and_3d():
     bar = box(0, 0, 20, 6)
     body = lc.Body.from_layers("bar", [(0, 1.0, bar), (1.0, 2.0, bar)])
     for analysis, text in (("2d", rollers), ("3d", rollers + bottom)):
-        rb, = lc.resolve(lc.parse(text, "tension.toml"), [body], analysis=analysis)
+        (rb,) = lc.resolve(lc.parse(text, "tension.toml"), [body], analysis=analysis)
         a = analyze(rb, size=MeshSize(2.5, 1.0, 1.5))
         s = a.result.stress
         sxx = 60.0 / (6 * 2)

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
+import loadpath.loadcase as lc
 import numpy as np
 import pytest
-
-import loadpath.loadcase as lc
 from fea_cases import SIGMA_GROSS, open_hole_body, open_hole_case
 from loadpath.fea import analyze
 from loadpath.fea.plots import draw_field, draw_selectors, save_png
@@ -19,7 +18,7 @@ def test_png_of_selections_and_field(tmp_path):
     import matplotlib.image as mpimg
     import matplotlib.pyplot as plt
 
-    rb, = lc.resolve(open_hole_case(), [open_hole_body(64)])
+    (rb,) = lc.resolve(open_hole_case(), [open_hole_body(64)])
     a = analyze(rb, size=MeshSize(3.0, 0.6, 1.0))
     out = save_png(tmp_path / "specimen.png", a.field(1.0), rb, 1.0)
     assert out.exists() and not out.with_name(out.name + ".tmp").exists()

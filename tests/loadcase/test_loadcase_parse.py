@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from loadpath.errors import LoadCaseError
 from loadpath.loadcase import BoxSelector, HoleSelector, SideSelector, parse, read
 
@@ -59,7 +58,11 @@ def test_good_file_round_trip(tmp_path):
     assert pin.where == HoleSelector((20.0, 10.0), 5.0) and pin.fixed_axes == (2,)
     pull, press = lc.loads
     assert isinstance(pull.where, BoxSelector)
-    assert pull.where.lower == (140.0, -math.inf, -math.inf) and pull.where.upper == (math.inf, 30.0, math.inf)
+    assert pull.where.lower == (140.0, -math.inf, -math.inf) and pull.where.upper == (
+        math.inf,
+        30.0,
+        math.inf,
+    )
     assert pull.force == (1000.0, 0.0, 0.0) and press.pressure == 2.0
     assert lc.toolpath.engine == "streamlines" and lc.toolpath.replace == ("solid", "sparse")
     # pin holds only z, which only a 3D analysis can honour
@@ -81,8 +84,10 @@ def _case(**sections: str) -> str:
     parts = {
         "head": "version = 1",
         "material": "",
-        "supports": '[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 1.0 }\nfix = ["x", "y", "z"]',
-        "loads": '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforce = [100.0, 0.0, 0.0]',
+        "supports": '[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 1.0 }\n'
+        'fix = ["x", "y", "z"]',
+        "loads": '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\n'
+        "force = [100.0, 0.0, 0.0]",
     }
     parts.update(sections)
     return "\n".join(parts.values()) + "\n"
@@ -92,22 +97,49 @@ def _case(**sections: str) -> str:
     "text, match",
     [
         ("version = 1\n[[supports]\n", r"case\.toml: not valid TOML"),
-        (_case(head="version = 1\nunits = 'mm'"), r"unknown key 'units' in the top level; expected one of version"),
+        (
+            _case(head="version = 1\nunits = 'mm'"),
+            r"unknown key 'units' in the top level; expected one of version",
+        ),
         (_case(head=""), r"missing key 'version'; add version = 1"),
         (_case(head="version = 2"), r"version = 2 is not supported"),
         (_case(head='version = "1"'), r"version = '1' must be the integer 1"),
-        (_case(head='version = 1\nframe = "world"'), r"frame = 'world' is not valid; use one of 'bed', 'part'"),
+        (
+            _case(head='version = 1\nframe = "world"'),
+            r"frame = 'world' is not valid; use one of 'bed', 'part'",
+        ),
         (_case(supports=""), r"missing section \[\[supports\]\]"),
         (_case(loads=""), r"missing section \[\[loads\]\]"),
-        (_case(supports="[supports]\nfix = ['x']"), r"\[supports\] must be an array of tables: write \[\[supports\]\]"),
-        (_case(material="[material]\nyoungs_modulus = 0"), r"material\.youngs_modulus = 0\.0 must be > 0 MPa"),
-        (_case(material="[material]\nyoungs_modulus = -3500"), r"material\.youngs_modulus = -3500\.0 must be > 0 MPa"),
-        (_case(material="[material]\nyoungs_modulus = '3500'"), r"material\.youngs_modulus = '3500' must be a number \(MPa\)"),
-        (_case(material="[material]\npoissons_ratio = 0.5"), r"material\.poissons_ratio = 0\.5 must lie in \(-1, 0\.5\)"),
-        (_case(material="[material]\npoissons_ratio = -1.0"), r"material\.poissons_ratio = -1\.0 must lie in \(-1, 0\.5\)"),
+        (
+            _case(supports="[supports]\nfix = ['x']"),
+            r"\[supports\] must be an array of tables: write \[\[supports\]\]",
+        ),
+        (
+            _case(material="[material]\nyoungs_modulus = 0"),
+            r"material\.youngs_modulus = 0\.0 must be > 0 MPa",
+        ),
+        (
+            _case(material="[material]\nyoungs_modulus = -3500"),
+            r"material\.youngs_modulus = -3500\.0 must be > 0 MPa",
+        ),
+        (
+            _case(material="[material]\nyoungs_modulus = '3500'"),
+            r"material\.youngs_modulus = '3500' must be a number \(MPa\)",
+        ),
+        (
+            _case(material="[material]\npoissons_ratio = 0.5"),
+            r"material\.poissons_ratio = 0\.5 must lie in \(-1, 0\.5\)",
+        ),
+        (
+            _case(material="[material]\npoissons_ratio = -1.0"),
+            r"material\.poissons_ratio = -1\.0 must lie in \(-1, 0\.5\)",
+        ),
         (_case(material="[material]\ndensity = 1.2"), r"unknown key 'density' in \[material\]"),
         (
-            _case(loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforce = [0, 0.0, 0]'),
+            _case(
+                loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\n'
+                "force = [0, 0.0, 0]"
+            ),
             r"loads\[0\] \('pull'\)\.force = \[0\.0, 0\.0, 0\.0\] is zero",
         ),
         (
@@ -119,15 +151,23 @@ def _case(**sections: str) -> str:
             r"force = \[1, 0\] must be a list of 3 numbers \(N\)",
         ),
         (
-            _case(loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforce = ["1", 0, 0]'),
+            _case(
+                loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\n'
+                'force = ["1", 0, 0]'
+            ),
             r"force\[0\] = '1' must be a number \(N\)",
         ),
         (
-            _case(loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforce = [1, 0, 0]\npressure = 1'),
+            _case(
+                loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\n'
+                "force = [1, 0, 0]\npressure = 1"
+            ),
             r"needs exactly one of force .* or pressure .*; it has both",
         ),
         (
-            _case(loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforc = [1, 0, 0]'),
+            _case(
+                loads='[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforc = [1, 0, 0]'
+            ),
             r"unknown key 'forc' in loads\[0\]; expected one of name, where, force, pressure",
         ),
         (
@@ -143,7 +183,9 @@ def _case(**sections: str) -> str:
             r"within = -1\.0 must be >= 0 mm",
         ),
         (
-            _case(supports='[[supports]]\nname = "c"\nwhere = { hole_near = [1, 2], radius = 0 }\nfix = ["x"]'),
+            _case(
+                supports='[[supports]]\nname = "c"\nwhere = { hole_near = [1, 2], radius = 0 }\nfix = ["x"]'
+            ),
             r"radius = 0\.0 must be > 0 mm",
         ),
         (
@@ -163,7 +205,9 @@ def _case(**sections: str) -> str:
             r"fix = 'x' must be a non-empty list",
         ),
         (
-            _case(supports='[[supports]]\nname = "c"\nwhere = { side = "x_min", within = 1 }\nfix = ["x", "x"]'),
+            _case(
+                supports='[[supports]]\nname = "c"\nwhere = { side = "x_min", within = 1 }\nfix = ["x", "x"]'
+            ),
             r"lists 'x' twice",
         ),
         (
@@ -171,13 +215,24 @@ def _case(**sections: str) -> str:
             r"\.where = 'x_min' must be a table",
         ),
         (
-            _case(supports='[[supports]]\nname = "pull"\nwhere = { side = "x_min", within = 1 }\nfix = ["x"]'),
+            _case(
+                supports='[[supports]]\nname = "pull"\nwhere = { side = "x_min", within = 1 }\nfix = ["x"]'
+            ),
             r"the name 'pull' is used twice",
         ),
-        (_case(head='version = 1\n[toolpath]\nengine = "zigzag"'), r"toolpath\.engine = 'zigzag' is not valid; use one of 'swarm', 'streamlines'"),
+        (
+            _case(head='version = 1\n[toolpath]\nengine = "zigzag"'),
+            r"toolpath\.engine = 'zigzag' is not valid; use one of 'swarm', 'streamlines'",
+        ),
         (_case(head="version = 1\n[toolpath]\npitch = 0"), r"toolpath\.pitch = 0\.0 must be > 0 mm"),
-        (_case(head='version = 1\n[toolpath]\nreplace = ["walls"]'), r"toolpath\.replace\[\] = 'walls' is not valid"),
-        (_case(head='version = 1\n[toolpath]\nprincipal = "major"'), r"toolpath\.principal = 'major' is not valid"),
+        (
+            _case(head='version = 1\n[toolpath]\nreplace = ["walls"]'),
+            r"toolpath\.replace\[\] = 'walls' is not valid",
+        ),
+        (
+            _case(head='version = 1\n[toolpath]\nprincipal = "major"'),
+            r"toolpath\.principal = 'major' is not valid",
+        ),
     ],
 )
 def test_bad_files_name_the_key_and_value(text, match):

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from shapely.geometry import Point, box
-
 from loadpath.errors import GeometryError, LoadCaseError
 from loadpath.loadcase import Body, Slab, merge_slabs, parse, resolve
+from shapely.geometry import Point, box
 
 SPECIMEN = box(50, 87, 200, 123).difference(Point(125, 105).buffer(3, quad_segs=32))
 
@@ -25,7 +24,7 @@ PULL = '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 10.0 }\nfor
 
 
 def test_side_selector_picks_the_end_and_the_sides_near_it():
-    rb, = resolve(parse(_case(CLAMP, PULL), "case.toml"), [Body.from_layers("spec", _layers(SPECIMEN))])
+    (rb,) = resolve(parse(_case(CLAMP, PULL), "case.toml"), [Body.from_layers("spec", _layers(SPECIMEN))])
     assert rb.analysis == "2d" and len(rb.body.slabs) == 1 and rb.thickness == pytest.approx(2.0)
     clamp = rb.supports[0][1]
     # end edge (36 mm) and the two side edges within 10 mm of x_min, over the 2 mm height
@@ -36,42 +35,62 @@ def test_side_selector_picks_the_end_and_the_sides_near_it():
     assert entry.length == pytest.approx(56, abs=1e-3)
     assert entry.bounds[0] == pytest.approx(190.0, abs=1e-3)
     # the ends of the picked pieces are the points the mesh must have
-    assert {tuple(np.round(p, 3)) for p in rb.split_points()} >= {(60.0, 87.0), (60.0, 123.0), (190.0, 87.0), (190.0, 123.0)}
+    assert {tuple(np.round(p, 3)) for p in rb.split_points()} >= {
+        (60.0, 87.0),
+        (60.0, 123.0),
+        (190.0, 87.0),
+        (190.0, 123.0),
+    }
 
 
 def test_hole_selector_picks_the_nearest_hole_within_the_radius():
     two = box(0, 0, 100, 40).difference(Point(30, 20).buffer(4)).difference(Point(70, 20).buffer(2))
-    case = _case(CLAMP, '[[loads]]\nname = "pin"\nwhere = { hole_near = [66.0, 20.0], radius = 3.0 }\nforce = [0, -50, 0]')
-    rb, = resolve(parse(case), [Body.from_layers("b", _layers(two))])
-    (_, _, ring), = rb.loads[0][1].holes
+    case = _case(
+        CLAMP,
+        '[[loads]]\nname = "pin"\nwhere = { hole_near = [66.0, 20.0], radius = 3.0 }\nforce = [0, -50, 0]',
+    )
+    (rb,) = resolve(parse(case), [Body.from_layers("b", _layers(two))])
+    ((_, _, ring),) = rb.loads[0][1].holes
     assert Point(ring.coords[0]).distance(Point(70, 20)) == pytest.approx(2.0, abs=1e-6)
     assert rb.loads[0][0].is_bearing
 
 
 def test_hole_out_of_reach_names_the_distance_and_the_box():
-    case = _case(CLAMP, '[[loads]]\nname = "pin"\nwhere = { hole_near = [125.0, 115.0], radius = 5.0 }\nforce = [0, -50, 0]')
-    with pytest.raises(LoadCaseError, match=r"case\.toml: load 'pin' \(hole_near = \[125\.0, 115\.0\], radius = 5\.0\) selects no boundary "
-                       r"of object 'spec'; the nearest hole is 7\.000 mm away; part bounding box is x 50\.000\.\.200\.000, "
-                       r"y 87\.000\.\.123\.000, z 0\.000\.\.2\.000"):
+    case = _case(
+        CLAMP,
+        '[[loads]]\nname = "pin"\nwhere = { hole_near = [125.0, 115.0], radius = 5.0 }\nforce = [0, -50, 0]',
+    )
+    with pytest.raises(
+        LoadCaseError,
+        match=r"case\.toml: load 'pin' \(hole_near = \[125\.0, 115\.0\], radius = 5\.0\) selects no boundary "
+        r"of object 'spec'; the nearest hole is 7\.000 mm away; part bounding box is x 50\.000\.\.200\.000, "
+        r"y 87\.000\.\.123\.000, z 0\.000\.\.2\.000",
+    ):
         resolve(parse(case, "case.toml"), [Body.from_layers("spec", _layers(SPECIMEN))])
 
 
 def test_empty_box_selector_names_selector_and_bounding_box():
     case = _case(CLAMP, '[[loads]]\nname = "pull"\nwhere = { x_min = 300.0 }\nforce = [1000.0, 0.0, 0.0]')
-    with pytest.raises(LoadCaseError, match=r"load 'pull' \(x_min = 300\.0\) selects no boundary of object 'spec'; "
-                       r"part bounding box is x 50\.000\.\.200\.000"):
+    with pytest.raises(
+        LoadCaseError,
+        match=r"load 'pull' \(x_min = 300\.0\) selects no boundary of object 'spec'; "
+        r"part bounding box is x 50\.000\.\.200\.000",
+    ):
         resolve(parse(case, "case.toml"), [Body.from_layers("spec", _layers(SPECIMEN))])
 
 
 def test_frame_part_moves_selectors_with_the_part():
     loads = '[[loads]]\nname = "pin"\nwhere = { hole_near = [75.0, 18.0], radius = 1.0 }\nforce = [0, -50, 0]'
     case = _case(CLAMP, loads, head='version = 1\nframe = "part"')
-    rb, = resolve(parse(case), [Body.from_layers("spec", _layers(SPECIMEN))])
+    (rb,) = resolve(parse(case), [Body.from_layers("spec", _layers(SPECIMEN))])
     assert len(rb.loads[0][1].holes) == 1
     # bed coordinates in a part-frame load case miss, and the message says which frame applies
     bed = loads.replace("[75.0, 18.0]", "[125.0, 105.0]")
     with pytest.raises(LoadCaseError, match=r"relative to its minimum corner: frame = \"part\""):
-        resolve(parse(_case(CLAMP, bed, head='version = 1\nframe = "part"')), [Body.from_layers("spec", _layers(SPECIMEN))])
+        resolve(
+            parse(_case(CLAMP, bed, head='version = 1\nframe = "part"')),
+            [Body.from_layers("spec", _layers(SPECIMEN))],
+        )
 
 
 def test_object_filter():
@@ -79,7 +98,7 @@ def test_object_filter():
     b = Body.from_layers("b", _layers(box(20, 0, 30, 10)))
     both = resolve(parse(_case(CLAMP, PULL)), [a, b])
     assert [r.name for r in both] == ["a", "b"]
-    only, = resolve(parse(_case(CLAMP, PULL, head='version = 1\nobject = "b"')), [a, b])
+    (only,) = resolve(parse(_case(CLAMP, PULL, head='version = 1\nobject = "b"')), [a, b])
     assert only.name == "b" and only.body.bounds[0][0] == 20
     with pytest.raises(LoadCaseError, match=r"object = 'c' is not in the G-code \(objects found: 'a', 'b'\)"):
         resolve(parse(_case(CLAMP, PULL, head='version = 1\nobject = "c"')), [a, b])
@@ -95,19 +114,24 @@ def test_layers_that_agree_become_one_prism_and_a_shrunk_first_layer_is_absorbed
     # a real step is kept
     step = Body.from_layers("step", _layers(box(0, 0, 40, 10), 5) + _layers(box(0, 0, 20, 10), 5, z0=1.0))
     merged = merge_slabs(step)
-    assert [(s.z0, s.z1) for s in merged.slabs] == [(0.0, pytest.approx(1.0)), (pytest.approx(1.0), pytest.approx(2.0))]
+    assert [(s.z0, s.z1) for s in merged.slabs] == [
+        (0.0, pytest.approx(1.0)),
+        (pytest.approx(1.0), pytest.approx(2.0)),
+    ]
 
 
 def test_analysis_is_3d_for_steps_z_loads_and_top_face_selectors():
     flat = Body.from_layers("p", _layers(box(0, 0, 40, 10)))
     step = Body.from_layers("s", _layers(box(0, 0, 40, 10), 5) + _layers(box(0, 0, 20, 10), 5, z0=1.0))
     assert resolve(parse(_case(CLAMP, PULL)), [flat])[0].analysis == "2d"
-    rb, = resolve(parse(_case(CLAMP, PULL)), [step])
+    (rb,) = resolve(parse(_case(CLAMP, PULL)), [step])
     assert rb.analysis == "3d" and "2 distinct regions" in rb.reason
     zload = '[[loads]]\nname = "push"\nwhere = { side = "x_max", within = 1.0 }\nforce = [0.0, 0.0, -10.0]'
     assert resolve(parse(_case(CLAMP, zload)), [flat])[0].analysis == "3d"
-    top = '[[loads]]\nname = "press"\nwhere = { x_min = 10, x_max = 20, y_min = 2, y_max = 8 }\npressure = 1.0'
-    rb, = resolve(parse(_case(CLAMP, top)), [flat])
+    top = (
+        '[[loads]]\nname = "press"\nwhere = { x_min = 10, x_max = 20, y_min = 2, y_max = 8 }\npressure = 1.0'
+    )
+    (rb,) = resolve(parse(_case(CLAMP, top)), [flat])
     assert rb.analysis == "3d" and rb.reason == "a selector picks only top or bottom faces"
     assert rb.loads[0][1].area_faces == pytest.approx(2 * 10 * 6, rel=1e-4)
 

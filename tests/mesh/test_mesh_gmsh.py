@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from shapely.geometry import MultiPolygon, Point, box
-
 from loadpath.loadcase import Slab
 from loadpath.mesh import MeshSize, default_mesh_size, mesh_2d, mesh_3d
 from loadpath.mesh.data import MeshData
+from shapely.geometry import MultiPolygon, Point, box
 
 SPECIMEN = box(0, 0, 150, 36).difference(Point(75, 18).buffer(3, quad_segs=32))
 
@@ -37,7 +36,9 @@ def test_2d_mesh_covers_the_outline_exactly_and_is_graded():
     # straight quadratic triangles: mid-edge nodes at the midpoints
     c = m.cells
     for k, (a, b) in enumerate([(0, 1), (1, 2), (2, 0)]):
-        np.testing.assert_allclose(m.points[c[:, 3 + k]], 0.5 * (m.points[c[:, a]] + m.points[c[:, b]]), atol=1e-12)
+        np.testing.assert_allclose(
+            m.points[c[:, 3 + k]], 0.5 * (m.points[c[:, a]] + m.points[c[:, b]]), atol=1e-12
+        )
     # the split points are nodes
     for q in ([10.0, 0.0], [10.0, 36.0]):
         assert np.min(np.linalg.norm(m.points - q, axis=1)) < 1e-9
@@ -74,7 +75,7 @@ def _surface_area(slabs):
     for s in slabs:
         area += s.outline.length * (s.z1 - s.z0)
     area += slabs[0].outline.area + slabs[-1].outline.area
-    for a, b in zip(slabs[:-1], slabs[1:]):
+    for a, b in zip(slabs[:-1], slabs[1:], strict=True):
         area += shapely.symmetric_difference(a.outline, b.outline).area
     return area
 
@@ -95,7 +96,9 @@ def test_3d_prism_stack_is_conforming_with_a_partly_covered_hole():
     # mid-edge nodes at midpoints
     E = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]
     for k, (a, b) in enumerate(E):
-        np.testing.assert_allclose(m.points[m.cells[:, 4 + k]], 0.5 * (m.points[m.cells[:, a]] + m.points[m.cells[:, b]]), atol=1e-12)
+        np.testing.assert_allclose(
+            m.points[m.cells[:, 4 + k]], 0.5 * (m.points[m.cells[:, a]] + m.points[m.cells[:, b]]), atol=1e-12
+        )
     assert np.array_equal(m.cells, mesh_3d(slabs, MeshSize(1.5, 0.3, 1.0)).cells)
 
 
@@ -107,7 +110,9 @@ def test_3d_mesh_follows_selector_boxes():
     assert np.any(np.isclose(m.points[:, 0], 12.3))
     facets, _ = m.boundary
     c = m.points[facets].mean(axis=1)
-    straddle = (m.points[facets][:, :, 0].min(axis=1) < 12.3 - 1e-9) & (m.points[facets][:, :, 0].max(axis=1) > 12.3 + 1e-9)
+    straddle = (m.points[facets][:, :, 0].min(axis=1) < 12.3 - 1e-9) & (
+        m.points[facets][:, :, 0].max(axis=1) > 12.3 + 1e-9
+    )
     assert not np.any(straddle), "a boundary face crosses the box's plane"
     assert m.measures.sum() == pytest.approx(30 * 10 * 4, rel=1e-9)
     assert c.shape[1] == 3

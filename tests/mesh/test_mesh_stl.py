@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from shapely.geometry import Point, box
-
 from loadpath.errors import GeometryError, MeshingError
 from loadpath.mesh import mesh_stl
 from loadpath.mesh.place import place_stl
+from shapely.geometry import Point, box
 
 trimesh = pytest.importorskip("trimesh")
 pytest.importorskip("manifold3d")
@@ -43,8 +42,11 @@ def test_place_matches_the_first_layer(specimen_stl):
 
 def test_rotated_part_is_refused_unless_the_transform_is_given(specimen_stl):
     rotated = shapely.affinity.rotate(BED_OUTLINE, 90, origin=(125, 105))
-    with pytest.raises(GeometryError, match=r"does not match the G-code's first layer: footprint 150\.0 x 36\.0 mm vs first layer "
-                       r"36\.0 x 150\.0 mm.*give the transform explicitly"):
+    with pytest.raises(
+        GeometryError,
+        match=r"does not match the G-code's first layer: footprint 150\.0 x 36\.0 mm vs first layer "
+        r"36\.0 x 150\.0 mm.*give the transform explicitly",
+    ):
         place_stl(specimen_stl, rotated)
     T = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 0, 1])
     T[:3, 3] = [125, 105, -5]
@@ -64,11 +66,12 @@ def test_analysis_on_the_stl_model(specimen_stl):
     from loadpath.mesh import MeshSize
 
     case = lc.parse(
-        'version = 1\n[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.5 }\nfix = ["x", "y", "z"]\n'
+        'version = 1\n[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.5 }\n'
+        'fix = ["x", "y", "z"]\n'
         '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 0.5 }\nforce = [1000.0, 0.0, 0.0]\n'
     )
     body = lc.Body.from_layers("specimen", [(0.2 * i, 0.2 * (i + 1), BED_OUTLINE) for i in range(10)])
-    rb, = lc.resolve(case, [body])
+    (rb,) = lc.resolve(case, [body])
     assert rb.analysis == "2d"
     a = analyze(rb, size=MeshSize(6.0, 1.5, 3.0), model=specimen_stl)
     assert a.resolved.analysis == "3d" and a.mesh.cell_type == "tet10"
