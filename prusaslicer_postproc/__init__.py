@@ -39,10 +39,20 @@ def build_parser() -> argparse.ArgumentParser:
         description="PrusaSlicer post-processing script: replaces infill with stress-aligned paths, in "
         "place. PrusaSlicer appends the G-code path as the last argument.",
     )
-    parser.add_argument("--loadcase", required=True, type=Path, metavar="CASE.toml",
-                        help="the load case (an absolute path: the slicer's working directory is not yours)")
-    parser.add_argument("--report", type=Path, metavar="DIR", default=None,
-                        help="write an HTML report and metrics.json into DIR")
+    parser.add_argument(
+        "--loadcase",
+        required=True,
+        type=Path,
+        metavar="CASE.toml",
+        help="the load case (an absolute path: the slicer's working directory is not yours)",
+    )
+    parser.add_argument(
+        "--report",
+        type=Path,
+        metavar="DIR",
+        default=None,
+        help="write an HTML report and metrics.json into DIR",
+    )
     settings.add_cli_options(parser)
     return parser
 
@@ -69,9 +79,12 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
     """
     args_in = list(sys.argv[1:] if argv is None else argv)
     if not args_in or args_in[-1].startswith("-"):
-        return _fail("no G-code path: PrusaSlicer appends it as the last argument; put "
-                     f"'{PROG} --loadcase /path/to/case.toml' in Print Settings > Output options > "
-                     "Post-processing scripts", 2)
+        return _fail(
+            "no G-code path: PrusaSlicer appends it as the last argument; put "
+            f"'{PROG} --loadcase /path/to/case.toml' in Print Settings > Output options > "
+            "Post-processing scripts",
+            2,
+        )
     gcode_path = Path(args_in[-1])
     try:
         args = build_parser().parse_args(args_in[:-1])
@@ -84,9 +97,14 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
 
     try:
         request = JobRequest(
-            input=gcode_path, loadcase=args.loadcase, in_place=True, report=args.report,
-            cli=settings.cli_values(args), env=dict(os.environ if env is None else env),
-            slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None)
+            input=gcode_path,
+            loadcase=args.loadcase,
+            in_place=True,
+            report=args.report,
+            cli=settings.cli_values(args),
+            env=dict(os.environ if env is None else env),
+            slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None,
+        )
         result = run_job(request)
     except LoadpathError as exc:
         return _fail(f"{exc} (the G-code was left unchanged)")

@@ -347,7 +347,8 @@ def slice_cura(
 
     Returns
     -------
-    Path of the written G-code.  Raises :class:`SlicerError` on a non-zero exit or any ``[ERROR]``.
+    Path of the written G-code (its stderr, with every resolved setting, is kept next to it as
+    ``<name>.stderr.txt``).  Raises :class:`SlicerError` on a non-zero exit or any ``[ERROR]``.
     """
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -379,7 +380,10 @@ def slice_cura(
         ]
         x += size[0] + 10.0
     cmd += ["-o", str(out)]
-    _run(cmd, env=env)
+    proc = _run(cmd, env=env)
+    # CuraEngine's stderr lists every resolved setting (global, then per extruder): kept for tests
+    # that need the settings Cura's frontend would have (tests/integrations, the Cura plugin).
+    out.with_suffix(".stderr.txt").write_text(proc.stderr, encoding="utf-8")
     if not out.is_file() or out.stat().st_size == 0:
         raise SlicerError(f"CuraEngine wrote no G-code to {out}")
     return out

@@ -1,0 +1,153 @@
+"""The Cura plugin's Modify G-Code script, run by Cura 4.13's own code on Cura's own Python.
+
+``cura_driver.py`` runs under Debian's ``/usr/bin/python3`` (the interpreter Debian's Cura uses:
+no loadpath, shapely 1.8): Cura's real ``PostProcessingPlugin.loadScripts`` finds and loads the
+script from the plugin's ``scripts/`` folder, Uranium's real ``DefinitionContainer`` reads its
+settings, and the script (a subclass of the real ``Script``, overriding only
+``getSettingValueByKey`` and where Cura's stacks come from) processes real CuraEngine 4.13 output
+split into chunks the way Cura does.  The result is checked with the splicer's checks.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import require_tool
+from integration_helpers import (
+    FAST,
+    VENV_BIN,
+    assert_spliced,
+    cura_chunks,
+    cura_engine_settings,
+    reference,
+    write_bad_case,
+    write_case,
+)
+from loadpath.plugin.settings import cura_setting_definitions
+
+HERE = Path(__file__).resolve().parent
+SCRIPTS = HERE.parents[1] / "cura_plugin" / "LoadpathInfill" / "scripts"
+SEP = ";LOADPATH_CHUNK_SEPARATOR\n"
+PROCESSED = ";LOADPATH_PROCESSED\n"
+
+
+def run_script(tmp: Path, chunks: list[str], values: dict, stacks: dict | None = None) -> dict:
+    """Run the script in Cura's Python through ``cura_driver.py``; returns the driver's JSON."""
+    require_tool("cura")
+    job = {
+        "chunks": chunks,
+        "values": values,
+        "stacks": stacks,
+        "scripts_dir": str(SCRIPTS),
+        "report_root": str(tmp / "reports"),
+        "out": str(tmp / "result.json"),
+    }
+    (tmp / "job.json").write_text(json.dumps(job), encoding="utf-8")
+    proc = subprocess.run(
+        ["/usr/bin/python3", str(HERE / "cura_driver.py"), str(tmp / "job.json")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads((tmp / "result.json").read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def cura_file(sliced) -> Path:
+    require_tool("cura")
+    return sliced("cura", "ohs", "mixed")
+
+
+@pytest.mark.real_tool("cura")
+@pytest.mark.slow
+def test_script_replaces_infill_in_curas_chunks_with_curas_settings(cura_file, tmp_path):
+    chunks = cura_chunks(cura_file.read_text(encoding="utf-8"))
+    assert chunks[0].startswith(";FLAVOR:") and chunks[2].startswith(";LAYER:0") and len(chunks) == 13
+    stacks = cura_engine_settings(cura_file.with_suffix(".stderr.txt").read_text(encoding="utf-8"))
+    case = write_case(tmp_path)
+    res = run_script(
+        tmp_path,
+        chunks,
+        {"loadcase": str(case), "loadpath_command": str(VENV_BIN / "loadpath"), "engine": "streamlines"},
+        stacks,
+    )
+    new = res["chunks"]
+    assert not new[0].startswith(";LOADPATH FAILED"), new[0][:300]
+    # the same chunks come back: header first, then one per layer with its own marker, end G-code last
+    assert len(new) == len(chunks)
+    assert new[0].endswith(PROCESSED)
+    assert [ln for ln in new[0].splitlines(True) if not ln.startswith(";loadpath: ")] == (
+        chunks[0] + PROCESSED
+    ).splitlines(True)  # the header, with loadpath's notes on the estimates
+    assert new[1] == chunks[1]
+    assert [c.split("\n", 1)[0] for c in new[2:-1]] == [c.split("\n", 1)[0] for c in chunks[2:-1]]
+    assert sum(a != b for a, b in zip(new, chunks, strict=True)) >= 2  # some layers were rewritten
+
+    # the settings read from Cura's stacks reached loadpath
+    cura_settings = res["cura_settings"]
+    assert cura_settings["extruders"][0]["material_diameter"] == 1.75
+    assert cura_settings["global"]["retraction_amount"] == pytest.approx(
+        float(stacks["global"]["retraction_amount"])
+    )
+    metrics = json.loads((tmp_path / "reports" / "last-report" / "metrics.json").read_text(encoding="utf-8"))
+    assert metrics["settings_sources"]["retract_length"] == "Cura settings"
+    assert metrics["settings_sources"]["filament_diameter"] == "Cura settings"
+    assert metrics["settings"]["engine"] == "streamlines"
+
+    # the splicer's checks on what the script returned, against the same run in-process
+    joined = tmp_path / "joined.gcode"
+    joined.write_text(SEP.join(chunks), encoding="utf-8")
+    js = tmp_path / "cura_settings.json"
+    js.write_text(json.dumps(cura_settings), encoding="utf-8")
+    ref = reference(joined, case, tmp_path / "ref.gcode", slicer_settings=js)
+    out = SEP.join([new[0].replace(PROCESSED, ""), *new[1:]]).encode()
+    assert_spliced(joined, out, ref)
+
+
+@pytest.mark.real_tool("cura")
+def test_failures_reach_the_user_and_keep_the_gcode(cura_file, tmp_path):
+    """Cura swallows script exceptions: the script says what failed at the top of the G-code."""
+    chunks = cura_chunks(cura_file.read_text(encoding="utf-8"))
+    exe = str(VENV_BIN / "loadpath")
+    cases = [
+        ({"loadcase": str(write_bad_case(tmp_path)), "loadpath_command": exe}, "[[loads]]"),
+        ({"loadcase": str(tmp_path / "missing.toml"), "loadpath_command": exe}, "does not exist"),
+        (
+            {"loadcase": str(write_case(tmp_path)), "loadpath_command": str(tmp_path / "nope")},
+            "loadpath command",
+        ),
+    ]
+    for k, (values, words) in enumerate(cases):
+        folder = tmp_path / str(k)
+        folder.mkdir()
+        res = run_script(folder, chunks, values)
+        new = res["chunks"]
+        first, rest = new[0].split("\n", 1)
+        assert first.startswith(";LOADPATH FAILED: ") and words in first, first
+        assert rest == chunks[0] and new[1:] == chunks[1:]
+
+
+@pytest.mark.real_tool("cura")
+def test_script_settings_are_loadpaths_schema_as_uranium_reads_them(tmp_path):
+    """getSettingDataString is generated from loadpath's settings schema (no second copy)."""
+    res = run_script(tmp_path, [";FLAVOR:Marlin\n"], {"loadcase": ""})
+    assert res["labels"] == {"LoadpathScript": "Loadpath stress-aligned infill"}
+    defs = res["definitions"]
+    schema = cura_setting_definitions(("toolpath",))
+    for key, spec in schema.items():
+        assert defs[key]["type"] == spec["type"]
+        assert defs[key]["default_value"] == (
+            spec["default_value"] if spec["type"] != "float" else pytest.approx(spec["default_value"])
+        )
+    assert list(defs)[:5] == ["loadcase", "loadpath_command", "service_url", "timeout", "report"]
+    assert set(defs) - set(schema) == {"loadcase", "loadpath_command", "service_url", "timeout", "report"}
+    assert res["chunks"][0].startswith(";LOADPATH FAILED: no load case chosen")
+
+
+def test_fast_settings_match_the_plugin_defaults():
+    """The reference runs differ from the plugin's only in what the tests pass on purpose."""
+    assert set(FAST) <= {f for f in cura_setting_definitions(("toolpath", "run"))}
