@@ -111,8 +111,9 @@ def write_atomic(path: Path, data: bytes) -> None:
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     except OSError as exc:
-        raise SettingsError(f"cannot write into {str(folder)!r}: {exc.strerror or exc}; choose another output "
-                            "folder with -o") from exc
+        raise SettingsError(
+            f"cannot write into {str(folder)!r}: {exc.strerror or exc}; choose another output folder with -o"
+        ) from exc
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -123,8 +124,10 @@ def write_atomic(path: Path, data: bytes) -> None:
         os.replace(tmp, path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
-        raise SettingsError(f"cannot write {str(path)!r}: {exc.strerror or exc}; check the folder's permissions "
-                            "and free space") from exc
+        raise SettingsError(
+            f"cannot write {str(path)!r}: {exc.strerror or exc}; check the folder's permissions "
+            "and free space"
+        ) from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -176,8 +179,10 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     except MemoryError:
         error = "out of memory; close other programs or process a smaller file"
     except Exception as exc:  # a bug: still one line, and the input stays untouched
-        error = (f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); the input is untouched; "
-                 "please report this with the G-code and load case")
+        error = (
+            f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); the input is untouched; "
+            "please report this with the G-code and load case"
+        )
     if on_failure != "keep" and (result.settings is None or result.settings.on_failure != "keep"):
         raise LoadpathError(error)
     result.error = error
@@ -188,8 +193,13 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     return result
 
 
-def _run(request: JobRequest, inp: Path, out: Path, result: JobResult,
-         progress: Callable[[str, int, int], None] | None) -> JobResult:
+def _run(
+    request: JobRequest,
+    inp: Path,
+    out: Path,
+    result: JobResult,
+    progress: Callable[[str, int, int], None] | None,
+) -> JobResult:
     from loadpath import gcode, loadcase, pipeline
     from loadpath.pipeline.paths import default_workers
 
@@ -200,7 +210,9 @@ def _run(request: JobRequest, inp: Path, out: Path, result: JobResult,
     lc = loadcase.read(request.loadcase)
     program, container = gcode.read_container(inp)
     cura = settings_mod.read_cura_settings(request.slicer_settings) if request.slicer_settings else None
-    s = settings_mod.resolve(program, env=request.env, cura_settings=cura, toolpath=lc.toolpath, cli=request.cli)
+    s = settings_mod.resolve(
+        program, env=request.env, cura_settings=cura, toolpath=lc.toolpath, cli=request.cli
+    )
     result.settings = s
     times["parse"] = time.perf_counter() - t
 
@@ -212,18 +224,32 @@ def _run(request: JobRequest, inp: Path, out: Path, result: JobResult,
             s = s.with_values({"filament_diameter": d}, "inferred from the G-code")
             result.settings = s
     params = {"K": s.K} if s.engine == "swarm" else {}
-    opts = pipeline.PipelineOptions(engine=s.engine, engine_params=params, pitch=s.pitch, principal=s.principal,
-                                    replace=tuple(s.replace), stagger=s.stagger,
-                                    workers=s.jobs or default_workers(), check=s.check)
-    pres = pipeline.run(program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura)
+    opts = pipeline.PipelineOptions(
+        engine=s.engine,
+        engine_params=params,
+        pitch=s.pitch,
+        principal=s.principal,
+        replace=tuple(s.replace),
+        stagger=s.stagger,
+        workers=s.jobs or default_workers(),
+        check=s.check,
+    )
+    pres = pipeline.run(
+        program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura
+    )
     result.pipeline = pres
     times.update(pres.times)
     result.warnings.extend(pres.warnings)
     result.changed = pres.changed
 
     t = time.perf_counter()
-    data = gcode.encode_like(container, pres.data) if pres.changed else program.to_bytes() if container is None \
+    data = (
+        gcode.encode_like(container, pres.data)
+        if pres.changed
+        else program.to_bytes()
+        if container is None
         else inp.read_bytes()
+    )
     if pres.changed or out != inp:
         write_atomic(out, data)
         result.written = True

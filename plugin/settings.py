@@ -21,22 +21,27 @@ Where values come from, in rising precedence (:func:`resolve`):
    for any field).
 
 :attr:`Settings.sources` records where each field's value came from, for the report.
+
+(Over 400 lines: :data:`SCHEMA` is one table of every setting, kept in one place on purpose.)
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
-import numpy as np
 from loadpath.errors import SettingsError
+from loadpath.plugin.slicers import (
+    from_cura_settings,
+    from_prusa_config,
+    from_slic3r_env,
+    infer_from_moves,
+    read_cura_settings,
+)
 
 __all__ = [
     "Field",
@@ -102,62 +107,240 @@ class Field:
 SCHEMA: tuple[Field, ...] = (
     # ---------------------------------------------------------------- toolpath (the user's choice)
     Field("engine", "str", "swarm", "", "path engine", ENGINES, cli="--engine", toolpath=True),
-    Field("pitch", "optional_float", None, "mm",
-          "centre-to-centre distance of the new paths; default: the pitch the slicer used for the replaced infill",
-          minimum=0.05, maximum=50.0, cli="--pitch", toolpath=True),
-    Field("K", "float", 5.0, "", "swarm: weight of stress alignment against even spacing", minimum=0.0,
-          maximum=1000.0, cli="--K", toolpath=True),
-    Field("principal", "str", "max_abs", "",
-          "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers)",
-          PRINCIPALS, cli="--principal", toolpath=True),
-    Field("replace", "kinds", ("solid",), "", "infill kinds replaced (comma-separated)", REPLACE_KINDS,
-          cli="--replace", toolpath=True),
-    Field("width_min", "float", 0.6, "x nozzle", "narrowest bead, as a multiple of the nozzle diameter",
-          minimum=0.2, maximum=1.0),
-    Field("width_max", "float", 1.6, "x nozzle", "widest bead, as a multiple of the nozzle diameter",
-          minimum=1.0, maximum=3.0),
-    Field("link_max", "float", 2.0, "pitches", "longest printed link between neighbouring path ends",
-          minimum=0.0, maximum=10.0),
-    Field("match_volume", "bool", True, "", "scale the flow so each block extrudes the volume the slicer did"),
-    Field("max_correction", "float", 0.15, "", "largest relative flow change volume matching may apply",
-          minimum=0.0, maximum=0.5),
-    Field("stagger", "bool", True, "",
-          "layers that reuse the paths of an identical layer are shifted by half a pitch every other layer"),
+    Field(
+        "pitch",
+        "optional_float",
+        None,
+        "mm",
+        "centre-to-centre distance of the new paths; default: the slicer's pitch for the replaced infill",
+        minimum=0.05,
+        maximum=50.0,
+        cli="--pitch",
+        toolpath=True,
+    ),
+    Field(
+        "K",
+        "float",
+        5.0,
+        "",
+        "swarm: weight of stress alignment against even spacing",
+        minimum=0.0,
+        maximum=1000.0,
+        cli="--K",
+        toolpath=True,
+    ),
+    Field(
+        "principal",
+        "str",
+        "max_abs",
+        "",
+        "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers)",
+        PRINCIPALS,
+        cli="--principal",
+        toolpath=True,
+    ),
+    Field(
+        "replace",
+        "kinds",
+        ("solid",),
+        "",
+        "infill kinds replaced (comma-separated)",
+        REPLACE_KINDS,
+        cli="--replace",
+        toolpath=True,
+    ),
+    Field(
+        "width_min",
+        "float",
+        0.6,
+        "x nozzle",
+        "narrowest bead, as a multiple of the nozzle diameter",
+        minimum=0.2,
+        maximum=1.0,
+    ),
+    Field(
+        "width_max",
+        "float",
+        1.6,
+        "x nozzle",
+        "widest bead, as a multiple of the nozzle diameter",
+        minimum=1.0,
+        maximum=3.0,
+    ),
+    Field(
+        "link_max",
+        "float",
+        2.0,
+        "pitches",
+        "longest printed link between neighbouring path ends",
+        minimum=0.0,
+        maximum=10.0,
+    ),
+    Field(
+        "match_volume", "bool", True, "", "scale the flow so each block extrudes the volume the slicer did"
+    ),
+    Field(
+        "max_correction",
+        "float",
+        0.15,
+        "",
+        "largest relative flow change volume matching may apply",
+        minimum=0.0,
+        maximum=0.5,
+    ),
+    Field(
+        "stagger",
+        "bool",
+        True,
+        "",
+        "layers that reuse the paths of an identical layer are shifted by half a pitch every other layer",
+    ),
     # ---------------------------------------------------------------- run
-    Field("jobs", "int", 0, "", "worker processes for the per-layer work (0: one per core, at most 4)",
-          minimum=0, maximum=256, cli="--jobs", group="run"),
-    Field("on_failure", "str", "fail", "", "on failure: 'fail' (exit non-zero) or 'keep' the slicer's G-code",
-          ("fail", "keep"), cli="--on-failure", group="run"),
+    Field(
+        "jobs",
+        "int",
+        0,
+        "",
+        "worker processes for the per-layer work (0: one per core, at most 4)",
+        minimum=0,
+        maximum=256,
+        cli="--jobs",
+        group="run",
+    ),
+    Field(
+        "on_failure",
+        "str",
+        "fail",
+        "",
+        "on failure: 'fail' (exit non-zero) or 'keep' the slicer's G-code",
+        ("fail", "keep"),
+        cli="--on-failure",
+        group="run",
+    ),
     Field("check", "bool", True, "", "re-read the result and check it before writing", group="run"),
     # ---------------------------------------------------------------- machine (from the slicer)
-    Field("flow_model", "str", "rounded", "", "bead cross-section: PrusaSlicer's rounded rectangle or Cura's "
-          "rectangle", ("rounded", "rectangle"), group="machine"),
-    Field("nozzle_diameter", "float", 0.4, "mm", "nozzle diameter", minimum=0.05, maximum=3.0, group="machine"),
-    Field("filament_diameter", "float", 1.75, "mm", "filament diameter", minimum=0.5, maximum=5.0, group="machine"),
-    Field("extrusion_multiplier", "float", 1.0, "", "extrusion multiplier / material flow", minimum=0.1,
-          maximum=3.0, group="machine"),
+    Field(
+        "flow_model",
+        "str",
+        "rounded",
+        "",
+        "bead cross-section: PrusaSlicer's rounded rectangle or Cura's rectangle",
+        ("rounded", "rectangle"),
+        group="machine",
+    ),
+    Field(
+        "nozzle_diameter", "float", 0.4, "mm", "nozzle diameter", minimum=0.05, maximum=3.0, group="machine"
+    ),
+    Field(
+        "filament_diameter",
+        "float",
+        1.75,
+        "mm",
+        "filament diameter",
+        minimum=0.5,
+        maximum=5.0,
+        group="machine",
+    ),
+    Field(
+        "extrusion_multiplier",
+        "float",
+        1.0,
+        "",
+        "extrusion multiplier / material flow",
+        minimum=0.1,
+        maximum=3.0,
+        group="machine",
+    ),
     Field("volumetric_e", "bool", False, "", "E words are mm^3 (use_volumetric_e)", group="machine"),
-    Field("travel_speed", "float", 150.0, "mm/s", "travel speed", minimum=1.0, maximum=2000.0, group="machine"),
-    Field("travel_speed_z", "float", 0.0, "mm/s", "z-hop speed (0: travel speed)", minimum=0.0, maximum=500.0,
-          group="machine"),
-    Field("retract_length", "float", 0.8, "mm", "retraction length", minimum=0.0, maximum=50.0, group="machine"),
-    Field("retract_speed", "float", 35.0, "mm/s", "retraction speed", minimum=0.1, maximum=500.0,
-          group="machine"),
-    Field("deretract_speed", "float", 0.0, "mm/s", "unretraction speed (0: retraction speed)", minimum=0.0,
-          maximum=500.0, group="machine"),
-    Field("retract_restart_extra", "float", 0.0, "mm", "extra filament primed after a retraction", minimum=-10.0,
-          maximum=10.0, group="machine"),
-    Field("retract_lift", "float", 0.0, "mm", "z-hop on retraction", minimum=0.0, maximum=10.0, group="machine"),
-    Field("retract_before_travel", "float", 1.0, "mm", "shorter travels inside the region do not retract",
-          minimum=0.0, maximum=100.0, group="machine"),
-    Field("only_retract_when_crossing_perimeters", "bool", False, "", "travels inside the region never retract",
-          group="machine"),
+    Field(
+        "travel_speed", "float", 150.0, "mm/s", "travel speed", minimum=1.0, maximum=2000.0, group="machine"
+    ),
+    Field(
+        "travel_speed_z",
+        "float",
+        0.0,
+        "mm/s",
+        "z-hop speed (0: travel speed)",
+        minimum=0.0,
+        maximum=500.0,
+        group="machine",
+    ),
+    Field(
+        "retract_length", "float", 0.8, "mm", "retraction length", minimum=0.0, maximum=50.0, group="machine"
+    ),
+    Field(
+        "retract_speed",
+        "float",
+        35.0,
+        "mm/s",
+        "retraction speed",
+        minimum=0.1,
+        maximum=500.0,
+        group="machine",
+    ),
+    Field(
+        "deretract_speed",
+        "float",
+        0.0,
+        "mm/s",
+        "unretraction speed (0: retraction speed)",
+        minimum=0.0,
+        maximum=500.0,
+        group="machine",
+    ),
+    Field(
+        "retract_restart_extra",
+        "float",
+        0.0,
+        "mm",
+        "extra filament primed after a retraction",
+        minimum=-10.0,
+        maximum=10.0,
+        group="machine",
+    ),
+    Field(
+        "retract_lift", "float", 0.0, "mm", "z-hop on retraction", minimum=0.0, maximum=10.0, group="machine"
+    ),
+    Field(
+        "retract_before_travel",
+        "float",
+        1.0,
+        "mm",
+        "shorter travels inside the region do not retract",
+        minimum=0.0,
+        maximum=100.0,
+        group="machine",
+    ),
+    Field(
+        "only_retract_when_crossing_perimeters",
+        "bool",
+        False,
+        "",
+        "travels inside the region never retract",
+        group="machine",
+    ),
     Field("wipe", "bool", False, "", "wipe while retracting", group="machine"),
-    Field("retract_before_wipe", "float", 0.0, "", "part of the retraction done before the wipe (0..1)",
-          minimum=0.0, maximum=1.0, group="machine"),
+    Field(
+        "retract_before_wipe",
+        "float",
+        0.0,
+        "",
+        "part of the retraction done before the wipe (0..1)",
+        minimum=0.0,
+        maximum=1.0,
+        group="machine",
+    ),
     Field("use_firmware_retraction", "bool", False, "", "G10/G11 retraction", group="machine"),
-    Field("max_volumetric_speed", "float", 0.0, "mm^3/s", "volumetric flow limit (0: none)", minimum=0.0,
-          maximum=1000.0, group="machine"),
+    Field(
+        "max_volumetric_speed",
+        "float",
+        0.0,
+        "mm^3/s",
+        "volumetric flow limit (0: none)",
+        minimum=0.0,
+        maximum=1000.0,
+        group="machine",
+    ),
 )
 _FIELDS = {f.name: f for f in SCHEMA}
 
@@ -206,10 +389,12 @@ class Settings:
     sources: Mapping[str, str] = field(default_factory=dict, compare=False)
 
     def with_values(self, values: Mapping[str, Any], source: str) -> Settings:
-        """A copy with ``values`` (validated) applied, recording ``source`` for each."""
+        """Return a copy with ``values`` (validated) applied, recording ``source`` for each."""
         unknown = sorted(set(values) - set(_FIELDS))
         if unknown:
-            raise SettingsError(f"unknown setting(s) {', '.join(unknown)} ({source}); known: {', '.join(_FIELDS)}")
+            raise SettingsError(
+                f"unknown setting(s) {', '.join(unknown)} ({source}); known: {', '.join(_FIELDS)}"
+            )
         clean = {k: _convert(_FIELDS[k], v, source) for k, v in values.items() if v is not None}
         src = dict(self.sources)
         src.update({k: source for k in clean})
@@ -220,7 +405,7 @@ class Settings:
         return self.sources.get(name, "default")
 
     def as_dict(self) -> dict[str, Any]:
-        """The values as plain JSON-able data."""
+        """Return the values as plain JSON-able data."""
         return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in SCHEMA}
 
 
@@ -228,7 +413,9 @@ def _convert(f: Field, value: Any, source: str) -> Any:
     """Validate and convert one value of field ``f``."""
     where = f"{f.name} ({source})"
     try:
-        if f.kind == "optional_float" and (value is None or str(value).strip().lower() in ("", "none", "auto")):
+        if f.kind == "optional_float" and (
+            value is None or str(value).strip().lower() in ("", "none", "auto")
+        ):
             return None
         if f.kind in ("float", "optional_float"):
             v = float(str(value).strip().rstrip("%")) / (100.0 if str(value).strip().endswith("%") else 1.0)
@@ -243,19 +430,25 @@ def _convert(f: Field, value: Any, source: str) -> Any:
             v = tuple(dict.fromkeys(str(x).strip().lower() for x in items if str(x).strip()))
             bad = [x for x in v if x not in f.choices]
             if bad or not v:
-                raise SettingsError(f"{where}: {', '.join(bad) or 'nothing'} is not an infill kind; use any of "
-                                    f"{', '.join(f.choices)}")
+                raise SettingsError(
+                    f"{where}: {', '.join(bad) or 'nothing'} is not an infill kind; use any of "
+                    f"{', '.join(f.choices)}"
+                )
             return v
         else:
             v = str(value).strip()
     except (TypeError, ValueError):
-        raise SettingsError(f"{where} = {value!r} is not a valid {f.kind.replace('optional_', '')}"
-                            f"{' (' + f.unit + ')' if f.unit else ''}; {f.help}") from None
+        raise SettingsError(
+            f"{where} = {value!r} is not a valid {f.kind.replace('optional_', '')}"
+            f"{' (' + f.unit + ')' if f.unit else ''}; {f.help}"
+        ) from None
     if f.choices and v not in f.choices:
         raise SettingsError(f"{where} = {v!r} is not one of {', '.join(f.choices)}")
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         if (f.minimum is not None and v < f.minimum) or (f.maximum is not None and v > f.maximum):
-            raise SettingsError(f"{where} = {v} {f.unit} is outside {f.minimum}..{f.maximum} {f.unit}; {f.help}")
+            raise SettingsError(
+                f"{where} = {v} {f.unit} is outside {f.minimum}..{f.maximum} {f.unit}; {f.help}"
+            )
     return v
 
 
@@ -270,189 +463,18 @@ def _bool(value: Any) -> bool:
     raise ValueError(value)
 
 
-# ---------------------------------------------------------------------------------------------- slicers
-
-_PRUSA_KEYS = {  # Settings field -> PrusaSlicer option (per-extruder options: first value)
-    "nozzle_diameter": "nozzle_diameter",
-    "filament_diameter": "filament_diameter",
-    "extrusion_multiplier": "extrusion_multiplier",
-    "volumetric_e": "use_volumetric_e",
-    "travel_speed": "travel_speed",
-    "travel_speed_z": "travel_speed_z",
-    "retract_length": "retract_length",
-    "retract_speed": "retract_speed",
-    "deretract_speed": "deretract_speed",
-    "retract_restart_extra": "retract_restart_extra",
-    "retract_lift": "retract_lift",
-    "retract_before_travel": "retract_before_travel",
-    "only_retract_when_crossing_perimeters": "only_retract_when_crossing_perimeters",
-    "wipe": "wipe",
-    "retract_before_wipe": "retract_before_wipe",
-    "use_firmware_retraction": "use_firmware_retraction",
-}
-
-
-def _first(value: str) -> str:
-    return str(value).split(",")[0].strip()
-
-
-def from_prusa_config(config: Mapping[str, str], tool: int = 0) -> dict[str, Any]:
-    """Machine values from a PrusaSlicer-family configuration (keys case-insensitive).
-
-    Per-extruder options (``"0.4,0.4"``) take the value of ``tool``.  The volumetric limit is the
-    smaller non-zero of ``max_volumetric_speed`` and ``filament_max_volumetric_speed``.
-    """
-    cfg = {k.lower(): v for k, v in config.items()}
-    out: dict[str, Any] = {}
-
-    def pick(key: str) -> str | None:
-        if key not in cfg:
-            return None
-        parts = [p.strip() for p in str(cfg[key]).split(",")]
-        return parts[tool] if tool < len(parts) else parts[0]
-
-    for name, key in _PRUSA_KEYS.items():
-        v = pick(key)
-        if v is not None and v != "":
-            out[name] = v
-    if "retract_before_wipe" in out:
-        rbw = str(out["retract_before_wipe"])
-        out["retract_before_wipe"] = float(rbw.rstrip("%")) / 100.0 if rbw.endswith("%") else float(rbw)
-    limits = [float(x) for x in (pick("max_volumetric_speed"), pick("filament_max_volumetric_speed"))
-              if x not in (None, "") and float(x) > 0]
-    if limits:
-        out["max_volumetric_speed"] = min(limits)
-    elif "max_volumetric_speed" in cfg or "filament_max_volumetric_speed" in cfg:
-        out["max_volumetric_speed"] = 0.0
-    if cfg:
-        out["flow_model"] = "rounded"
-    return out
-
-
-def from_slic3r_env(env: Mapping[str, str] | None = None) -> dict[str, str]:
-    """PrusaSlicer's options from ``SLIC3R_*`` environment variables, as a config dict (lower-case keys).
-
-    PrusaSlicer upper-cases the whole name (``SLIC3R_FILL_DENSITY``); the help article shows mixed
-    case (``SLIC3R_Fill_density``): both are read.  Multi-line values keep their literal ``\\n``.
-    """
-    env = os.environ if env is None else env
-    skip = {"slic3r_pp_host", "slic3r_pp_output_name"}
-    return {k[7:].lower(): v for k, v in env.items() if k.lower().startswith("slic3r_") and k.lower() not in skip}
-
-
-_CURA_KEYS = {  # Settings field -> Cura setting keys, first present wins (extruder values over global)
-    "nozzle_diameter": ("machine_nozzle_size",),
-    "filament_diameter": ("material_diameter",),
-    "travel_speed": ("speed_travel",),
-    "retract_length": ("retraction_amount",),
-    "retract_speed": ("retraction_retract_speed", "retraction_speed"),
-    "deretract_speed": ("retraction_prime_speed", "retraction_speed"),
-    "retract_before_travel": ("retraction_min_travel",),
-    "travel_speed_z": ("speed_z_hop",),
-}
-
-
-def read_cura_settings(path: str | os.PathLike) -> dict[str, Any]:
-    """Read the JSON the Cura plugin writes: ``{"global": {...}, "extruders": [{...}, ...]}`` or flat.
-
-    Extruder 0's values win over the global ones.  Keys are Cura's own setting keys.
-    """
-    p = Path(path)
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise SettingsError(f"cannot read Cura settings {str(p)!r}: {exc.strerror or exc}; check the path") from exc
-    except ValueError as exc:
-        raise SettingsError(f"Cura settings {str(p)!r} is not valid JSON ({exc}); pass the file the Cura "
-                            "plugin wrote") from exc
-    if not isinstance(data, dict):
-        raise SettingsError(f"Cura settings {str(p)!r} must hold a JSON object of setting keys")
-    flat = dict(data.get("global", {})) if "global" in data or "extruders" in data else dict(data)
-    extruders = data.get("extruders") or []
-    if extruders and isinstance(extruders[0], dict):
-        flat.update(extruders[0])
-    return flat
-
-
-def from_cura_settings(cura: Mapping[str, Any]) -> dict[str, Any]:
-    """Machine values from Cura's resolved settings (its own keys, e.g. ``retraction_amount``)."""
-    out: dict[str, Any] = {"flow_model": "rectangle"}
-    for name, keys in _CURA_KEYS.items():
-        for k in keys:
-            if k in cura and cura[k] not in (None, ""):
-                out[name] = cura[k]
-                break
-    flow = cura.get("infill_material_flow", cura.get("material_flow"))
-    if flow not in (None, ""):
-        out["extrusion_multiplier"] = float(flow) / 100.0
-    if "retraction_enable" in cura and not _bool(cura["retraction_enable"]):
-        out["retract_length"] = 0.0
-    if _bool(cura.get("retraction_hop_enabled", False)):
-        out["retract_lift"] = cura.get("retraction_hop", 0.0)
-    elif "retraction_hop_enabled" in cura:
-        out["retract_lift"] = 0.0
-    combing = str(cura.get("retraction_combing", "")).strip().lower()
-    if combing:
-        out["only_retract_when_crossing_perimeters"] = combing != "off"
-    if "relative_extrusion" in cura:
-        pass  # the E mode is read from the file itself
-    out["wipe"] = False
-    out["use_firmware_retraction"] = _bool(cura.get("machine_firmware_retract", False))
-    return out
-
-
-def infer_from_moves(program) -> dict[str, Any]:
-    """Machine values read from the file's own moves (for files without settings: Cura's).
-
-    Travel speed: the most common feedrate of XY travels; retraction: the most common E-only pull
-    and its feedrate, the most common push feedrate; z-hop: the most common lift that follows a
-    retraction; retract-before-travel: 0 when short travels retract too.  Fields that cannot be
-    read are left out.
-    """
-    m = program.moves
-    out: dict[str, Any] = {}
-
-    def mode(v: np.ndarray) -> float | None:
-        v = v[np.isfinite(v)]
-        if len(v) == 0:
-            return None
-        vals, counts = np.unique(np.round(v, 4), return_counts=True)
-        return float(vals[np.argmax(counts)])
-
-    t = m[m["travel"] & (m["layer"] >= 0)]
-    f = mode(t["f"])
-    if f:
-        out["travel_speed"] = f / 60.0
-    r = m[m["retract"] & (m["e"] < 0)]
-    if len(r):
-        # filament held back once the retraction (wipe included) is complete
-        out["retract_length"] = mode(program.state.retracted[r["line"]])
-        fr = mode(r["f"])
-        if fr:
-            out["retract_speed"] = fr / 60.0
-    u = m[m["unretract"] & (m["e"] > 0)]
-    fu = mode(u["f"]) if len(u) else None
-    if fu:
-        out["deretract_speed"] = fu / 60.0
-    after_retract = np.zeros(len(m), dtype=bool)
-    after_retract[1:] = m["retract"][:-1]
-    lifts = m[m["lift"] & ~m["travel"] & after_retract]  # z-hops follow a retraction; layer changes need not
-    dz = mode(lifts["z1"] - lifts["z0"]) if len(lifts) else None
-    out["retract_lift"] = dz if dz and dz < 5.0 else 0.0
-    if len(lifts):
-        fz = mode(lifts["f"])
-        if fz:
-            out["travel_speed_z"] = fz / 60.0
-    out["wipe"] = bool(np.any(m["wipe"] & (m["e"] < 0)))
-    return {k: v for k, v in out.items() if v is not None}
-
-
 # ---------------------------------------------------------------------------------------------- resolving
 
 
-def resolve(program=None, *, env: Mapping[str, str] | None = None, cura_settings: Mapping[str, Any] | None = None,
-            toolpath=None, cli: Mapping[str, Any] | None = None) -> Settings:
-    """Settings in rising precedence: defaults < slicer < load case ``[toolpath]`` < command line.
+def resolve(
+    program=None,
+    *,
+    env: Mapping[str, str] | None = None,
+    cura_settings: Mapping[str, Any] | None = None,
+    toolpath=None,
+    cli: Mapping[str, Any] | None = None,
+) -> Settings:
+    """Resolve the settings in rising precedence: defaults < slicer < load case ``[toolpath]`` < command line.
 
     Parameters
     ----------
@@ -497,24 +519,40 @@ def add_cli_options(parser: argparse.ArgumentParser) -> None:
         if f.cli is None:
             continue
         metavar = {"float": "X", "optional_float": "MM", "int": "N", "kinds": "KINDS"}.get(f.kind)
-        kw: dict[str, Any] = {"dest": f"set_{f.name}", "default": None, "help": f.help
-                              + (f" [{f.unit}]" if f.unit else "") + f" (default {f.default!r})"}
+        kw: dict[str, Any] = {
+            "dest": f"set_{f.name}",
+            "default": None,
+            "help": f.help + (f" [{f.unit}]" if f.unit else "") + f" (default {f.default!r})",
+        }
         if f.choices and f.kind == "str":
             kw["choices"] = f.choices
         else:
             kw["metavar"] = metavar or "VALUE"
         parser.add_argument(f.cli, **kw)
-    parser.add_argument("--set", dest="set_extra", action="append", default=[], metavar="KEY=VALUE",
-                        help="any other setting, e.g. --set width_max=1.4 (see loadpath.plugin.settings.SCHEMA)")
-    parser.add_argument("--slicer-settings", metavar="FILE.json", default=None,
-                        help="the slicer's resolved settings as JSON with the slicer's own keys (the Cura plugin "
-                             "writes it: retraction_amount, speed_travel, material_diameter, ...)")
+    parser.add_argument(
+        "--set",
+        dest="set_extra",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="any other setting, e.g. --set width_max=1.4 (see loadpath.plugin.settings.SCHEMA)",
+    )
+    parser.add_argument(
+        "--slicer-settings",
+        metavar="FILE.json",
+        default=None,
+        help="the slicer's resolved settings as JSON with the slicer's own keys (the Cura plugin "
+        "writes it: retraction_amount, speed_travel, material_diameter, ...)",
+    )
 
 
 def cli_values(args: argparse.Namespace) -> dict[str, Any]:
     """Field values given on the command line (parsed by :func:`add_cli_options`)."""
-    out = {f.name: getattr(args, f"set_{f.name}") for f in SCHEMA
-           if f.cli is not None and getattr(args, f"set_{f.name}", None) is not None}
+    out = {
+        f.name: getattr(args, f"set_{f.name}")
+        for f in SCHEMA
+        if f.cli is not None and getattr(args, f"set_{f.name}", None) is not None
+    }
     for item in getattr(args, "set_extra", []) or []:
         if "=" not in item:
             raise SettingsError(f"--set {item!r} must look like KEY=VALUE (e.g. --set width_max=1.4)")
@@ -526,17 +564,27 @@ def cli_values(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cura_setting_definitions(groups: Sequence[str] = ("toolpath",)) -> dict[str, dict[str, Any]]:
-    """The schema as Cura ``getSettingDataString`` settings (``type``, ``default_value``, ``unit``, ...)."""
-    types = {"str": "enum", "float": "float", "optional_float": "float", "int": "int", "bool": "bool",
-             "kinds": "str"}
+    """Describe the schema as Cura ``getSettingDataString`` settings (type, default value, unit, ...)."""
+    types = {
+        "str": "enum",
+        "float": "float",
+        "optional_float": "float",
+        "int": "int",
+        "bool": "bool",
+        "kinds": "str",
+    }
     out: dict[str, dict[str, Any]] = {}
     for f in SCHEMA:
         if f.group not in groups:
             continue
-        d: dict[str, Any] = {"label": f.name.replace("_", " ").capitalize(), "description": f.help,
-                             "type": types[f.kind] if f.choices or f.kind != "str" else "str",
-                             "default_value": (",".join(f.default) if f.kind == "kinds" else
-                                               0.0 if f.default is None else f.default)}
+        d: dict[str, Any] = {
+            "label": f.name.replace("_", " ").capitalize(),
+            "description": f.help,
+            "type": types[f.kind] if f.choices or f.kind != "str" else "str",
+            "default_value": (
+                ",".join(f.default) if f.kind == "kinds" else 0.0 if f.default is None else f.default
+            ),
+        }
         if f.unit:
             d["unit"] = f.unit
         if f.minimum is not None and f.kind != "optional_float":
@@ -550,17 +598,30 @@ def cura_setting_definitions(groups: Sequence[str] = ("toolpath",)) -> dict[str,
 
 
 def splice_options(s: Settings):
-    """The splicer's options (:class:`loadpath.gcode.splice.SpliceOptions`) for these settings."""
+    """Build the splicer's options (:class:`loadpath.gcode.splice.SpliceOptions`) for these settings."""
     from loadpath.gcode.flow import FlowModel
     from loadpath.gcode.splice import Motion, PlanOptions, Retraction, SpliceOptions
 
     flow = FlowModel(s.flow_model, s.filament_diameter, s.extrusion_multiplier, s.volumetric_e)
-    retraction = Retraction(length=s.retract_length, speed=s.retract_speed, deretract_speed=s.deretract_speed,
-                            restart_extra=s.retract_restart_extra, lift=s.retract_lift, lift_speed=s.travel_speed_z,
-                            before_travel=s.retract_before_travel,
-                            only_when_crossing=s.only_retract_when_crossing_perimeters, wipe=s.wipe,
-                            before_wipe=s.retract_before_wipe, firmware=s.use_firmware_retraction)
-    plan = PlanOptions(nozzle_diameter=s.nozzle_diameter, width_range=(s.width_min, s.width_max),
-                       link_max=s.link_max, max_volumetric_speed=s.max_volumetric_speed,
-                       match_volume=s.match_volume, max_correction=s.max_correction)
+    retraction = Retraction(
+        length=s.retract_length,
+        speed=s.retract_speed,
+        deretract_speed=s.deretract_speed,
+        restart_extra=s.retract_restart_extra,
+        lift=s.retract_lift,
+        lift_speed=s.travel_speed_z,
+        before_travel=s.retract_before_travel,
+        only_when_crossing=s.only_retract_when_crossing_perimeters,
+        wipe=s.wipe,
+        before_wipe=s.retract_before_wipe,
+        firmware=s.use_firmware_retraction,
+    )
+    plan = PlanOptions(
+        nozzle_diameter=s.nozzle_diameter,
+        width_range=(s.width_min, s.width_max),
+        link_max=s.link_max,
+        max_volumetric_speed=s.max_volumetric_speed,
+        match_volume=s.match_volume,
+        max_correction=s.max_correction,
+    )
     return SpliceOptions(flow=flow, motion=Motion(s.travel_speed, retraction), plan=plan)

@@ -23,7 +23,6 @@ move, absolute values are the rounded running total, so the sum written equals t
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +31,7 @@ __all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_many"]
 
 
 def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
-    """A number as slicers write it: fixed decimals, trailing zeros dropped.
+    """Format a number as slicers write it: fixed decimals, trailing zeros dropped.
 
     Examples
     --------
@@ -52,29 +51,20 @@ def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
     return s
 
 
-_TRAIL = re.compile(r"(\.\d*?)0+(?=\n)")
-_DOT = re.compile(r"\.(?=\n)")
-_NEG0 = re.compile(r"(?<=\n)-0(?=\n)")
-_LEAD = re.compile(r"(?<=\n)(-?)0\.")
-
-
 def fmt_many(values, decimals: int, leading_zero: bool = False) -> list[str]:
-    """:func:`fmt` of every value, formatted and trimmed in a few C-level passes.
+    """Format many numbers as :func:`fmt` does (one pass of C-level string methods per value).
 
     Examples
     --------
-    >>> fmt_many([0.6, -0.04, 199.3680001, 0.0, 100.0], 3)
-    ['.6', '-.04', '199.368', '0', '100']
+    >>> fmt_many([0.6, -0.04, 199.3680001, 0.0, 100.0, -0.0001], 3)
+    ['.6', '-.04', '199.368', '0', '100', '0']
     """
-    vals = [float(v) for v in values]
-    if not vals:
-        return []
-    text = "\n" + (f"%.{decimals}f\n" * len(vals)) % tuple(vals)
-    text = _DOT.sub("", _TRAIL.sub(r"\1", text))
-    text = _NEG0.sub("0", text)
+    f = f"%.{decimals}f"
+    out = [(f % v).rstrip("0").rstrip(".") for v in np.asarray(values, dtype=float).tolist()]
+    out = ["0" if s in ("-0", "") else s for s in out]
     if not leading_zero:
-        text = _LEAD.sub(r"\1.", text)
-    return text[1:-1].split("\n")
+        out = [s[1:] if s[:2] == "0." else "-" + s[2:] if s[:3] == "-0." else s for s in out]
+    return out
 
 
 @dataclass(frozen=True)
@@ -109,9 +99,21 @@ class Style:
 
 
 STYLES = {
-    "prusa": Style("prusa", "G1", False, True, False, ";TYPE:", ";WIDTH:", ";HEIGHT:", ";WIPE_START", ";WIPE_END"),
-    "bambu": Style("bambu", "G1", False, True, False, "; FEATURE: ", "; LINE_WIDTH: ", "; LAYER_HEIGHT: ",
-                   "; WIPE_START", "; WIPE_END"),
+    "prusa": Style(
+        "prusa", "G1", False, True, False, ";TYPE:", ";WIDTH:", ";HEIGHT:", ";WIPE_START", ";WIPE_END"
+    ),
+    "bambu": Style(
+        "bambu",
+        "G1",
+        False,
+        True,
+        False,
+        "; FEATURE: ",
+        "; LINE_WIDTH: ",
+        "; LAYER_HEIGHT: ",
+        "; WIPE_START",
+        "; WIPE_END",
+    ),
     "cura": Style("cura", "G0", True, False, True, ";TYPE:", None, None, None, None),
 }
 
@@ -134,8 +136,17 @@ class Writer:
         Set when E words are mm^3: filament millimetres are multiplied by it when written.
     """
 
-    def __init__(self, style: Style, x: float, y: float, z: float, e: float, f: float, e_relative: bool,
-                 volumetric_area: float | None = None) -> None:
+    def __init__(
+        self,
+        style: Style,
+        x: float,
+        y: float,
+        z: float,
+        e: float,
+        f: float,
+        e_relative: bool,
+        volumetric_area: float | None = None,
+    ) -> None:
         self.style = style
         self.lines: list[str] = []
         self.x, self.y, self.z = x, y, z
@@ -231,8 +242,16 @@ class Writer:
         self.filament += de
         self.retracted = 0.0
 
-    def extrude_many(self, points, de, f, widths=None, width_marker_step: float = 0.01,
-                     inserts: dict[int, list[str]] | None = None) -> None:
+    def extrude_many(
+        self,
+        points,
+        de,
+        f,
+        widths=None,
+        width_marker_step: float = 0.01,
+        width_hysteresis: float = 0.0199,
+        inserts: dict[int, list[str]] | None = None,
+    ) -> None:
         """Extrude along a polyline in one go (the vectorized form of :meth:`extrude`).
 
         Parameters
@@ -247,6 +266,9 @@ class Writer:
             Bead width per segment: a width marker is written where it changes by a step.
         width_marker_step : float, mm
             Widths are rounded to this for the markers.
+        width_hysteresis : float, mm
+            A new width marker is written when the rounded width moved this far from the last one
+            (viewers colour by it; the flow itself follows every segment's width exactly).
         inserts : dict of int -> list of str, optional
             Lines written after segment ``k`` (``M73`` progress lines).
         """
@@ -277,28 +299,43 @@ class Writer:
         wq = None
         if widths is not None and self.style.width:
             wq = np.round(np.asarray(widths, dtype=float) / width_marker_step) * width_marker_step
-        lines = self.lines
+        head = [
+            f"G1 X{x} Y{y} E{e}" if h else f"G1 X{x} Y{y}"
+            for x, y, e, h in zip(xs, ys, es, has_e.tolist(), strict=True)
+        ]
+        # events before a segment: a width marker (with hysteresis) and/or a feedrate change
+        events: dict[int, list[str]] = {}
         cur_w = self.width
+        if wq is not None:
+            wl = wq.tolist()
+            for k in range(n):
+                if not abs(wl[k] - cur_w) < width_hysteresis:
+                    cur_w = wl[k]
+                    events[k] = [f"{self.style.width}{fmt(cur_w, 6, True)}"]
         fcur = self.f
-        for k in range(n):
-            if wq is not None and not (abs(wq[k] - cur_w) < 1e-9):
-                cur_w = float(wq[k])
-                lines.append(f"{self.style.width}{fmt(cur_w, 6, True)}")
-            fk = float(f[k])
-            words = f"X{xs[k]} Y{ys[k]}" + (f" E{es[k]}" if has_e[k] else "")
-            if fcur != fk:
-                fcur = fk
-                if self.style.feed_line:
-                    lines.append(f"G1 F{fmt(fk, 3, True)}")
-                    lines.append(f"G1 {words}")
-                elif self.style.f_first:
-                    lines.append(f"G1 F{fmt(fk, 3, True)} {words}")
-                else:
-                    lines.append(f"G1 {words} F{fmt(fk, 3, True)}")
+        change = np.flatnonzero(np.diff(np.concatenate([[fcur if np.isfinite(fcur) else -1.0], f])) != 0)
+        for k in change.tolist():
+            fw = "F" + fmt(float(f[k]), 3, True)
+            if self.style.feed_line:
+                events.setdefault(k, []).append(f"G1 {fw}")
+            elif self.style.f_first:
+                head[k] = head[k].replace("G1 ", f"G1 {fw} ", 1)
             else:
-                lines.append(f"G1 {words}")
-            if inserts and k in inserts:
-                lines.extend(inserts[k])
+                head[k] = f"{head[k]} {fw}"
+        if len(f):
+            fcur = float(f[-1])
+        for k, extra in (inserts or {}).items():
+            if k + 1 < n:
+                events.setdefault(k + 1, []).extend(extra)
+        lines = self.lines
+        prev = 0
+        for k in sorted(events):
+            lines.extend(head[prev:k])
+            lines.extend(events[k])
+            prev = k
+        lines.extend(head[prev:])
+        if inserts and n - 1 in inserts:
+            lines.extend(inserts[n - 1])
         seg = np.hypot(*np.diff(pts, axis=0).T)
         self.seconds += float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
         self.width = cur_w
@@ -337,5 +374,5 @@ class Writer:
         self._carry = 0.0
 
     def text(self, newline: str = "\n") -> str:
-        """The lines written so far, each with ``newline``."""
-        return "".join(line + newline for line in self.lines)
+        """Return the lines written so far, each with ``newline``."""
+        return newline.join(self.lines) + newline if self.lines else ""

@@ -69,14 +69,15 @@ class FlowModel:
             raise SettingsError(f"flow model {self.shape!r} is unknown; use one of {', '.join(SHAPES)}")
         if not (self.filament_diameter > 0 and math.isfinite(self.filament_diameter)):
             raise SettingsError(
-                f"filament diameter = {self.filament_diameter!r} mm must be positive (1.75 or 2.85 usually)")
+                f"filament diameter = {self.filament_diameter!r} mm must be positive (1.75 or 2.85 usually)"
+            )
         if not (self.multiplier > 0 and math.isfinite(self.multiplier)):
             raise SettingsError(f"extrusion multiplier = {self.multiplier!r} must be positive (1.0 usually)")
 
     @property
     def filament_area(self) -> float:
         """Cross-section of the filament, mm^2."""
-        return math.pi * self.filament_diameter ** 2 / 4.0
+        return math.pi * self.filament_diameter**2 / 4.0
 
     def area(self, width, height):
         """Bead cross-section, mm^2.

@@ -36,6 +36,9 @@ from loadpath.gcode.flow import FlowModel
 from loadpath.toolpath import Path
 from shapely.geometry import LineString
 
+FEED_STEP = 120.0
+"""Feedrates lowered for the volumetric limit are multiples of this, mm/min (2 mm/s)."""
+
 __all__ = ["PlanOptions", "Chain", "BlockPlan", "plan_block", "simplify", "order_paths"]
 
 
@@ -72,7 +75,7 @@ class PlanOptions:
     link_max: float = 2.0
     min_segment: float = 0.05
     resolution: float = 0.0125
-    pitch_resolution: float = 0.01
+    pitch_resolution: float = 0.025
     max_volumetric_speed: float = 0.0
     match_volume: bool = True
     max_correction: float = 0.15
@@ -139,8 +142,9 @@ class BlockPlan:
         return float(sum(c.length for c in self.chains))
 
 
-def simplify(paths: Sequence[tuple[Points2, Floats]], tol: float, pitch_tol: float = 0.01,
-             min_segment: float = 0.05) -> list[tuple[Points2, Floats]]:
+def simplify(
+    paths: Sequence[tuple[Points2, Floats]], tol: float, pitch_tol: float = 0.01, min_segment: float = 0.05
+) -> list[tuple[Points2, Floats]]:
     """Fewer vertices, same paths: Ramer-Douglas-Peucker on position and pitch together.
 
     A vertex is dropped when the simplified polyline passes within ``tol`` mm of it and the pitch
@@ -251,9 +255,19 @@ def _segment_values(v: Floats) -> Floats:
     return 0.5 * (v[:-1] + v[1:])
 
 
-def plan_block(paths: Sequence[Path], start: Points2, height: float, feedrate: float, flow: FlowModel,
-               options: PlanOptions, region: Region | None = None, nominal_pitch: float | None = None,
-               flow_width: float | None = None, target_filament: float | None = None) -> BlockPlan:
+def plan_block(
+    paths: Sequence[Path],
+    start: Points2,
+    height: float,
+    feedrate: float,
+    flow: FlowModel,
+    options: PlanOptions,
+    region: Region | None = None,
+    nominal_pitch: float | None = None,
+    flow_width: float | None = None,
+    target_filament: float | None = None,
+    simplified: bool = False,
+) -> BlockPlan:
     """Plan one replaced block (see the module docstring).
 
     Parameters
@@ -275,14 +289,17 @@ def plan_block(paths: Sequence[Path], start: Points2, height: float, feedrate: f
         Fixed flow width for every segment (sparse infill); None: each segment's local pitch.
     target_filament : float, mm, optional
         Filament of the replaced block, for volume matching.
+    simplified : bool
+        The paths were already simplified with these options (:func:`simplify`): skip step 1.
 
     Returns
     -------
     BlockPlan
     """
-    prepared = [(pts, pitch) for pts, pitch in simplify([(p.points, p.pitch) for p in paths], options.resolution,
-                                                          options.pitch_resolution, options.min_segment)
-                if len(pts) >= 2 and np.sum(np.hypot(*np.diff(pts, axis=0).T)) > 0]
+    raw = [(p.points, p.pitch) for p in paths]
+    if not simplified:
+        raw = simplify(raw, options.resolution, options.pitch_resolution, options.min_segment)
+    prepared = [(pts, pitch) for pts, pitch in raw if len(pts) >= 2 and np.any(pts[1:] != pts[:-1])]
     if options.order:
         prepared = order_paths(prepared, start)
     if not prepared:
@@ -339,14 +356,20 @@ def plan_block(paths: Sequence[Path], start: Points2, height: float, feedrate: f
     f = np.full(len(ln), float(feedrate))
     if options.max_volumetric_speed > 0:
         limit = options.max_volumetric_speed * 60.0 / (area * flow.multiplier)
-        f = np.minimum(f, np.floor(limit))
+        # lowered in steps of 2 mm/s, so a slowly widening bead does not change F on every segment
+        f = np.minimum(f, np.floor(limit / FEED_STEP) * FEED_STEP)
     chains = []
     a = 0
     for pts in chains_pts:
         k = len(pts) - 1
-        chains.append(Chain(points=pts, filament=filament[a:a + k], width=bead[a:a + k], feedrate=f[a:a + k]))
+        chains.append(
+            Chain(points=pts, filament=filament[a : a + k], width=bead[a : a + k], feedrate=f[a : a + k])
+        )
         a += k
-    stats = {"width_min": float(bead.min()), "width_max": float(bead.max()),
-             "width_clamped": float(np.mean((bead <= wmin + 1e-9) | (bead >= wmax - 1e-9))),
-             "slowed": float(np.mean(f < feedrate))}
+    stats = {
+        "width_min": float(bead.min()),
+        "width_max": float(bead.max()),
+        "width_clamped": float(np.mean((bead <= wmin + 1e-9) | (bead >= wmax - 1e-9))),
+        "slowed": float(np.mean(f < feedrate)),
+    }
     return BlockPlan(tuple(chains), len(prepared), n_links, scale, raw, stats)

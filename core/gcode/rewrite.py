@@ -37,6 +37,7 @@ from loadpath.gcode.blocks import BARRIER, NEUTRAL, TRAVEL, WIPE
 from loadpath.gcode.emit import Style, Writer, fmt
 from loadpath.gcode.model import Block, Program
 from loadpath.gcode.plan import BlockPlan, Chain
+from loadpath.gcode.rowindex import move_rows
 from loadpath.gcode.travel import Motion, TravelState, travel, unretract, wipe_back
 from loadpath.gcode.words import G, M, T
 
@@ -73,7 +74,7 @@ def _sets_f(text: str) -> bool:
 
 
 def _next_needs_position(program: Program, after: int) -> bool:
-    """Does the next XY-moving original line from ``after`` on depend on where the nozzle is?"""
+    """Tell whether the next XY-moving original line from ``after`` on depends on the nozzle position."""
     s = program.state
     for j in range(after, program.n_lines):
         cmd = int(s.cmd[j])
@@ -85,8 +86,12 @@ def _next_needs_position(program: Program, after: int) -> bool:
         words = {x.upper() for x in _WORD_RE.findall(m.group(2))}
         if not ({"X", "Y"} & words) and cmd in (G + 0, G + 1):
             continue  # Z, E or F only: position-independent
-        return cmd in (G + 2, G + 3) or not bool(s.absolute_xyz[j]) or not {"X", "Y"} <= words \
+        return (
+            cmd in (G + 2, G + 3)
+            or not bool(s.absolute_xyz[j])
+            or not {"X", "Y"} <= words
             or float(s.de[j]) != 0.0
+        )
     return False
 
 
@@ -119,13 +124,12 @@ def _verbatim(w: Writer, st: TravelState, i: int) -> None:
     st.fw = bool(s.fw_retracted[i])
     if _sets_f(text):
         w.f = float(s.f[i])
-    mv = p.moves[p.move_rows(i, i + 1)]
+    mv = p.moves[move_rows(p, i, i + 1)]
     if len(mv):
         d = np.sqrt((mv["z1"] - mv["z0"]) ** 2 + (mv["x1"] - mv["x0"]) ** 2 + (mv["y1"] - mv["y0"]) ** 2)
         d = np.where(d > 0, d, np.abs(mv["e"]))
         ok = np.isfinite(mv["f"]) & (mv["f"] > 0)
         w.seconds += float(np.sum(d[ok] / mv["f"][ok]) * 60.0)
-
 
 
 # ---------------------------------------------------------------------------------------------- block
@@ -158,7 +162,7 @@ def _leaving(w: Writer, st: TravelState, a: int, z: int, last: Points2) -> None:
     kind = p.kind_of_line
     wipes = [i for i in range(a, z) if kind[i] == WIPE and p.state.moved_xy[i]]
     total = -float(np.sum(p.state.de[wipes])) if wipes else 0.0
-    rows = p.move_rows(a, z)
+    rows = move_rows(p, a, z)
     mv = p.moves[rows]
     mv = mv[mv["wipe"]]
     dist = float(np.sum(np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"])))
@@ -177,8 +181,9 @@ def _leaving(w: Writer, st: TravelState, a: int, z: int, last: Points2) -> None:
 
 
 def _restore(w: Writer, st: TravelState, end: int, style: Style, keep_position: bool = False) -> None:
-    """Leave the machine as the original was after line ``end - 1`` (position too, unless
-    ``keep_position``: a detached wipe continues from here).
+    """Leave the machine as the original was after line ``end - 1``.
+
+    The position too, unless ``keep_position`` (a detached wipe continues from here).
     """
     p = st.program
     s = p.state
@@ -187,8 +192,11 @@ def _restore(w: Writer, st: TravelState, end: int, style: Style, keep_position: 
         w.marker(style.width, _width_text(float(p.width_of_line[i])))
     if style.height and not math.isnan(p.height_of_line[i]) and w.height != float(p.height_of_line[i]):
         w.marker(style.height, _width_text(float(p.height_of_line[i])))
-    if not keep_position and _next_needs_position(p, end) and (abs(w.x - s.x[i]) > 1e-6
-                                                               or abs(w.y - s.y[i]) > 1e-6):
+    if (
+        not keep_position
+        and _next_needs_position(p, end)
+        and (abs(w.x - s.x[i]) > 1e-6 or abs(w.y - s.y[i]) > 1e-6)
+    ):
         w.travel(float(s.x[i]), float(s.y[i]), st.motion.travel_f)
     if abs(w.z - float(s.z[i])) > 1e-9:
         w.z_move(float(s.z[i]), st.motion.lift_f)
@@ -198,9 +206,16 @@ def _restore(w: Writer, st: TravelState, end: int, style: Style, keep_position: 
         w.set_e(float(s.e[i]))
 
 
-def rewrite_block(program: Program, b: Block, plan: BlockPlan, region: Region | None, motion: Motion,
-                  style: Style, volumetric_area: float | None) -> Rewritten:
-    """The new text of one block (see the module docstring).
+def rewrite_block(
+    program: Program,
+    b: Block,
+    plan: BlockPlan,
+    region: Region | None,
+    motion: Motion,
+    style: Style,
+    volumetric_area: float | None,
+) -> Rewritten:
+    """Write the new text of one block (see the module docstring).
 
     Parameters
     ----------
@@ -311,8 +326,15 @@ def _nl(p: Program) -> str:
     return p.newline.decode("ascii")
 
 
-def _extrude_chain(w: Writer, c: Chain, style: Style, m73: list[tuple[float, str]], mi: int, done_len: float,
-                   total_len: float) -> tuple[int, float]:
+def _extrude_chain(
+    w: Writer,
+    c: Chain,
+    style: Style,
+    m73: list[tuple[float, str]],
+    mi: int,
+    done_len: float,
+    total_len: float,
+) -> tuple[int, float]:
     """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
     seg = np.hypot(*np.diff(c.points, axis=0).T)
     cum = done_len + np.cumsum(seg)

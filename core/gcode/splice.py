@@ -34,6 +34,7 @@ from loadpath.gcode.flow import FlowModel
 from loadpath.gcode.model import Block, Program
 from loadpath.gcode.plan import PlanOptions, plan_block
 from loadpath.gcode.rewrite import refusal, rewrite_block
+from loadpath.gcode.rowindex import move_rows
 from loadpath.gcode.travel import Motion, Retraction
 from loadpath.toolpath import Path
 
@@ -96,6 +97,9 @@ class BlockFill:
         Pitch of printed links; default the median pitch of the paths.
     feedrate : float, mm/min, optional
         Default: the replaced block's own (:func:`block_feedrate`).
+    simplified : bool
+        The paths were already simplified with the splice's plan options (the pipeline does it once
+        for all the layers that reuse them).
     """
 
     block: int
@@ -104,6 +108,7 @@ class BlockFill:
     flow_width: float | None = None
     nominal_pitch: float | None = None
     feedrate: float | None = None
+    simplified: bool = False
 
 
 @dataclass(frozen=True)
@@ -187,8 +192,9 @@ def kinematic_time(moves: np.ndarray) -> float:
     """Sum of distance / feedrate over moves (E-only moves: filament distance), s; no acceleration."""
     if len(moves) == 0:
         return 0.0
-    d = np.sqrt((moves["x1"] - moves["x0"]) ** 2 + (moves["y1"] - moves["y0"]) ** 2
-                + (moves["z1"] - moves["z0"]) ** 2)
+    d = np.sqrt(
+        (moves["x1"] - moves["x0"]) ** 2 + (moves["y1"] - moves["y0"]) ** 2 + (moves["z1"] - moves["z0"]) ** 2
+    )
     d = np.where(d > 0, d, np.abs(moves["e"]))
     f = moves["f"]
     ok = np.isfinite(f) & (f > 0)
@@ -202,12 +208,14 @@ def _weighted_median(v: np.ndarray, w: np.ndarray) -> float:
 
 
 def block_feedrate(program: Program, b: Block) -> float:
-    """The block's extrusion feedrate (length-weighted median), mm/min: it includes cooling slowdown."""
+    """Return the block's extrusion feedrate (length-weighted median, with cooling slowdown), mm/min."""
     mv = program.moves[b.moves]
     mv = mv[mv["extrude"] & np.isfinite(mv["f"])]
     if len(mv) == 0:
-        raise SettingsError(f"block {b.index} (layer {b.layer + 1}, {b.feature}) has no feedrate; "
-                            "the file sets no F before its extrusions")
+        raise SettingsError(
+            f"block {b.index} (layer {b.layer + 1}, {b.feature}) has no feedrate; "
+            "the file sets no F before its extrusions"
+        )
     return _weighted_median(mv["f"], np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"]) + 1e-12)
 
 
@@ -222,7 +230,7 @@ def block_height(program: Program, b: Block) -> float:
 
 
 def style_of(program: Program) -> Style:
-    """The writing style of the file's marker family."""
+    """Return the writing style of the file's marker family."""
     return STYLES.get(program.dialect.family, STYLES["prusa"])
 
 
@@ -257,28 +265,59 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
         feed = fill.feedrate or block_feedrate(program, b)
         height = block_height(program, b)
         s0 = program.state_before(b.span_start)
-        plan = plan_block(fill.paths, np.array([s0.x, s0.y]), height, feed, options.flow, options.plan,
-                          region=fill.region, nominal_pitch=fill.nominal_pitch, flow_width=fill.flow_width,
-                          target_filament=b.e)
+        plan = plan_block(
+            fill.paths,
+            np.array([s0.x, s0.y]),
+            height,
+            feed,
+            options.flow,
+            options.plan,
+            region=fill.region,
+            nominal_pitch=fill.nominal_pitch,
+            flow_width=fill.flow_width,
+            target_filament=b.e,
+            simplified=fill.simplified,
+        )
         if options.volume_tol is not None and b.e > 0 and abs(plan.filament / b.e - 1) > options.volume_tol:
-            skipped.append((fill.block, f"the new paths would extrude {plan.filament / b.e:.0%} of the slicer's "
-                                        "volume (the engine covered too little or too much of the region)"))
+            skipped.append(
+                (
+                    fill.block,
+                    f"the new paths would extrude {plan.filament / b.e:.0%} of the slicer's "
+                    "volume (the engine covered too little or too much of the region)",
+                )
+            )
             continue
         rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area)
         edits.append((b.span_start, b.span_stop, rw.span.encode("utf-8")))
-        old_rows = [program.move_rows(b.span_start, b.span_stop)]
+        old_rows = [move_rows(program, b.span_start, b.span_stop)]
         if rw.exit is not None:
             edits.append((b.exit_start, b.exit_stop, rw.exit.encode("utf-8")))
-            old_rows.append(program.move_rows(b.exit_start, b.exit_stop))
+            old_rows.append(move_rows(program, b.exit_start, b.exit_stop))
         secs_old = sum(kinematic_time(program.moves[r]) for r in old_rows)
-        reports.append(BlockReport(
-            block=fill.block, layer=b.layer, feature=b.feature, object=b.object, filament_old=b.e,
-            filament_new=plan.filament, filament_model=plan.raw_filament, length_old=b.length,
-            length_new=plan.length, seconds_old=secs_old, seconds_new=rw.seconds, n_paths=plan.n_paths,
-            n_links=plan.n_links, n_travels=rw.n_travels, n_retracts=rw.n_retracts,
-            correction=plan.correction, feedrate=feed, height=height,
-            width_min=plan.stats.get("width_min", float("nan")),
-            width_max=plan.stats.get("width_max", float("nan"))))
+        reports.append(
+            BlockReport(
+                block=fill.block,
+                layer=b.layer,
+                feature=b.feature,
+                object=b.object,
+                filament_old=b.e,
+                filament_new=plan.filament,
+                filament_model=plan.raw_filament,
+                length_old=b.length,
+                length_new=plan.length,
+                seconds_old=secs_old,
+                seconds_new=rw.seconds,
+                n_paths=plan.n_paths,
+                n_links=plan.n_links,
+                n_travels=rw.n_travels,
+                n_retracts=rw.n_retracts,
+                correction=plan.correction,
+                feedrate=feed,
+                height=height,
+                width_min=plan.stats.get("width_min", float("nan")),
+                width_max=plan.stats.get("width_max", float("nan")),
+            )
+        )
     delta = sum(r.seconds_new - r.seconds_old for r in reports)
     dfil = sum(r.filament_new - r.filament_old for r in reports)
     if options.notes and reports:
@@ -287,8 +326,9 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
     data = program.replace_lines(edits)
     nl = program.newline
     counted = tuple((a, z, new.count(nl) if nl == b"\r\n" else new.count(b"\n")) for a, z, new in edits)
-    return SpliceResult(data=data, edits=counted, blocks=tuple(reports), skipped=tuple(skipped),
-                        seconds_delta=delta)
+    return SpliceResult(
+        data=data, edits=counted, blocks=tuple(reports), skipped=tuple(skipped), seconds_delta=delta
+    )
 
 
 # ---------------------------------------------------------------------------------------------- notes
@@ -332,17 +372,36 @@ def _notes(program: Program, delta: float, dfil: float, flow: FlowModel) -> list
             old = parse_duration(m.group(2))
             if old is not None:
                 new = format_duration(old + delta)
-                out.append((i + 1, i + 1, f"; estimated printing time after loadpath ({m.group(1)}) = {new}".encode()
-                            + nl))
+                out.append(
+                    (
+                        i + 1,
+                        i + 1,
+                        f"; estimated printing time after loadpath ({m.group(1)}) = {new}".encode() + nl,
+                    )
+                )
             continue
         m = _FIL_MM_RE.match(text)
         if m:
-            out.append((i + 1, i + 1, f"; filament used after loadpath [mm] = {float(m.group(1)) + dfil:.2f}".encode()
-                        + nl))
+            out.append(
+                (
+                    i + 1,
+                    i + 1,
+                    f"; filament used after loadpath [mm] = {float(m.group(1)) + dfil:.2f}".encode() + nl,
+                )
+            )
             continue
         m = _CURA_TIME_RE.match(text)
         if m and program.dialect.family == "cura":
-            out.append((i + 1, i + 1, (f";loadpath: ;TIME: above is the slicer's estimate; the replaced infill changes "
-                                       f"it by about {sign}{format_duration(abs(delta))}").encode() + nl))
+            out.append(
+                (
+                    i + 1,
+                    i + 1,
+                    (
+                        f";loadpath: ;TIME: above is the slicer's estimate; the replaced infill changes "
+                        f"it by about {sign}{format_duration(abs(delta))}"
+                    ).encode()
+                    + nl,
+                )
+            )
             break
     return out

@@ -1,5 +1,6 @@
-"""Travels between new paths the way the slicer makes them: retraction, wipe, z-hop, and the rule
-that no travel leaves the replace region primed.
+"""Travels between new paths the way the slicer makes them: retraction, wipe, z-hop.
+
+No travel leaves the replace region primed.
 
 Rules (PrusaSlicer's ``GCode::needs_retraction`` and ``Wipe``, Cura's combing/min-travel, as far as
 a post-processor can apply them; ``slicer-conventions.md`` §5):
@@ -26,7 +27,16 @@ from loadpath.gcode.emit import Writer
 from loadpath.gcode.model import Program
 from shapely.geometry import LineString
 
-__all__ = ["Retraction", "Motion", "TravelState", "travel", "retract", "unretract", "wipe_back", "wipe_points"]
+__all__ = [
+    "Retraction",
+    "Motion",
+    "TravelState",
+    "travel",
+    "retract",
+    "unretract",
+    "wipe_back",
+    "wipe_points",
+]
 
 
 @dataclass(frozen=True)
@@ -184,6 +194,7 @@ def retract(w: Writer, st: TravelState, last: Points2 | None) -> None:
 
 
 def unretract(w: Writer, st: TravelState) -> None:
+    """Lower back to the layer and prime what was pulled (plus the restart extra), or ``G11``."""
     r = st.motion.retraction
     if abs(w.z - st.layer_z) > 1e-9:
         w.z_move(st.layer_z, st.motion.lift_f)
@@ -195,8 +206,14 @@ def unretract(w: Writer, st: TravelState) -> None:
         w.retracted = 0.0
 
 
-def travel(w: Writer, st: TravelState, target: Points2, last: Points2 | None, f: float | None = None,
-            z: float | None = None) -> None:
+def travel(
+    w: Writer,
+    st: TravelState,
+    target: Points2,
+    last: Points2 | None,
+    f: float | None = None,
+    z: float | None = None,
+) -> None:
     """Travel to ``target``, retracting by the slicer's rules when primed; never leave the region primed."""
     here = np.array([w.x, w.y])
     d = float(np.hypot(*(target - here)))
@@ -214,5 +231,3 @@ def travel(w: Writer, st: TravelState, target: Points2, last: Points2 | None, f:
     w.travel(float(target[0]), float(target[1]), f or st.motion.travel_f, z)
     if own:
         unretract(w, st)
-
-

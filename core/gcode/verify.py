@@ -29,6 +29,7 @@ import shapely
 from loadpath._typing import Region
 from loadpath.gcode.blocks import EXTRUDE, RETRACT, WIPE
 from loadpath.gcode.model import Program
+from loadpath.gcode.rowindex import move_rows
 from loadpath.gcode.splice import SpliceResult
 from loadpath.gcode.words import G
 
@@ -69,8 +70,14 @@ def layer_features(program: Program) -> list[set[str]]:
     return out
 
 
-def check_splice(original: Program, output: Program, result: SpliceResult, volume_tol: float = 0.03,
-                 regions: Mapping[int, Region] | None = None, retract_length: float = 0.0) -> SpliceCheck:
+def check_splice(
+    original: Program,
+    output: Program,
+    result: SpliceResult,
+    volume_tol: float = 0.03,
+    regions: Mapping[int, Region] | None = None,
+    retract_length: float = 0.0,
+) -> SpliceCheck:
     """Check a splice (see the module docstring).
 
     Parameters
@@ -97,14 +104,18 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
     for a, z in runs:
         if original.lines_bytes(a, z) != output.lines_bytes(int(lmap[a]), int(lmap[z - 1]) + 1):
             bad = next(i for i in range(a, z) if original.line(i) != output.line(int(lmap[i])))
-            problems.append(f"kept line {bad + 1} changed: {original.line(bad)!r} -> {output.line(int(lmap[bad]))!r}")
+            problems.append(
+                f"kept line {bad + 1} changed: {original.line(bad)!r} -> {output.line(int(lmap[bad]))!r}"
+            )
             break
     # 2. machine state on kept lines
     i_k = np.flatnonzero(keep)
     j_k = lmap[i_k]
     so, sn = original.state, output.state
 
-    def differ(name: str, a: np.ndarray, b: np.ndarray, tol: float = 0.0, mask: np.ndarray | None = None) -> None:
+    def differ(
+        name: str, a: np.ndarray, b: np.ndarray, tol: float = 0.0, mask: np.ndarray | None = None
+    ) -> None:
         bad = np.abs(a - b) > tol if tol else a != b
         if a.dtype.kind == "f":
             bad &= ~(np.isnan(a) & np.isnan(b))
@@ -112,8 +123,10 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
             bad &= mask
         if bad.any():
             k = int(np.argmax(bad))
-            problems.append(f"{name} differs after kept line {i_k[k] + 1} ({original.line(int(i_k[k]))!r}): "
-                            f"{a[k]!r} in the original, {b[k]!r} in the output")
+            problems.append(
+                f"{name} differs after kept line {i_k[k] + 1} ({original.line(int(i_k[k]))!r}): "
+                f"{a[k]!r} in the original, {b[k]!r} in the output"
+            )
 
     differ("Z", so.z[i_k], sn.z[j_k], 1e-6)
     differ("E mode", so.e_relative[i_k], sn.e_relative[j_k])
@@ -127,10 +140,20 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
     moving = np.isin(original.kind_of_line[i_k], (EXTRUDE, WIPE)) | np.isin(so.cmd[i_k], (G + 2, G + 3))
     prev_o, prev_n = np.maximum(i_k - 1, 0), np.maximum(j_k - 1, 0)
     for axis in ("x", "y"):
-        differ(f"{axis.upper()} (end of a kept extrusion)", getattr(so, axis)[i_k], getattr(sn, axis)[j_k], 1e-6,
-               mask=moving)
-        differ(f"{axis.upper()} (start of a kept extrusion)", getattr(so, axis)[prev_o], getattr(sn, axis)[prev_n],
-               1e-6, mask=moving)
+        differ(
+            f"{axis.upper()} (end of a kept extrusion)",
+            getattr(so, axis)[i_k],
+            getattr(sn, axis)[j_k],
+            1e-6,
+            mask=moving,
+        )
+        differ(
+            f"{axis.upper()} (start of a kept extrusion)",
+            getattr(so, axis)[prev_o],
+            getattr(sn, axis)[prev_n],
+            1e-6,
+            mask=moving,
+        )
     # 3. volume per block, read back from the output
     ratio = {}
     edits = list(result.edits)
@@ -148,27 +171,33 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
         spans[rep.block] = [(out_start[r], out_start[r] + count[r]) for r in ranges]
         got = 0.0
         for a, z in spans[rep.block]:
-            rows = output.move_rows(a, z)
+            rows = move_rows(output, a, z)
             mv = output.moves[rows]
             got += float(mv["e"][mv["extrude"]].sum())
         ratio[rep.block] = got / b.e if b.e > 0 else float("nan")
         if not abs(ratio[rep.block] - 1.0) <= volume_tol:
-            problems.append(f"block {rep.block} (layer {b.layer + 1}, {b.feature}): new infill extrudes "
-                            f"{got:.3f} mm of filament, the original {b.e:.3f} mm ({ratio[rep.block]:.3f}x)")
+            problems.append(
+                f"block {rep.block} (layer {b.layer + 1}, {b.feature}): new infill extrudes "
+                f"{got:.3f} mm of filament, the original {b.e:.3f} mm ({ratio[rep.block]:.3f}x)"
+            )
     # 4. retraction bounds in new lines
     new_lines = np.ones(output.n_lines, dtype=bool)
     new_lines[j_k] = False
     max_r = max(float(so.retracted.max(initial=0.0)), retract_length, 0.0) + 1e-4
     r_new = sn.retracted[new_lines]
     if len(r_new) and (r_new.min() < -1e-4 or r_new.max() > max_r):
-        problems.append(f"new lines retract {r_new.max():.5f} mm / prime {-r_new.min():.5f} mm beyond what "
-                        f"was retracted (the slicer never holds back more than {max_r:.5f} mm)")
+        problems.append(
+            f"new lines retract {r_new.max():.5f} mm / prime {-r_new.min():.5f} mm beyond what "
+            f"was retracted (the slicer never holds back more than {max_r:.5f} mm)"
+        )
     # 5. absolute E goes back only by retraction
     ab = ~sn.e_relative
     back = ab & (sn.de < -1e-9) & ~np.isin(output.kind_of_line, (RETRACT, WIPE)) & (sn.cmd != G + 92)
     if back.any():
         k = int(np.argmax(back))
-        problems.append(f"output line {k + 1} moves absolute E backwards without retracting: {output.line(k)!r}")
+        problems.append(
+            f"output line {k + 1} moves absolute E backwards without retracting: {output.line(k)!r}"
+        )
     # 6. dialect, layers, features
     slicers = {output.dialect.slicer, original.dialect.slicer} - {"unknown"}  # a .bgcode's text names none
     if output.dialect.family != original.dialect.family or len(slicers) > 1:
@@ -188,20 +217,28 @@ def check_splice(original: Program, output: Program, result: SpliceResult, volum
             continue
         pts, half = [], []
         for a, z in spans[block]:
-            mv = output.moves[output.move_rows(a, z)]
+            mv = output.moves[move_rows(output, a, z)]
             mv = mv[mv["extrude"]]
             for t in (0.0, 0.5, 1.0):
-                pts.append(np.stack([mv["x0"] + t * (mv["x1"] - mv["x0"]), mv["y0"] + t * (mv["y1"] - mv["y0"])], 1))
+                pts.append(
+                    np.stack([mv["x0"] + t * (mv["x1"] - mv["x0"]), mv["y0"] + t * (mv["y1"] - mv["y0"])], 1)
+                )
                 half.append(np.where(np.isfinite(mv["width"]), mv["width"], 0.4) / 2)
         if not pts:
             continue
         p = np.concatenate(pts)
         h = np.concatenate(half)
-        d = shapely.distance(region, shapely.points(p))
+        shapely.prepare(region)
+        d = np.zeros(len(p))
+        out = ~shapely.contains_xy(region, p[:, 0], p[:, 1])  # distance only for points outside
+        if out.any():
+            d[out] = shapely.distance(region, shapely.points(p[out]))
         outside[block] = float(d.max(initial=0.0))
         bad = d > h + 1e-3
         if bad.any():
             k = int(np.argmax(d - h))
-            problems.append(f"block {block}: new extrusion at ({p[k, 0]:.3f}, {p[k, 1]:.3f}) lies {d[k]:.3f} mm "
-                            f"outside the replace region (more than half its bead width)")
+            problems.append(
+                f"block {block}: new extrusion at ({p[k, 0]:.3f}, {p[k, 1]:.3f}) lies {d[k]:.3f} mm "
+                f"outside the replace region (more than half its bead width)"
+            )
     return SpliceCheck(problems, ratio, outside)

@@ -3,7 +3,8 @@
 >>> from loadpath import gcode, loadcase
 >>> from loadpath.pipeline import PipelineOptions, run
 >>> program = gcode.read("examples/ohs.gcode")                                   # doctest: +SKIP
->>> result = run(program, loadcase.read("examples/ohs.toml"), PipelineOptions(), splice_options)  # doctest: +SKIP
+>>> case = loadcase.read("examples/ohs.toml")                                     # doctest: +SKIP
+>>> result = run(program, case, PipelineOptions(), splice_options)               # doctest: +SKIP
 >>> result.data                     # the new G-code text, checked; nothing is written here  # doctest: +SKIP
 
 Stages (each timed in :attr:`PipelineResult.times`):
@@ -36,7 +37,6 @@ from typing import Any
 
 import numpy as np
 import shapely
-
 from loadpath.errors import SpliceError
 from loadpath.gcode import Program, parse
 from loadpath.gcode.plan import PlanOptions, simplify
@@ -171,8 +171,14 @@ class _Clock:
         self.t = now
 
 
-def run(program: Program, loadcase, options: PipelineOptions, splice_options: SpliceOptions,
-        progress: Progress | None = None, cura_settings: Mapping[str, Any] | None = None) -> PipelineResult:
+def run(
+    program: Program,
+    loadcase,
+    options: PipelineOptions,
+    splice_options: SpliceOptions,
+    progress: Progress | None = None,
+    cura_settings: Mapping[str, Any] | None = None,
+) -> PipelineResult:
     """Run the pipeline on a parsed program (see the module docstring).
 
     Parameters
@@ -203,8 +209,13 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
 
     reason = passthrough_reason(program.config, cura_settings)
     if reason:
-        return PipelineResult(program.data, program, times=times, warnings=(f"passed through unchanged: {reason}",),
-                              passthrough=reason)
+        return PipelineResult(
+            program.data,
+            program,
+            times=times,
+            warnings=(f"passed through unchanged: {reason}",),
+            passthrough=reason,
+        )
 
     tell("geometry", 0, 1)
     geo = geometry.layer_geometry(program, check=False)  # blocks that fail its check are kept, below
@@ -213,25 +224,34 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
     names = [rb.name for rb in resolved]
     for obj in geo.objects:
         if obj.name not in names:
-            warnings.append(f"object {obj.name!r} is not in the load case (object = {loadcase.object!r}): "
-                            "passed through unchanged")
+            warnings.append(
+                f"object {obj.name!r} is not in the load case (object = {loadcase.object!r}): "
+                "passed through unchanged"
+            )
     purges = purge_blocks(program)
     if purges:
-        warnings.append(f"{len(purges)} infill block(s) take the purge after a tool change (wipe into infill): kept")
+        warnings.append(
+            f"{len(purges)} infill block(s) take the purge after a tool change (wipe into infill): kept"
+        )
     unsure = unreliable_blocks(geo)
     for block, dist in unsure.items():
         b = program.block(block)
         if geo_kind(geo, block) in options.replace:
-            warnings.append(f"layer {b.layer + 1}, {b.feature}: kept as sliced (its lines run {dist:.2f} mm outside "
-                            "the infill region found from the perimeters)")
+            warnings.append(
+                f"layer {b.layer + 1}, {b.feature}: kept as sliced (its lines run {dist:.2f} mm outside "
+                "the infill region found from the perimeters)"
+            )
     units = select_units(geo, names, options.replace, options.pitch, exclude=purges | set(unsure))
     clock.lap("loadcase")
     if not units:
         kinds = ", ".join(options.replace)
-        why = (f"nothing to replace: no infill of the kind(s) {kinds} in the objects the load case applies to; "
-               "choose other kinds with replace (e.g. replace = [\"solid\", \"sparse\"])")
-        return PipelineResult(program.data, program, geometry=geo, times=times, warnings=(*warnings, why),
-                              passthrough=why)
+        why = (
+            f"nothing to replace: no infill of the kind(s) {kinds} in the objects the load case applies to; "
+            'choose other kinds with replace (e.g. replace = ["solid", "sparse"])'
+        )
+        return PipelineResult(
+            program.data, program, geometry=geo, times=times, warnings=(*warnings, why), passthrough=why
+        )
 
     analyses = {}
     for k, rb in enumerate(resolved):
@@ -256,8 +276,13 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
         return options.principal
 
     jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])
-    results = run_jobs(jobs, options.engine, dict(options.engine_params), options.workers,
-                       lambda done, total: tell("paths", done, total))
+    results = run_jobs(
+        jobs,
+        options.engine,
+        dict(options.engine_params),
+        options.workers,
+        lambda done, total: tell("paths", done, total),
+    )
     clock.lap("paths")
 
     job_results, fills = _fills(units, jobs, results, options, splice_options.plan)
@@ -272,18 +297,27 @@ def run(program: Program, loadcase, options: PipelineOptions, splice_options: Sp
     check = None
     if options.check:
         regions = {f.block: f.region for f in fills if f.region is not None}
-        check = check_splice(program, out, sres, volume_tol=options.volume_tol, regions=regions,
-                             retract_length=splice_options.motion.retraction.length)
+        check = check_splice(
+            program,
+            out,
+            sres,
+            volume_tol=options.volume_tol,
+            regions=regions,
+            retract_length=splice_options.motion.retraction.length,
+        )
         if check.problems:
-            raise SpliceError(f"the new G-code failed its check ({len(check.problems)} problem(s); first: "
-                              f"{check.problems[0]}); nothing was written: please report this with the file")
+            raise SpliceError(
+                f"the new G-code failed its check ({len(check.problems)} problem(s); first: "
+                f"{check.problems[0]}); nothing was written: please report this with the file"
+            )
     clock.lap("check")
-    return PipelineResult(sres.data, program, out, sres, check, tuple(job_results), analyses, geo, times,
-                          tuple(warnings))
+    return PipelineResult(
+        sres.data, program, out, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings)
+    )
 
 
 def geo_kind(geo, block: int) -> str | None:
-    """The geometry's kind of a block (None when it is in no island)."""
+    """Return the geometry's kind of a block (None when it is in no island)."""
     for obj in geo.objects:
         for lg in obj.layers:
             for isl in lg.islands:
@@ -294,14 +328,20 @@ def geo_kind(geo, block: int) -> str | None:
 
 
 def _simplified(paths, plan: PlanOptions) -> tuple[Path, ...]:
-    """The paths simplified once (every layer that prints them would otherwise do it again)."""
-    simple = simplify([(p.points, p.pitch) for p in paths], plan.resolution, plan.pitch_resolution,
-                      plan.min_segment)
+    """Simplify paths once (every layer that prints them would otherwise do it again)."""
+    simple = simplify(
+        [(p.points, p.pitch) for p in paths], plan.resolution, plan.pitch_resolution, plan.min_segment
+    )
     return tuple(Path(pts, w, p.kind) for (pts, w), p in zip(simple, paths, strict=True) if len(pts) >= 2)
 
 
-def _fills(units: list[Unit], jobs: list[Job], results: list[tuple[Toolpaths, float]],
-           options: PipelineOptions, plan: PlanOptions) -> tuple[list[JobResult], list[BlockFill]]:
+def _fills(
+    units: list[Unit],
+    jobs: list[Job],
+    results: list[tuple[Toolpaths, float]],
+    options: PipelineOptions,
+    plan: PlanOptions,
+) -> tuple[list[JobResult], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them."""
     per_block: dict[int, dict[str, Any]] = {}
     job_results = []
@@ -325,6 +365,14 @@ def _fills(units: list[Unit], jobs: list[Job], results: list[tuple[Toolpaths, fl
     for block, e in sorted(per_block.items()):
         u: Unit = e["unit"]
         region = e["regions"][0] if len(e["regions"]) == 1 else shapely.union_all(e["regions"])
-        fills.append(BlockFill(block, tuple(e["paths"]), region, flow_width=u.flow_width if u.fixed_width else None,
-                               nominal_pitch=u.pitch))
+        fills.append(
+            BlockFill(
+                block,
+                tuple(e["paths"]),
+                region,
+                flow_width=u.flow_width if u.fixed_width else None,
+                nominal_pitch=u.pitch,
+                simplified=True,
+            )
+        )
     return job_results, fills

@@ -27,7 +27,6 @@ from typing import Any
 
 import numpy as np
 import shapely
-
 from loadpath._typing import Region
 from loadpath.engines import generate
 from loadpath.field import StressField
@@ -81,8 +80,12 @@ def fields_agree(a: StressField, b: StressField, region: Region, cos_min: float 
     return bool(np.sum(cos * w) / np.sum(w) >= cos_min)
 
 
-def plan_jobs(units: Sequence[Unit], field_of: Callable[[Unit, str], StressField],
-              principal_of: Callable[[Unit], str], analysis_kind: Callable[[Unit], str]) -> list[Job]:
+def plan_jobs(
+    units: Sequence[Unit],
+    field_of: Callable[[Unit, str], StressField],
+    principal_of: Callable[[Unit], str],
+    analysis_kind: Callable[[Unit], str],
+) -> list[Job]:
     """Group units into engine runs (see the module docstring).
 
     Parameters
@@ -97,8 +100,14 @@ def plan_jobs(units: Sequence[Unit], field_of: Callable[[Unit, str], StressField
     """
     keyed: dict[tuple, list[int]] = {}
     for i, u in enumerate(units):
-        key = (u.object, u.kind, principal_of(u), round(u.pitch, 3), round(u.height, 3),
-               round(u.flow_width, 3) if u.fixed_width else 0.0)
+        key = (
+            u.object,
+            u.kind,
+            principal_of(u),
+            round(u.pitch, 3),
+            round(u.height, 3),
+            round(u.flow_width, 3) if u.fixed_width else 0.0,
+        )
         keyed.setdefault(key, []).append(i)
     jobs: list[Job] = []
     for key, idx in keyed.items():
@@ -114,7 +123,9 @@ def plan_jobs(units: Sequence[Unit], field_of: Callable[[Unit, str], StressField
                 same = [pending[0]]
                 rest = []
                 for i in pending[1:]:
-                    if analysis_kind(units[i]) == "2d" or fields_agree(f, field_of(units[i], key[2]), rep.region):
+                    if analysis_kind(units[i]) == "2d" or fields_agree(
+                        f, field_of(units[i], key[2]), rep.region
+                    ):
                         same.append(i)
                     else:
                         rest.append(i)
@@ -146,8 +157,13 @@ def default_workers() -> int:
     return max(1, min(4, n))
 
 
-def run_jobs(jobs: Sequence[Job], engine: str, params: dict[str, Any], workers: int = 1,
-             progress: Callable[[int, int], None] | None = None) -> list[tuple[Toolpaths, float]]:
+def run_jobs(
+    jobs: Sequence[Job],
+    engine: str,
+    params: dict[str, Any],
+    workers: int = 1,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[tuple[Toolpaths, float]]:
     """Run every job's engine; ``(paths, seconds)`` per job, in job order.
 
     Parameters
@@ -193,7 +209,7 @@ def run_jobs(jobs: Sequence[Job], engine: str, params: dict[str, Any], workers: 
 
 
 def _dominant_normal(paths: Sequence[Path]) -> np.ndarray:
-    """Unit normal of the paths' dominant direction (mean of doubled segment angles, length-weighted)."""
+    """Return the unit normal of the paths' dominant direction (length-weighted doubled-angle mean)."""
     d = np.concatenate([np.diff(p.points, axis=0) for p in paths]) if paths else np.zeros((0, 2))
     length = np.hypot(d[:, 0], d[:, 1])
     ang = np.arctan2(d[:, 1], d[:, 0])

@@ -19,11 +19,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-
 from loadpath._typing import Region
 from loadpath.geometry import InfillBlock, PrintGeometry
 
-__all__ = ["Unit", "select_units", "passthrough_reason", "purge_blocks", "unreliable_blocks", "FIXED_WIDTH_KINDS"]
+__all__ = [
+    "Unit",
+    "select_units",
+    "passthrough_reason",
+    "purge_blocks",
+    "unreliable_blocks",
+    "FIXED_WIDTH_KINDS",
+]
 
 FIXED_WIDTH_KINDS = ("sparse",)
 """Kinds printed at the slicer's own bead width (the paths' pitch is the sparse line spacing); the
@@ -78,15 +84,19 @@ class Unit:
         return self.kind in FIXED_WIDTH_KINDS
 
 
-def passthrough_reason(config: Mapping[str, str], cura_settings: Mapping[str, object] | None = None) -> str | None:
+def passthrough_reason(
+    config: Mapping[str, str], cura_settings: Mapping[str, object] | None = None
+) -> str | None:
     """Why the whole file must be passed through unchanged (vase mode, sequential printing), or None."""
     cfg = {k.lower(): str(v).strip() for k, v in config.items()}
     cura = {k.lower(): str(v).strip().lower() for k, v in (cura_settings or {}).items()}
     if cfg.get("spiral_vase") == "1" or cura.get("magic_spiralize") == "true":
         return "vase mode (spiral vase): the part has no infill to replace"
     if cfg.get("complete_objects") == "1" or cura.get("print_sequence") == "one_at_a_time":
-        return ("sequential printing (one object after another): objects are printed to full height one by one, "
-                "which loadpath does not handle")
+        return (
+            "sequential printing (one object after another): objects are printed to full height one by one, "
+            "which loadpath does not handle"
+        )
     return None
 
 
@@ -144,9 +154,14 @@ def unreliable_blocks(geo: PrintGeometry) -> dict[int, float]:
     return out
 
 
-def select_units(geo: PrintGeometry, objects: Sequence[str], replace: Sequence[str],
-                 pitch: float | None = None, exclude: Iterable[int] = ()) -> list[Unit]:
-    """The units of work of the named objects, in file order.
+def select_units(
+    geo: PrintGeometry,
+    objects: Sequence[str],
+    replace: Sequence[str],
+    pitch: float | None = None,
+    exclude: Iterable[int] = (),
+) -> list[Unit]:
+    """Return the units of work of the named objects, in file order.
 
     Parameters
     ----------
@@ -169,16 +184,33 @@ def select_units(geo: PrintGeometry, objects: Sequence[str], replace: Sequence[s
         for lg in obj.layers:
             for isl in lg.islands:
                 for kind in kinds:
-                    blocks = tuple(b for b in isl.blocks if b.kind == kind and not b.region.is_empty
-                                   and b.block_index not in skip)
+                    blocks = tuple(
+                        b
+                        for b in isl.blocks
+                        if b.kind == kind and not b.region.is_empty and b.block_index not in skip
+                    )
                     if not blocks:
                         continue
-                    region = shapely.union_all([b.region for b in blocks]) if len(blocks) > 1 else blocks[0].region
+                    region = (
+                        shapely.union_all([b.region for b in blocks]) if len(blocks) > 1 else blocks[0].region
+                    )
                     if region.is_empty or region.area <= 0:
                         continue
                     w = [b.length for b in blocks]
                     p = pitch if pitch else _median([b.pitch for b in blocks], w)
-                    out.append(Unit(obj.name, lg.layer_index, isl.index, kind, region, blocks, float(p),
-                                    _median([b.flow_width for b in blocks], w), float(lg.height), float(lg.z)))
+                    out.append(
+                        Unit(
+                            obj.name,
+                            lg.layer_index,
+                            isl.index,
+                            kind,
+                            region,
+                            blocks,
+                            float(p),
+                            _median([b.flow_width for b in blocks], w),
+                            float(lg.height),
+                            float(lg.z),
+                        )
+                    )
     out.sort(key=lambda u: (u.layer, min(b.block_index for b in u.blocks)))
     return out

@@ -52,8 +52,9 @@ def _num(v: Any, f: str) -> str:
     return f.format(v)
 
 
-def write_report(directory: Path, result, settings, times: dict[str, float], source: str = "",
-                 with_metrics: bool = True) -> Path:
+def write_report(
+    directory: Path, result, settings, times: dict[str, float], source: str = "", with_metrics: bool = True
+) -> Path:
     """Write the report of a pipeline result (see the module docstring).
 
     Parameters
@@ -75,26 +76,35 @@ def write_report(directory: Path, result, settings, times: dict[str, float], sou
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    farea = math.pi * settings.filament_diameter ** 2 / 4
+    farea = math.pi * settings.filament_diameter**2 / 4
     layers: list[LayerReport] = []
     for k, jr in enumerate(result.jobs):
         unit = jr.units[0]
         nums = ", ".join(str(u.layer + 1) for u in jr.units)
         title = f"{unit.object}, {unit.kind} infill, layers {nums} (z = {unit.z:g} mm)"
-        lr = layer_report(jr, result.program, result.output, result.splice, jr.job.input.field, title, farea,
-                          with_metrics)
+        lr = layer_report(
+            jr, result.program, result.output, result.splice, jr.job.input.field, title, farea, with_metrics
+        )
         (directory / f"layer-{k + 1}.svg").write_text(lr.figure, encoding="utf-8")
         (directory / f"layer-{k + 1}-detail.svg").write_text(lr.detail, encoding="utf-8")
         layers.append(lr)
     data = {
-        "loadpath": __version__, "source": source, "dialect": result.program.dialect.name,
-        "changed": result.changed, "passthrough": result.passthrough, "warnings": list(result.warnings),
+        "loadpath": __version__,
+        "source": source,
+        "dialect": result.program.dialect.name,
+        "changed": result.changed,
+        "passthrough": result.passthrough,
+        "warnings": list(result.warnings),
         "times_s": {k: float(v) for k, v in times.items()},
         "settings": settings.as_dict() if settings is not None else {},
         "settings_sources": dict(settings.sources) if settings is not None else {},
         "print_time_change_s": result.splice.seconds_delta if result.splice else 0.0,
-        "check": {"problems": result.check.problems if result.check else [],
-                  "volume_ratio": {str(k): v for k, v in (result.check.volume_ratio if result.check else {}).items()}},
+        "check": {
+            "problems": result.check.problems if result.check else [],
+            "volume_ratio": {
+                str(k): v for k, v in (result.check.volume_ratio if result.check else {}).items()
+            },
+        },
         "layers": [lr.numbers for lr in layers],
         "blocks": [dict(vars(b)) for b in (result.splice.blocks if result.splice else ())],
     }
@@ -117,8 +127,10 @@ def _html(data: dict, layers: list[LayerReport], settings) -> str:
     rows = "".join(f"<tr><td>{e(k)}</td><td>{v:.3f}</td></tr>" for k, v in data["times_s"].items())
     sett = ""
     if settings is not None:
-        sett = "".join(f"<tr><td>{e(k)}</td><td>{e(str(v))}</td><td>{e(settings.source(k))}</td></tr>"
-                       for k, v in data["settings"].items())
+        sett = "".join(
+            f"<tr><td>{e(k)}</td><td>{e(str(v))}</td><td>{e(settings.source(k))}</td></tr>"
+            for k, v in data["settings"].items()
+        )
     warn = "".join(f"<li>{e(w)}</li>" for w in data["warnings"]) or "<li>none</li>"
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'><title>loadpath report</title>",
@@ -129,31 +141,44 @@ def _html(data: dict, layers: list[LayerReport], settings) -> str:
         f"<h1>loadpath report: {e(data['source'])}</h1>",
         f"<p>{e(data['dialect'])}; engine <b>{e(str(data['settings'].get('engine')))}</b>; "
         f"{len(layers)} distinct layer(s); print time change (kinematic estimate) "
-        f"{data['print_time_change_s']:+.0f} s; {'infill replaced' if data['changed'] else 'file unchanged'}.</p>",
+        f"{data['print_time_change_s']:+.0f} s; "
+        f"{'infill replaced' if data['changed'] else 'file unchanged'}.</p>",
         f"<h2>Warnings</h2><ul>{warn}</ul>",
         f"<h2>Time per stage (s)</h2><table>{rows}</table>",
-        f"<details><summary>Settings and where they came from</summary><table><tr><th>setting</th><th>value</th>"
+        "<details><summary>Settings and where they came from</summary>"
+        f"<table><tr><th>setting</th><th>value</th>"
         f"<th>from</th></tr>{sett}</table></details>",
         f"<p>Colours: {colorbar('alignment |s . p| (paths); |s| / scale (field)')}</p>",
     ]
     for lr in layers:
         n = lr.numbers
         old, new = n.get("old", {}), n.get("new", {})
-        mrows = "".join(f"<tr><td>{e(label)}</td><td>{_num(old.get(key), f)}</td><td>{_num(new.get(key), f)}</td>"
-                        "</tr>" for key, label, f in _METRIC_ROWS)
-        extra = [("extruded volume, mm³", n.get("volume_old_mm3"), n.get("volume_new_mm3"), "{:.1f}"),
-                 ("print time of the blocks (kinematic), s", n.get("print_s_old"), n.get("print_s_new"), "{:.1f}"),
-                 ("mean |s . p| of the printed segments", n.get("alignment_mean_old"), n.get("alignment_mean_new"),
-                  "{:.4f}")]
-        mrows += "".join(f"<tr><td>{e(lab)}</td><td>{_num(a, f)}</td><td>{_num(b, f)}</td></tr>"
-                         for lab, a, b, f in extra)
+        mrows = "".join(
+            f"<tr><td>{e(label)}</td><td>{_num(old.get(key), f)}</td><td>{_num(new.get(key), f)}</td></tr>"
+            for key, label, f in _METRIC_ROWS
+        )
+        extra = [
+            ("extruded volume, mm³", n.get("volume_old_mm3"), n.get("volume_new_mm3"), "{:.1f}"),
+            ("print time of the blocks (kinematic), s", n.get("print_s_old"), n.get("print_s_new"), "{:.1f}"),
+            (
+                "mean |s . p| of the printed segments",
+                n.get("alignment_mean_old"),
+                n.get("alignment_mean_new"),
+                "{:.4f}",
+            ),
+        ]
+        mrows += "".join(
+            f"<tr><td>{e(lab)}</td><td>{_num(a, f)}</td><td>{_num(b, f)}</td></tr>" for lab, a, b, f in extra
+        )
         parts += [
             f"<section><h2>{e(lr.title)}</h2>",
             f"<p>pitch {n['pitch_mm']:.3f} mm, slicer's flow width {n['flow_width_mm']:.3f} mm, principal "
-            f"{e(n['principal'])}; engine {n['engine_s']:.2f} s for {n['n_paths_engine']} paths; staggered by half "
+            f"{e(n['principal'])}; engine {n['engine_s']:.2f} s for {n['n_paths_engine']} paths; "
+            "staggered by half "
             f"a pitch on layers {e(', '.join(map(str, n['staggered_layers'])) or 'none')}.</p>",
             lr.figure,
-            "<p>Close-up around the largest hole, else the most stressed point (colour = alignment |s . p|):</p>",
+            "<p>Close-up around the largest hole, else the most stressed point "
+            "(colour = alignment |s . p|):</p>",
             lr.detail,
             f"<table><tr><th>metric</th><th>slicer</th><th>loadpath</th></tr>{mrows}</table>",
             lr.hist,

@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 import shapely
-
 from loadpath import metrics
 from loadpath.field import StressField
 from loadpath.gcode import Program
+from loadpath.gcode.rowindex import move_rows
 from loadpath.report.svg import Canvas, histogram
 from loadpath.toolpath import Path
 
@@ -60,7 +60,7 @@ def segments_of(moves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def paths_of(moves: np.ndarray, pitch: float, turn_deg: float = 60.0, min_pitches: float = 2.0) -> list[Path]:
-    """The lines of a block's extrusions as separate paths, each with a constant pitch.
+    """Split a block's extrusions into its lines, as separate paths with a constant pitch.
 
     Consecutive extrusions form a polyline; it is cut where it turns by more than ``turn_deg`` (the
     slicer's zig-zag links along the edge), and pieces shorter than ``min_pitches`` pitches (the links
@@ -73,8 +73,11 @@ def paths_of(moves: np.ndarray, pitch: float, turn_deg: float = 60.0, min_pitche
     ang = np.arctan2(d[:, 1], d[:, 0])
     turn = np.abs((np.diff(ang) + np.pi) % (2 * np.pi) - np.pi)
     brk = np.ones(len(m), dtype=bool)
-    brk[1:] = ((np.abs(m["x0"][1:] - m["x1"][:-1]) > 1e-6) | (np.abs(m["y0"][1:] - m["y1"][:-1]) > 1e-6)
-               | (turn > np.radians(turn_deg)))
+    brk[1:] = (
+        (np.abs(m["x0"][1:] - m["x1"][:-1]) > 1e-6)
+        | (np.abs(m["y0"][1:] - m["y1"][:-1]) > 1e-6)
+        | (turn > np.radians(turn_deg))
+    )
     starts = np.flatnonzero(brk)
     out = []
     for a, z in zip(starts, np.r_[starts[1:], len(m)], strict=True):
@@ -115,8 +118,11 @@ def _field_ticks(canvas: Canvas, field_: StressField, region, step: float) -> No
 
 
 def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, width: int = 960) -> str:
-    """The slicer's and the new paths side by side, zoomed on the largest hole of the region (where the
-    stress concentrates), else on its most stressed point away from its ends."""
+    """Draw the slicer's and the new paths side by side, zoomed on the region's largest hole.
+
+    Stress concentrates at holes; without one, the view centres on the most stressed point away
+    from the region's ends (supports and loads sit there).
+    """
     x0, y0, x1, y1 = region.bounds
     big = max(x1 - x0, y1 - y0)
     holes = [r for p in getattr(region, "geoms", [region]) for r in p.interiors]
@@ -127,7 +133,11 @@ def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, w
         gx, gy = np.meshgrid(np.linspace(x0, x1, 60)[6:-6], np.linspace(y0, y1, 60)[6:-6])
         pts = np.column_stack([gx.ravel(), gy.ravel()])
         pts = pts[shapely.contains_xy(region, pts[:, 0], pts[:, 1])]
-        c = pts[int(np.argmax(field_.sample(pts).mass))] if len(pts) else np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        c = (
+            pts[int(np.argmax(field_.sample(pts).mass))]
+            if len(pts)
+            else np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        )
     ww = min(x1 - x0, max(25 * pitch, 0.2 * big))
     wh = min(y1 - y0, 0.7 * ww)
     bx0 = float(np.clip(c[0] - ww / 2, x0, x1 - ww))
@@ -139,20 +149,37 @@ def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, w
     for k, ((a, b, w, cos), label) in enumerate(zip((old, new), ("the slicer", "loadpath"), strict=True)):
         cv = Canvas(bounds, width=half, pad=4)
         cv.region(region)
-        keep = ((np.minimum(a[:, 0], b[:, 0]) <= bx0 + ww) & (np.maximum(a[:, 0], b[:, 0]) >= bx0)
-                & (np.minimum(a[:, 1], b[:, 1]) <= by0 + wh) & (np.maximum(a[:, 1], b[:, 1]) >= by0))
+        keep = (
+            (np.minimum(a[:, 0], b[:, 0]) <= bx0 + ww)
+            & (np.maximum(a[:, 0], b[:, 0]) >= bx0)
+            & (np.minimum(a[:, 1], b[:, 1]) <= by0 + wh)
+            & (np.maximum(a[:, 1], b[:, 1]) >= by0)
+        )
         cv.segments(a[keep], b[keep], np.nan_to_num(cos[keep]), w[keep])
         cv.text(cv.pad + 6, cv.pad + 16, label, 14)
-        out.append(f'<g transform="translate({k * (half + 12)},0)" clip-path="url(#{uid}{k})">{"".join(cv.items)}</g>'
-                   f'<clipPath id="{uid}{k}"><rect x="0" y="0" width="{half}" height="{cv.height}"/>'
-                   "</clipPath>")
+        out.append(
+            f'<g transform="translate({k * (half + 12)},0)" clip-path="url(#{uid}{k})">'
+            f"{''.join(cv.items)}</g>"
+            f'<clipPath id="{uid}{k}"><rect x="0" y="0" width="{half}" height="{cv.height}"/>'
+            "</clipPath>"
+        )
         h = cv.height
-    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{h}" viewBox="0 0 {width} {h}">'
-            f'<rect width="100%" height="100%" fill="white"/>{"".join(out)}</svg>')
+    return (
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{h}" viewBox="0 0 {width} {h}">'
+        f'<rect width="100%" height="100%" fill="white"/>{"".join(out)}</svg>'
+    )
 
 
-def layer_report(job_result, program: Program, output: Program | None, splice_result, field_: StressField,
-                 title: str, filament_area: float, with_metrics: bool = True) -> LayerReport:
+def layer_report(
+    job_result,
+    program: Program,
+    output: Program | None,
+    splice_result,
+    field_: StressField,
+    title: str,
+    filament_area: float,
+    with_metrics: bool = True,
+) -> LayerReport:
     """Build the report of one engine run (see the module docstring)."""
     unit = job_result.units[0]
     region = unit.region
@@ -163,7 +190,7 @@ def layer_report(job_result, program: Program, output: Program | None, splice_re
     if output is not None and splice_result is not None:
         for i in blocks:
             for a, z in splice_result.output_ranges(program, i):
-                new_moves.append(output.moves[output.move_rows(a, z)])
+                new_moves.append(output.moves[move_rows(output, a, z)])
     new_moves = np.concatenate(new_moves) if new_moves else old_moves[:0]
     oa, ob, ow = segments_of(old_moves)
     na, nb, nw = segments_of(new_moves)
@@ -179,7 +206,10 @@ def layer_report(job_result, program: Program, output: Program | None, splice_re
         c.region(region)
         if name == "field":
             _field_ticks(c, field_, region, max(2.5 * pitch, (x1 - x0) / 90))
-            label = f"stress field: followed principal direction, colour |s| / scale (principal = {job_result.job.principal})"
+            label = (
+                "stress field: followed principal direction, colour |s| / scale "
+                f"(principal = {job_result.job.principal})"
+            )
         elif name == "old":
             c.segments(oa, ob, np.nan_to_num(cos_old), ow)
             label = "the slicer's paths, colour = alignment |s . p|"
@@ -194,16 +224,27 @@ def layer_report(job_result, program: Program, output: Program | None, splice_re
     for p in panels:
         body.append(f'<g transform="translate(0,{y})">{"".join(p.items)}</g>')
         y += p.height
-    figure = (f'<svg xmlns="http://www.w3.org/2000/svg" width="960" height="{total_h}" viewBox="0 0 960 {total_h}">'
-              f'<rect width="100%" height="100%" fill="white"/>{"".join(body)}</svg>')
+    figure = (
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="960" height="{total_h}" viewBox="0 0 960 {total_h}">'
+        f'<rect width="100%" height="100%" fill="white"/>{"".join(body)}</svg>'
+    )
 
     detail = _detail(region, field_, (oa, ob, ow, cos_old), (na, nb, nw, cos_new), pitch)
     numbers: dict[str, Any] = {
-        "object": unit.object, "kind": unit.kind, "principal": job_result.job.principal,
-        "layers": [u.layer + 1 for u in job_result.units], "z": unit.z, "height": unit.height,
-        "pitch_mm": pitch, "flow_width_mm": unit.flow_width, "region_area_mm2": float(region.area),
-        "engine_s": job_result.seconds, "n_paths_engine": len(job_result.paths.paths),
-        "staggered_layers": [u.layer + 1 for u, s in zip(job_result.units, job_result.staggered, strict=True) if s],
+        "object": unit.object,
+        "kind": unit.kind,
+        "principal": job_result.job.principal,
+        "layers": [u.layer + 1 for u in job_result.units],
+        "z": unit.z,
+        "height": unit.height,
+        "pitch_mm": pitch,
+        "flow_width_mm": unit.flow_width,
+        "region_area_mm2": float(region.area),
+        "engine_s": job_result.seconds,
+        "n_paths_engine": len(job_result.paths.paths),
+        "staggered_layers": [
+            u.layer + 1 for u, s in zip(job_result.units, job_result.staggered, strict=True) if s
+        ],
     }
     reps = [r for r in (splice_result.blocks if splice_result else ()) if r.block in blocks]
     area = filament_area
@@ -224,21 +265,36 @@ def layer_report(job_result, program: Program, output: Program | None, splice_re
         row_new, sp_new = _metrics(new_paths, region, field_, pitch, None)
         row_old["travel_mm"], row_new["travel_mm"] = _travel(old_moves), _travel(new_moves)
         numbers["old"], numbers["new"] = row_old, row_new
-        hist = histogram([("slicer", sp_old, "#888888"), ("loadpath", sp_new, "#21908d")],
-                         0.0, 2.5, xlabel="distance to the nearest neighbouring path / pitch")
+        hist = histogram(
+            [("slicer", sp_old, "#888888"), ("loadpath", sp_new, "#21908d")],
+            0.0,
+            2.5,
+            xlabel="distance to the nearest neighbouring path / pitch",
+        )
     return LayerReport(title, numbers["layers"], numbers, figure, detail, hist)
 
 
-def _metrics(paths: list[Path], region, field_: StressField, pitch: float,
-             flow_width: float | None) -> tuple[dict[str, float | None], np.ndarray]:
-    """The report's metrics (:mod:`loadpath.metrics`; spacing by the "nearest" definition only)."""
+def _metrics(
+    paths: list[Path], region, field_: StressField, pitch: float, flow_width: float | None
+) -> tuple[dict[str, float | None], np.ndarray]:
+    """Compute the report's metrics (:mod:`loadpath.metrics`; spacing by the "nearest" definition only)."""
     al = metrics.alignment(paths, field_, pitch, region=region)
     sp = metrics.spacing(paths, pitch, "nearest")
     cov = metrics.coverage(paths, region, flow_width)
-    row = {"beta": al.beta, "beta_curved": al.beta_curved, "spacing_mean": sp.mean, "spacing_var": sp.variance,
-           "spacing_p5": sp.p5, "spacing_p95": sp.p95, "spacing_min": sp.min, "coverage": cov.coverage,
-           "overlap": cov.overlap, "n_paths": float(len(paths)), "length_mm": float(sum(p.length for p in paths)),
-           "crossings": float(metrics.crossings(paths))}
+    row = {
+        "beta": al.beta,
+        "beta_curved": al.beta_curved,
+        "spacing_mean": sp.mean,
+        "spacing_var": sp.variance,
+        "spacing_p5": sp.p5,
+        "spacing_p95": sp.p95,
+        "spacing_min": sp.min,
+        "coverage": cov.coverage,
+        "overlap": cov.overlap,
+        "n_paths": float(len(paths)),
+        "length_mm": float(sum(p.length for p in paths)),
+        "crossings": float(metrics.crossings(paths)),
+    }
     return _clean(row), sp.values
 
 

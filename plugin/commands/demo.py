@@ -1,6 +1,9 @@
-"""Run the whole pipeline on the shipped example (the open-hole tensile specimen of ASTM D5766,
-sliced by PrusaSlicer 2.5 for an Original Prusa i3 MK3S) and write the result and a report to
-./loadpath-demo/ (ohs.loadpath.gcode, report/index.html, report/metrics.json)."""
+"""Run the whole pipeline on the shipped example and write the result and a report to ./loadpath-demo/.
+
+The example is the open-hole tensile specimen of ASTM D5766, sliced by PrusaSlicer 2.5 for an
+Original Prusa i3 MK3S; the demo writes ohs.loadpath.gcode, report/index.html and
+report/metrics.json.
+"""
 
 from __future__ import annotations
 
@@ -15,15 +18,24 @@ __all__ = ["HELP", "add_args", "run", "example_files"]
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     """Options: where to write, and the engine."""
-    parser.add_argument("--out", type=Path, default=Path("loadpath-demo"), metavar="DIR",
-                        help="output folder (default ./loadpath-demo)")
-    parser.add_argument("--engine", choices=("swarm", "streamlines"), default=None,
-                        help="path engine (default: the load case's, else swarm)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("loadpath-demo"),
+        metavar="DIR",
+        help="output folder (default ./loadpath-demo)",
+    )
+    parser.add_argument(
+        "--engine",
+        choices=("swarm", "streamlines"),
+        default=None,
+        help="path engine (default: the load case's, else swarm)",
+    )
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
 
 
 def example_files() -> tuple[Path, Path]:
-    """The shipped example's G-code and load case."""
+    """Return the shipped example's G-code and load case."""
     from importlib import resources
 
     root = resources.files("loadpath.examples")
@@ -39,8 +51,13 @@ def run(args: argparse.Namespace) -> int:
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     cli = {"engine": args.engine} if args.engine else {}
-    req = JobRequest(input=gcode_path, loadcase=case, output=out / "ohs.loadpath.gcode",
-                     report=None if args.no_report else out / "report", cli=cli)
+    req = JobRequest(
+        input=gcode_path,
+        loadcase=case,
+        output=out / "ohs.loadpath.gcode",
+        report=None if args.no_report else out / "report",
+        cli=cli,
+    )
     result = execute(req)
     t = result.times
     total = sum(v for k, v in t.items())
@@ -51,7 +68,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"  {stages} (total {total:.2f} s)")
     if result.pipeline is not None and result.pipeline.splice is not None:
         blocks = result.pipeline.splice.blocks
-        print(f"  replaced {len(blocks)} infill blocks in layers "
-              f"{', '.join(str(b.layer + 1) for b in blocks)} with {result.settings.engine} paths")
+        print(
+            f"  replaced {len(blocks)} infill blocks in layers "
+            f"{', '.join(str(b.layer + 1) for b in blocks)} with {result.settings.engine} paths"
+        )
     sys.stdout.flush()
     return 0

@@ -19,15 +19,28 @@ __all__ = ["HELP", "add_args", "run", "Progress", "execute"]
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    """The options of interface.md, then the settings schema's own flags."""
+    """Add the options of interface.md, then the settings schema's own flags."""
     from loadpath.plugin import settings
 
-    parser.add_argument("input", metavar="IN.gcode", type=Path, help="G-code from PrusaSlicer or Cura (.gcode or .bgcode)")
+    parser.add_argument(
+        "input", metavar="IN.gcode", type=Path, help="G-code from PrusaSlicer or Cura (.gcode or .bgcode)"
+    )
     parser.add_argument("--loadcase", required=True, type=Path, metavar="CASE.toml", help="the load case")
-    parser.add_argument("-o", "--output", type=Path, metavar="OUT.gcode", default=None,
-                        help="where to write the result (default: IN.loadpath.gcode next to the input)")
-    parser.add_argument("--report", type=Path, metavar="DIR", default=None,
-                        help="write an HTML report and metrics.json into DIR")
+    parser.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        metavar="OUT.gcode",
+        default=None,
+        help="where to write the result (default: IN.loadpath.gcode next to the input)",
+    )
+    parser.add_argument(
+        "--report",
+        type=Path,
+        metavar="DIR",
+        default=None,
+        help="write an HTML report and metrics.json into DIR",
+    )
     parser.add_argument("--in-place", action="store_true", help="rewrite the input file itself (atomically)")
     settings.add_cli_options(parser)
 
@@ -35,7 +48,12 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 class Progress:
     """A one-line progress bar on a terminal (stderr); silent otherwise."""
 
-    LABELS = {"geometry": "layer regions", "fea": "stress analysis", "paths": "paths", "splice": "writing G-code"}
+    LABELS = {
+        "geometry": "layer regions",
+        "fea": "stress analysis",
+        "paths": "paths",
+        "splice": "writing G-code",
+    }
 
     def __init__(self, stream=None) -> None:
         self.stream = stream or sys.stderr
@@ -44,18 +62,22 @@ class Progress:
         self.last = ""
 
     def __call__(self, stage: str, done: int, total: int) -> None:
+        """Show ``done`` of ``total`` for a stage."""
         if not self.on:
             return
         width = 24
         fill = int(width * done / total) if total else width
-        line = (f"\rloadpath: {self.LABELS.get(stage, stage):<16} [{'#' * fill}{'.' * (width - fill)}] "
-                f"{done}/{total}  {time.perf_counter() - self.t0:5.1f} s")
+        line = (
+            f"\rloadpath: {self.LABELS.get(stage, stage):<16} [{'#' * fill}{'.' * (width - fill)}] "
+            f"{done}/{total}  {time.perf_counter() - self.t0:5.1f} s"
+        )
         if line != self.last:
             self.stream.write(line)
             self.stream.flush()
             self.last = line
 
     def close(self) -> None:
+        """Clear the bar."""
         if self.on and self.last:
             self.stream.write("\r" + " " * len(self.last) + "\r")
             self.stream.flush()
@@ -84,11 +106,19 @@ def run(args: argparse.Namespace) -> int:
     if args.in_place and args.output is not None:
         raise SettingsError("give either -o OUT or --in-place, not both")
     cli = settings.cli_values(args)
-    req = JobRequest(input=args.input, loadcase=args.loadcase, output=args.output, in_place=args.in_place,
-                     report=args.report, cli=cli,
-                     slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None)
+    req = JobRequest(
+        input=args.input,
+        loadcase=args.loadcase,
+        output=args.output,
+        in_place=args.in_place,
+        report=args.report,
+        cli=cli,
+        slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None,
+    )
     result = execute(req)
     if result.error is None and result.written and sys.stderr.isatty():
-        print(f"loadpath: wrote {result.output}" + (f"; report {result.report}" if result.report else ""),
-              file=sys.stderr)
+        print(
+            f"loadpath: wrote {result.output}" + (f"; report {result.report}" if result.report else ""),
+            file=sys.stderr,
+        )
     return 0

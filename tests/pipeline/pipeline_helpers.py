@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-
 from loadpath import gcode
 from loadpath.plugin.job import JobRequest, run_job
 
@@ -36,16 +35,27 @@ force = [200.0, 0.0, 0.0]
 """
 
 
-def write_case(folder: Path, name: str = "case.toml", within: float = 5.0, extra: str = "", axis: str = "x",
-               base: bool = False) -> Path:
+def write_case(
+    folder: Path,
+    name: str = "case.toml",
+    within: float = 5.0,
+    extra: str = "",
+    axis: str = "x",
+    base: bool = False,
+) -> Path:
     """A tension load case: clamped at the axis' min side, pulled at its max side.  ``base``: held by its
     bottom face instead (every piece of a part with several pieces is then held)."""
     path = Path(folder) / name
     if base:
         text = BASE.format(within=within, extra=extra)
     else:
-        text = PULL.format(within=within, extra=extra, a=axis, fx=500.0 if axis == "x" else 0.0,
-                           fy=500.0 if axis == "y" else 0.0)
+        text = PULL.format(
+            within=within,
+            extra=extra,
+            a=axis,
+            fx=500.0 if axis == "x" else 0.0,
+            fy=500.0 if axis == "y" else 0.0,
+        )
     path.write_text(text, encoding="utf-8")
     return path
 
@@ -71,12 +81,20 @@ def new_lines(result, program) -> np.ndarray:
 
 def replaced_blocks(result) -> set[int]:
     """Indices (in the original program) of the blocks the run replaced."""
-    return {b.block for b in result.pipeline.splice.blocks} if result.pipeline and result.pipeline.splice else set()
+    return (
+        {b.block for b in result.pipeline.splice.blocks}
+        if result.pipeline and result.pipeline.splice
+        else set()
+    )
 
 
 def span_lines_kept(program, output, result, block: int) -> bool:
     """Whether every line of a block's span is in the output unchanged."""
     b = program.block(block)
-    lmap = result.pipeline.splice.line_map(program.n_lines) if result.pipeline.splice else np.arange(program.n_lines)
+    lmap = (
+        result.pipeline.splice.line_map(program.n_lines)
+        if result.pipeline.splice
+        else np.arange(program.n_lines)
+    )
     idx = range(b.span_start, b.span_stop)
     return all(lmap[i] >= 0 and program.line(i) == output.line(int(lmap[i])) for i in idx)

@@ -11,9 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
-
 import slicing
+import trimesh
 from loadpath import gcode
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.verify import layer_features
@@ -29,7 +28,9 @@ def case(tmp_path_factory):
 
 def _kinds(result):
     geo = result.pipeline.geometry
-    return {b.block_index: b.kind for o in geo.objects for lg in o.layers for i in lg.islands for b in i.blocks}
+    return {
+        b.block_index: b.kind for o in geo.objects for lg in o.layers for i in lg.islands for b in i.blocks
+    }
 
 
 def test_internal_solid_replaced_skins_and_first_layer_kept(sliced, case, tmp_path):
@@ -56,8 +57,9 @@ def test_cura_absolute_e_default(sliced, case, tmp_path):
 
 def test_sparse_on_request_with_alternating_principal(sliced, case, tmp_path):
     """replace = ["sparse"] keeps the slicer's density; principal = "alternate" crosses the layers."""
-    program, result, out = run(sliced("prusa", "ohs", "mixed"), case, tmp_path / "out.gcode", replace="sparse",
-                               principal="alternate")
+    program, result, out = run(
+        sliced("prusa", "ohs", "mixed"), case, tmp_path / "out.gcode", replace="sparse", principal="alternate"
+    )
     kinds = _kinds(result)
     done = replaced_blocks(result)
     assert done == {i for i, k in kinds.items() if k == "sparse"}
@@ -66,7 +68,12 @@ def test_sparse_on_request_with_alternating_principal(sliced, case, tmp_path):
     # in the uniform part of the specimen sigma1 runs along x, sigma2 along y
     mask = new_lines(result, program)
     m = out.moves
-    sel = m["extrude"] & mask[m["line"]] & (np.abs(m["x0"] - 75) < 20) & (np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"]) > 1)
+    sel = (
+        m["extrude"]
+        & mask[m["line"]]
+        & (np.abs(m["x0"] - 75) < 20)
+        & (np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"]) > 1)
+    )
     by_layer = {}
     for layer in np.unique(m["layer"][sel]):
         s = sel & (m["layer"] == layer)
@@ -80,8 +87,9 @@ def test_sparse_on_request_with_alternating_principal(sliced, case, tmp_path):
 
 @pytest.mark.slow
 def test_top_and_bottom_skins_on_request(sliced, case, tmp_path):
-    program, result, out = run(sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode",
-                               replace="solid,top,bottom")
+    program, result, out = run(
+        sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode", replace="solid,top,bottom"
+    )
     layers = {program.block(i).layer for i in replaced_blocks(result)}
     assert 0 in layers and len(program.layers) - 1 in layers
     assert result.pipeline.check.problems == []
@@ -103,8 +111,13 @@ def _table_stl(folder: Path) -> Path:
 @pytest.mark.slow
 def test_bridges_and_supports_are_kept(case, tmp_path):
     """Bridges and support material are never replaced, even when every infill kind is."""
-    gpath = slicing.slice_prusa(_table_stl(tmp_path), tmp_path / "table.gcode", **slicing.PRUSA_SOLID,
-                                support_material=1, support_material_auto=1)
+    gpath = slicing.slice_prusa(
+        _table_stl(tmp_path),
+        tmp_path / "table.gcode",
+        **slicing.PRUSA_SOLID,
+        support_material=1,
+        support_material_auto=1,
+    )
     program = gcode.read(gpath)
     roles = {program.block(i).role for i in range(len(program.blocks))}
     assert Role.BRIDGE_INFILL in roles and Role.SUPPORT in roles
@@ -112,8 +125,15 @@ def test_bridges_and_supports_are_kept(case, tmp_path):
     assert replaced_blocks(result)
     for i in range(len(program.blocks)):
         b = program.block(i)
-        if b.role in (Role.BRIDGE_INFILL, Role.SUPPORT, Role.SUPPORT_INTERFACE, Role.PERIMETER,
-                      Role.EXTERNAL_PERIMETER, Role.SKIRT, Role.GAP_FILL):
+        if b.role in (
+            Role.BRIDGE_INFILL,
+            Role.SUPPORT,
+            Role.SUPPORT_INTERFACE,
+            Role.PERIMETER,
+            Role.EXTERNAL_PERIMETER,
+            Role.SKIRT,
+            Role.GAP_FILL,
+        ):
             assert i not in replaced_blocks(result) and span_lines_kept(program, out, result, i), b
 
 
@@ -136,9 +156,15 @@ def test_two_objects_each_on_its_own_and_object_limits(sliced, tmp_path):
 
 def test_several_extruders_infill_keeps_its_tool(tmp_path, test_stls, case):
     """PrusaSlicer multi-material from config: infill on extruder 2; new infill still runs on T1."""
-    gpath = slicing.slice_prusa(test_stls("ohs"), tmp_path / "mmu.gcode", **slicing.PRUSA_MIXED,
-                                nozzle_diameter="0.4,0.4", infill_extruder=2, solid_infill_extruder=2,
-                                wipe_tower=0)
+    gpath = slicing.slice_prusa(
+        test_stls("ohs"),
+        tmp_path / "mmu.gcode",
+        **slicing.PRUSA_MIXED,
+        nozzle_diameter="0.4,0.4",
+        infill_extruder=2,
+        solid_infill_extruder=2,
+        wipe_tower=0,
+    )
     program, result, out = run(gpath, case, tmp_path / "out.gcode")
     assert replaced_blocks(result)
     tools = {int(program.state.tool[program.block(i).start]) for i in replaced_blocks(result)}
@@ -151,9 +177,16 @@ def test_several_extruders_infill_keeps_its_tool(tmp_path, test_stls, case):
 
 def test_purges_into_infill_are_kept(tmp_path, test_stls, case):
     """wipe_into_infill: the infill block printed right after a tool change takes the purge: kept."""
-    gpath = slicing.slice_prusa(test_stls("ohs"), tmp_path / "purge.gcode", **slicing.PRUSA_MIXED,
-                                nozzle_diameter="0.4,0.4", infill_extruder=2, solid_infill_extruder=2,
-                                wipe_tower=1, wipe_into_infill=1)
+    gpath = slicing.slice_prusa(
+        test_stls("ohs"),
+        tmp_path / "purge.gcode",
+        **slicing.PRUSA_MIXED,
+        nozzle_diameter="0.4,0.4",
+        infill_extruder=2,
+        solid_infill_extruder=2,
+        wipe_tower=1,
+        wipe_into_infill=1,
+    )
     from loadpath.pipeline.units import purge_blocks
 
     program = gcode.read(gpath)
@@ -167,8 +200,14 @@ def test_purges_into_infill_are_kept(tmp_path, test_stls, case):
 
 def test_variable_layer_height(sliced, case, tmp_path):
     """Cura's adaptive layers (0.2, 0.25, 0.3 mm): paths are regenerated per distinct layer height."""
-    gpath = sliced("cura", "ohs", "solid", adaptive_layer_height_enabled="true",
-                   adaptive_layer_height_variation=0.1, adaptive_layer_height_variation_step=0.05)
+    gpath = sliced(
+        "cura",
+        "ohs",
+        "solid",
+        adaptive_layer_height_enabled="true",
+        adaptive_layer_height_variation=0.1,
+        adaptive_layer_height_variation_step=0.05,
+    )
     program = gcode.read(gpath)
     heights = {round(layer.height, 3) for layer in program.layers[1:]}
     assert len(heights) >= 2
@@ -180,8 +219,9 @@ def test_variable_layer_height(sliced, case, tmp_path):
 
 def test_infill_every_n_layers_keeps_combined_thickness(tmp_path, test_stls, case):
     """infill_every_layers = 2: the combined 0.4 mm sparse infill is replaced at 0.4 mm."""
-    gpath = slicing.slice_prusa(test_stls("ohs"), tmp_path / "every2.gcode", **slicing.PRUSA_MIXED,
-                                infill_every_layers=2)
+    gpath = slicing.slice_prusa(
+        test_stls("ohs"), tmp_path / "every2.gcode", **slicing.PRUSA_MIXED, infill_every_layers=2
+    )
     program, result, out = run(gpath, case, tmp_path / "out.gcode", replace="sparse")
     reps = result.pipeline.splice.blocks
     assert 0.4 in {round(r.height, 3) for r in reps}
@@ -192,13 +232,21 @@ def test_infill_every_n_layers_keeps_combined_thickness(tmp_path, test_stls, cas
     assert any(out.line(int(i)) == ";HEIGHT:0.4" for i in np.flatnonzero(mask))
 
 
-@pytest.mark.parametrize("what,overrides,part", [
-    ("vase", {"spiral_vase": 1, "perimeters": 1, "top_solid_layers": 0, "fill_density": "0%"}, "ohs"),
-    ("sequential", {"complete_objects": 1, "extruder_clearance_radius": 10, "extruder_clearance_height": 5},
-     "two_objects"),
-])
+@pytest.mark.parametrize(
+    "what,overrides,part",
+    [
+        ("vase", {"spiral_vase": 1, "perimeters": 1, "top_solid_layers": 0, "fill_density": "0%"}, "ohs"),
+        (
+            "sequential",
+            {"complete_objects": 1, "extruder_clearance_radius": 10, "extruder_clearance_height": 5},
+            "two_objects",
+        ),
+    ],
+)
 def test_vase_mode_and_sequential_printing_pass_through(tmp_path, test_stls, case, what, overrides, part):
-    gpath = slicing.slice_prusa(test_stls(part), tmp_path / f"{what}.gcode", **{**slicing.PRUSA_MIXED, **overrides})
+    gpath = slicing.slice_prusa(
+        test_stls(part), tmp_path / f"{what}.gcode", **{**slicing.PRUSA_MIXED, **overrides}
+    )
     program, result, out = run(gpath, case, tmp_path / "out.gcode")
     assert (tmp_path / "out.gcode").read_bytes() == gpath.read_bytes()
     assert not result.changed

@@ -8,7 +8,6 @@ import shutil
 from pathlib import Path
 
 import pytest
-
 from loadpath import gcode
 from loadpath.plugin.cli import main
 
@@ -59,8 +58,23 @@ def test_run_output_and_report(work):
     out = folder / "sub" / "x.gcode"
     out.parent.mkdir()
     rep = folder / "report"
-    assert main(["run", str(g), "--loadcase", str(case), "--engine", "streamlines", "-o", str(out),
-                 "--report", str(rep)]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(g),
+                "--loadcase",
+                str(case),
+                "--engine",
+                "streamlines",
+                "-o",
+                str(out),
+                "--report",
+                str(rep),
+            ]
+        )
+        == 0
+    )
     assert out.is_file()
     html = (rep / "index.html").read_text(encoding="utf-8")
     assert "<svg" in html and "alignment" in html
@@ -110,11 +124,14 @@ def test_on_failure_keep_exits_zero_with_a_warning(work, capsys):
     assert g.read_bytes() == before and out.read_bytes() == before
 
 
-@pytest.mark.parametrize("args,match", [
-    (["--set", "nonsense=1"], "unknown"),
-    (["--pitch", "-1"], "pitch"),
-    (["--replace", "walls"], "walls"),
-])
+@pytest.mark.parametrize(
+    "args,match",
+    [
+        (["--set", "nonsense=1"], "unknown"),
+        (["--pitch", "-1"], "pitch"),
+        (["--replace", "walls"], "walls"),
+    ],
+)
 def test_bad_options_are_one_line(work, capsys, args, match):
     folder, g, case = work
     assert main(["run", str(g), "--loadcase", str(case), *args]) == 1
@@ -136,13 +153,41 @@ def test_cura_settings_json_drive_travel_and_retraction(tmp_path, sliced):
     case = tmp_path / "case.toml"
     case.write_text(CASE, encoding="utf-8")
     js = tmp_path / "cura.json"
-    js.write_text(json.dumps({"global": {"speed_travel": 150, "retraction_combing": "off"},
-                              "extruders": [{"retraction_amount": 1.5, "retraction_retract_speed": 30,
-                                             "retraction_prime_speed": 20, "material_diameter": 1.75,
-                                             "retraction_min_travel": 0.5, "machine_nozzle_size": 0.4}]}))
+    js.write_text(
+        json.dumps(
+            {
+                "global": {"speed_travel": 150, "retraction_combing": "off"},
+                "extruders": [
+                    {
+                        "retraction_amount": 1.5,
+                        "retraction_retract_speed": 30,
+                        "retraction_prime_speed": 20,
+                        "material_diameter": 1.75,
+                        "retraction_min_travel": 0.5,
+                        "machine_nozzle_size": 0.4,
+                    }
+                ],
+            }
+        )
+    )
     out = tmp_path / "out.gcode"
-    assert main(["run", str(g), "--loadcase", str(case), "--engine", "streamlines", "-o", str(out),
-                 "--slicer-settings", str(js)]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(g),
+                "--loadcase",
+                str(case),
+                "--engine",
+                "streamlines",
+                "-o",
+                str(out),
+                "--slicer-settings",
+                str(js),
+            ]
+        )
+        == 0
+    )
     text = out.read_text()
     assert "G0 F9000 X" in text  # 150 mm/s travels
     program = gcode.read(out)

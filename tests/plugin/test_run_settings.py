@@ -6,7 +6,6 @@ import argparse
 import json
 
 import pytest
-
 from loadpath import gcode, loadcase
 from loadpath.errors import SettingsError
 from loadpath.plugin import settings as S
@@ -37,11 +36,20 @@ def test_precedence(sliced):
     assert s.source("retract_length") == "slicer config" and s.source("engine") == "default"
     assert s.max_volumetric_speed == 15.0  # filament_max_volumetric_speed, max_volumetric_speed is 0
     s = S.resolve(program, toolpath=lc.toolpath)
-    assert (s.engine, s.pitch, s.K, s.principal, s.replace) == ("streamlines", 0.5, 9.0, "alternate",
-                                                                ("solid", "sparse"))
+    assert (s.engine, s.pitch, s.K, s.principal, s.replace) == (
+        "streamlines",
+        0.5,
+        9.0,
+        "alternate",
+        ("solid", "sparse"),
+    )
     assert s.source("pitch") == "load case"
-    s = S.resolve(program, toolpath=lc.toolpath, cli={"engine": "swarm", "pitch": "0.45", "retract_length": 1.2},
-                  env={"SLIC3R_RETRACT_LENGTH": "2", "SLIC3R_travel_speed": "150", "SLIC3R_PP_HOST": "File"})
+    s = S.resolve(
+        program,
+        toolpath=lc.toolpath,
+        cli={"engine": "swarm", "pitch": "0.45", "retract_length": 1.2},
+        env={"SLIC3R_RETRACT_LENGTH": "2", "SLIC3R_travel_speed": "150", "SLIC3R_PP_HOST": "File"},
+    )
     assert (s.engine, s.pitch, s.K) == ("swarm", 0.45, 9.0)
     assert s.retract_length == 1.2 and s.source("retract_length") == "command line"
     assert s.travel_speed == 150.0 and s.source("travel_speed") == "SLIC3R_* environment"
@@ -58,9 +66,20 @@ def test_cura_without_settings_infers_from_moves(sliced):
 def test_cura_settings_json(tmp_path, sliced):
     program = gcode.read(sliced("cura", "ohs", "mixed"))
     js = tmp_path / "c.json"
-    js.write_text(json.dumps({"global": {"speed_travel": 200, "retraction_hop_enabled": True, "retraction_hop": 0.3,
-                                         "retraction_combing": "noskin", "material_flow": 95},
-                              "extruders": [{"retraction_amount": 6.5, "material_diameter": 2.85}]}))
+    js.write_text(
+        json.dumps(
+            {
+                "global": {
+                    "speed_travel": 200,
+                    "retraction_hop_enabled": True,
+                    "retraction_hop": 0.3,
+                    "retraction_combing": "noskin",
+                    "material_flow": 95,
+                },
+                "extruders": [{"retraction_amount": 6.5, "material_diameter": 2.85}],
+            }
+        )
+    )
     s = S.resolve(program, cura_settings=S.read_cura_settings(js))
     assert (s.travel_speed, s.retract_lift, s.retract_length, s.filament_diameter) == (200.0, 0.3, 6.5, 2.85)
     assert s.only_retract_when_crossing_perimeters and s.extrusion_multiplier == pytest.approx(0.95)
@@ -68,7 +87,9 @@ def test_cura_settings_json(tmp_path, sliced):
 
 
 def test_slic3r_env_is_case_insensitive():
-    cfg = S.from_slic3r_env({"SLIC3R_Retract_Length": "1.5", "SLIC3R_NOZZLE_DIAMETER": "0.6,0.4", "PATH": "/bin"})
+    cfg = S.from_slic3r_env(
+        {"SLIC3R_Retract_Length": "1.5", "SLIC3R_NOZZLE_DIAMETER": "0.6,0.4", "PATH": "/bin"}
+    )
     vals = S.from_prusa_config(cfg)
     assert vals["retract_length"] == "1.5" and vals["nozzle_diameter"] == "0.6"
 
@@ -76,21 +97,47 @@ def test_slic3r_env_is_case_insensitive():
 def test_cli_options_come_from_the_schema():
     parser = argparse.ArgumentParser()
     S.add_cli_options(parser)
-    args = parser.parse_args(["--engine", "streamlines", "--pitch", "0.5", "--K", "3", "--replace", "solid,top",
-                              "--set", "width_max=1.4", "--on-failure", "keep"])
+    args = parser.parse_args(
+        [
+            "--engine",
+            "streamlines",
+            "--pitch",
+            "0.5",
+            "--K",
+            "3",
+            "--replace",
+            "solid,top",
+            "--set",
+            "width_max=1.4",
+            "--on-failure",
+            "keep",
+        ]
+    )
     vals = S.cli_values(args)
-    assert vals == {"engine": "streamlines", "pitch": "0.5", "K": "3", "replace": "solid,top", "on_failure": "keep",
-                    "width_max": "1.4"}
+    assert vals == {
+        "engine": "streamlines",
+        "pitch": "0.5",
+        "K": "3",
+        "replace": "solid,top",
+        "on_failure": "keep",
+        "width_max": "1.4",
+    }
     s = S.Settings().with_values(vals, "command line")
     assert s.replace == ("solid", "top") and s.width_max == 1.4 and s.K == 3.0
     flags = {a.option_strings[0] for a in parser._actions if a.option_strings}
     assert {"--engine", "--pitch", "--K", "--replace", "--on-failure"} <= flags
 
 
-@pytest.mark.parametrize("values,match", [
-    ({"engine": "magic"}, "engine"), ({"replace": "walls"}, "walls"), ({"pitch": "-0.4"}, "pitch"),
-    ({"width_min": "abc"}, "width_min"), ({"bogus": 1}, "unknown"),
-])
+@pytest.mark.parametrize(
+    "values,match",
+    [
+        ({"engine": "magic"}, "engine"),
+        ({"replace": "walls"}, "walls"),
+        ({"pitch": "-0.4"}, "pitch"),
+        ({"width_min": "abc"}, "width_min"),
+        ({"bogus": 1}, "unknown"),
+    ],
+)
 def test_bad_values_name_the_setting(values, match):
     with pytest.raises(SettingsError, match=match):
         S.Settings().with_values(values, "command line")

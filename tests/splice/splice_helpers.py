@@ -30,7 +30,9 @@ def block_region(program, b):
     h = float(np.median(mv["height"]))
     d = 1.75
     fw = float(np.sum(mv["e"]) * np.pi * d * d / 4 / max(seg.sum(), 1e-9) / h)
-    lines = shapely.linestrings(np.stack([np.stack([mv["x0"], mv["y0"]], 1), np.stack([mv["x1"], mv["y1"]], 1)], 1))
+    lines = shapely.linestrings(
+        np.stack([np.stack([mv["x0"], mv["y0"]], 1), np.stack([mv["x1"], mv["y1"]], 1)], 1)
+    )
     beads = shapely.union_all(shapely.buffer(lines, fw / 2, cap_style="flat"))
     spacing = max(fw, beads.convex_hull.area / max(seg.sum(), 1e-9))
     for _ in range(2):  # the hull overestimates concave regions: close, measure, close again

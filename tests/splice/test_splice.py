@@ -26,8 +26,12 @@ CURRENT = Path(__file__).resolve().parents[1] / "data" / "current"
 
 CASES = {
     "prusa-relE": ("prusa", "ohs", "mixed", {}),
-    "prusa-absE": ("prusa", "ohs", "solid", {"use_relative_e_distances": 0, "before_layer_gcode": '""',
-                                              "layer_gcode": '""'}),
+    "prusa-absE": (
+        "prusa",
+        "ohs",
+        "solid",
+        {"use_relative_e_distances": 0, "before_layer_gcode": '""', "layer_gcode": '""'},
+    ),
     "prusa-fwretract": ("prusa", "ohs", "mixed", {"use_firmware_retraction": 1, "wipe": 0}),
     "prusa-volumetricE": ("prusa", "ohs", "mixed", {"use_volumetric_e": 1}),
     "prusa-two-objects": ("prusa", "two_objects", "mixed", {}),
@@ -161,7 +165,11 @@ def test_new_lines_stay_inside_their_object_labels(spliced):
     objs_new = {out.objects[o] for o in np.unique(m["object"][sel]) if o >= 0}
     objs_blocks = {program.block(f.block).object for f in fills}
     assert objs_new <= objs_blocks
-    assert not np.any(m["object"][sel & m["extrude"]] < 0) or program.dialect.family == "cura" and not out.objects
+    assert (
+        not np.any(m["object"][sel & m["extrude"]] < 0)
+        or program.dialect.family == "cura"
+        and not out.objects
+    )
 
 
 def test_wipe_is_regenerated_along_the_new_last_path(sliced):
@@ -172,8 +180,12 @@ def test_wipe_is_regenerated_along_the_new_last_path(sliced):
     result, out, check = run_splice(program, fills)
     assert check.problems == []
     lmap = result.line_map(program.n_lines)
-    detached = [f for f in fills if program.block(f.block).exit_start >= program.block(f.block).span_stop
-                and program.block(f.block).exit_stop > program.block(f.block).exit_start]
+    detached = [
+        f
+        for f in fills
+        if program.block(f.block).exit_start >= program.block(f.block).span_stop
+        and program.block(f.block).exit_stop > program.block(f.block).exit_start
+    ]
     assert detached
     for f in detached:
         b = program.block(f.block)
@@ -201,8 +213,11 @@ def test_flow_model_reproduces_the_slicers_own_e(sliced, slicer, settings, width
     PrusaSlicer's rounded rectangle and Cura's rectangle, filament diameter, multiplier, E mode."""
     program = gcode.read(sliced(slicer, "ohs", settings))
     s = S.resolve(program)
-    blocks = [i for i in infill_blocks(program) if program.block(i).role in (Role.SOLID_INFILL, Role.SKIN,
-                                                                              Role.SPARSE_INFILL)][:2]
+    blocks = [
+        i
+        for i in infill_blocks(program)
+        if program.block(i).role in (Role.SOLID_INFILL, Role.SKIN, Role.SPARSE_INFILL)
+    ][:2]
     fills = []
     flow = S.splice_options(s).flow
     for i in blocks:
@@ -221,7 +236,9 @@ def test_flow_model_reproduces_the_slicers_own_e(sliced, slicer, settings, width
         rep = next(r for r in result.blocks if r.block == f.block)
         assert rep.filament_model == pytest.approx(b.e, rel=2e-3)
         # E per mm on long segments, as written back
-        assert np.median(orig["e"][long] / seg[long]) == pytest.approx(rep.filament_new / rep.length_new, rel=2e-3)
+        assert np.median(orig["e"][long] / seg[long]) == pytest.approx(
+            rep.filament_new / rep.length_new, rel=2e-3
+        )
     assert check.problems == []
 
 
@@ -259,15 +276,22 @@ def test_variable_width_follows_pitch_and_is_clamped(sliced):
 def test_volumetric_limit_lowers_the_feedrate(sliced):
     program = gcode.read(sliced("prusa", "ohs", "solid"))
     fills = rectilinear_fills(program, infill_blocks(program)[:2], pitch_scale=2.0)  # wide beads
-    result, out, check = run_splice(program, fills, volume_tol=None, max_volumetric_speed=4.0, width_max=2.5,
-                                    max_correction=0.0, match_volume=False)
+    result, out, check = run_splice(
+        program,
+        fills,
+        volume_tol=None,
+        max_volumetric_speed=4.0,
+        width_max=2.5,
+        max_correction=0.0,
+        match_volume=False,
+    )
     lmap = result.line_map(program.n_lines)
     new = np.ones(out.n_lines, dtype=bool)
     new[lmap[lmap >= 0]] = False
     m = out.moves
     sel = m["extrude"] & new[m["line"]] & (np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"]) > 1)
     seg = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])[sel]
-    volumetric = m["e"][sel] / seg * (np.pi * 1.75 ** 2 / 4) * m["f"][sel] / 60.0  # mm^3/s
+    volumetric = m["e"][sel] / seg * (np.pi * 1.75**2 / 4) * m["f"][sel] / 60.0  # mm^3/s
     assert volumetric.max() <= 4.0 * 1.001
     assert m["f"][sel].max() < result.blocks[0].feedrate  # slowed down from the block's own 4800
 
@@ -286,8 +310,10 @@ def test_block_with_a_mode_change_is_kept_and_reported(sliced):
     assert out.to_bytes() == bad.to_bytes()
 
 
-@pytest.mark.parametrize("name", ["prusaslicer-2.9.2-calicat-mini-arcs-m486.gcode",
-                                  "prusaslicer-2.7.4-plant-sign-arcs-labels.gcode"])
+@pytest.mark.parametrize(
+    "name",
+    ["prusaslicer-2.9.2-calicat-mini-arcs-m486.gcode", "prusaslicer-2.7.4-plant-sign-arcs-labels.gcode"],
+)
 def test_current_prusaslicer_files_with_arcs_and_labels(name):
     """Files from current PrusaSlicer releases: arcs in kept blocks, M486 / labels, wipes."""
     program = gcode.read(CURRENT / name)
@@ -314,8 +340,13 @@ def test_block_replaced_by_nothing_keeps_the_machine_state(sliced):
     # only the volume and feature checks complain (the layer lost its FILL), nothing about the state
     assert len(check.problems) == 2
     assert "extrudes 0.000 mm" in check.problems[0] and "became" in check.problems[1]
-    kinds = set(out.kind_of_line[int(result.line_map(program.n_lines)[program.block(i).span_start - 1]) + 1:
-                                 int(result.line_map(program.n_lines)[program.block(i).span_stop])])
+    kinds = set(
+        out.kind_of_line[
+            int(result.line_map(program.n_lines)[program.block(i).span_start - 1]) + 1 : int(
+                result.line_map(program.n_lines)[program.block(i).span_stop]
+            )
+        ]
+    )
     assert EXTRUDE not in kinds
     assert kinds <= {TRAVEL, RETRACT, UNRETRACT, WIPE, 0, 6}
 
@@ -337,7 +368,10 @@ def test_binary_gcode_is_spliced_and_written_back_as_binary(tmp_path):
     back = bgcode.decode(data)
     assert [(m.kind, m.items) for m in back.metadata] == [(m.kind, m.items) for m in container.metadata]
     assert [t.data for t in back.thumbnails] == [t.data for t in container.thumbnails]
-    assert (back.gcode_compression, back.gcode_encoding) == (container.gcode_compression, container.gcode_encoding)
+    assert (back.gcode_compression, back.gcode_encoding) == (
+        container.gcode_compression,
+        container.gcode_encoding,
+    )
     reread = gcode.parse(back.gcode_bytes)
     assert reread.n_lines == out.n_lines
     assert layer_features(reread) == layer_features(program)
