@@ -201,10 +201,9 @@ SCHEMA: tuple[Field, ...] = (
         "int",
         0,
         "",
-        "worker processes for the per-layer work (0: one per core, at most 4)",
+        "worker processes for the per-layer work (0: one per core, at most 4; --set jobs=N)",
         minimum=0,
         maximum=256,
-        cli="--jobs",
         group="run",
     ),
     Field(

@@ -207,3 +207,22 @@ def test_demo_writes_result_and_report(tmp_path, monkeypatch, capsys):
     assert data["settings"]["engine"] == "swarm" and data["changed"]
     assert "loadpath demo" in capsys.readouterr().out
     assert os.path.getsize(out / "ohs.loadpath.gcode") > 100_000
+
+
+def test_progress_bar_only_on_a_terminal():
+    import io
+
+    from loadpath.plugin.commands.run import Progress
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty, pipe = Tty(), io.StringIO()
+    for stream in (tty, pipe):
+        bar = Progress(stream)
+        bar("fea", 0, 1)
+        bar("paths", 3, 8)
+        bar.close()
+    assert "\r" in tty.getvalue() and "paths" in tty.getvalue() and "3/8" in tty.getvalue()
+    assert pipe.getvalue() == ""
