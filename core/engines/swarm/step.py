@@ -529,15 +529,23 @@ def _safety(tab: np.ndarray, x: Points2, ctx: Context) -> tuple[Bools, np.ndarra
     # half a pitch of each other's new point or the middle of each other's move (chains closing in
     # around a corner or behind a hole, neighbours whose moves cut across); the later one gives way
     idx = np.flatnonzero(alive & moving)
-    pairs = cKDTree(x[idx]).query_pairs(min_gap + 1.5 * ctx.pitch, output_type="ndarray")
-    if len(pairs):
-        a, b = idx[pairs[:, 0]], idx[pairs[:, 1]]
+    if len(idx) > 1:
+        # candidates: the next two agents along the front, and for several chains any agents of
+        # different chains near each other
+        k = np.arange(len(idx))
+        pairs = [np.stack([k[:-1], k[1:]], axis=1), np.stack([k[:-2], k[2:]], axis=1)]
+        if chain[idx[-1]] != chain[idx[0]]:
+            pairs.append(cKDTree(x[idx]).query_pairs(min_gap + 1.5 * ctx.pitch, output_type="ndarray"))
+        pr = np.concatenate(pairs)
+        a, b = idx[pr[:, 0]], idx[pr[:, 1]]
         # distance between the two moves (segments start -> x): at an end of one of them
-        d = np.minimum(
-            np.minimum(_point_segment(x[a], start[b], x[b]), _point_segment(x[b], start[a], x[a])),
-            np.minimum(_point_segment(start[a], start[b], x[b]), _point_segment(start[b], start[a], x[a])),
-        )
-        near = d < min_gap
+        m2 = len(a)
+        d = _point_segment(
+            np.concatenate([x[a], x[b], start[a], start[b]]),
+            np.concatenate([start[b], start[a], start[b], start[a]]),
+            np.concatenate([x[b], x[a], x[b], x[a]]),
+        ).reshape(4, m2)
+        near = np.min(d, axis=0) < min_gap
         if np.any(near):
             alive[np.maximum(a[near], b[near])] = False
             ctx.count("killed_same_step", len(np.unique(np.maximum(a[near], b[near]))))
