@@ -52,6 +52,9 @@ class JobRequest:
         The slicer's settings as JSON (Cura's keys; the Cura plugin writes it).
     env : mapping or None
         Environment to read ``SLIC3R_*`` from (the PrusaSlicer hook passes ``os.environ``).
+    analyze : callable or None
+        Replaces :func:`loadpath.fea.analyze` (see :func:`loadpath.pipeline.run`); the local service
+        passes one that caches FEA results.
     """
 
     input: Path
@@ -62,6 +65,7 @@ class JobRequest:
     cli: Mapping[str, Any] = field(default_factory=dict)
     slicer_settings: Path | None = None
     env: Mapping[str, str] | None = None
+    analyze: Callable[..., Any] | None = None
 
 
 @dataclass
@@ -235,7 +239,8 @@ def _run(
         check=s.check,
     )
     pres = pipeline.run(
-        program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura
+        program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura,
+        analyze=request.analyze,
     )
     result.pipeline = pres
     times.update(pres.times)

@@ -178,6 +178,7 @@ def run(
     splice_options: SpliceOptions,
     progress: Progress | None = None,
     cura_settings: Mapping[str, Any] | None = None,
+    analyze: Callable[..., Any] | None = None,
 ) -> PipelineResult:
     """Run the pipeline on a parsed program (see the module docstring).
 
@@ -191,6 +192,9 @@ def run(
         ``progress(stage, done, total)``.
     cura_settings : mapping, optional
         Cura's settings (for vase mode / sequential printing detection).
+    analyze : callable, optional
+        ``analyze(resolved_body, pitch=...) -> Analysis`` instead of :func:`loadpath.fea.analyze`
+        (``loadpath serve`` passes one that reuses cached results for the same part and load case).
 
     Raises
     ------
@@ -257,7 +261,7 @@ def run(
     for k, rb in enumerate(resolved):
         tell("fea", k, len(resolved))
         pitches = [u.pitch for u in units if u.object == rb.name]
-        analyses[rb.name] = fea.analyze(rb, pitch=float(np.median(pitches)) if pitches else None)
+        analyses[rb.name] = (analyze or fea.analyze)(rb, pitch=float(np.median(pitches)) if pitches else None)
     tell("fea", len(resolved), len(resolved))
     clock.lap("fea")
 
