@@ -17,7 +17,8 @@ Steps
    rectilinear lines the same way); otherwise the splicer travels.
 4. Flow width per segment: the mean local pitch of its two vertices (variable width, solid infill),
    or a fixed flow width (sparse infill keeps the slicer's width).  Bead width from the flow model,
-   clamped to ``width_range`` times the nozzle diameter.  With a target E (the replaced block's own),
+   clamped to ``width_range`` times the nozzle diameter (variable widths only: a fixed flow width is
+   the slicer's own choice, e.g. Cura's combined sparse infill printed at double flow).  With a target E (the replaced block's own),
    the flow widths are scaled by one factor, bounded by ``max_correction``, so the block extrudes
    the volume the slicer extruded (coverage gaps of the engine are filled by slightly wider beads).
 5. Feedrate: the block's own, lowered per segment where the volumetric rate
@@ -338,6 +339,8 @@ def plan_block(
     ln = np.concatenate(lengths)
 
     wmin, wmax = (r * options.nozzle_diameter for r in options.width_range)
+    if flow_width is not None:  # the slicer's own width (e.g. Cura's combined sparse infill at double flow)
+        wmin, wmax = 0.0, float("inf")
 
     def areas(scale: float) -> tuple[Floats, Floats]:
         bead = np.clip(flow.bead_width(fw * scale, height), wmin, wmax)

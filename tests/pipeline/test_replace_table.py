@@ -232,6 +232,18 @@ def test_infill_every_n_layers_keeps_combined_thickness(tmp_path, test_stls, cas
     assert any(out.line(int(i)) == ";HEIGHT:0.4" for i in np.flatnonzero(mask))
 
 
+def test_cura_combined_sparse_infill_keeps_its_flow(sliced, case, tmp_path):
+    """Cura's infill_sparse_thickness = 0.4 on 0.2 mm layers: every other layer prints the sparse infill
+    at double flow; the new paths keep that flow (volume within 3 %)."""
+    gpath = sliced("cura", "ohs", "mixed", infill_sparse_thickness=0.4)
+    program, result, out = run(gpath, case, tmp_path / "out.gcode", replace="sparse")
+    units = [u for j in result.pipeline.jobs for u in j.units]
+    assert any(u.flow_width > 0.7 for u in units)  # the combined layers (flow width 0.8 at 0.2 mm)
+    done = replaced_blocks(result)
+    assert {b.block_index for u in units for b in u.blocks} == done
+    assert all(abs(r.volume_ratio - 1) < 0.03 for r in result.pipeline.splice.blocks)
+
+
 @pytest.mark.parametrize(
     "what,overrides,part",
     [
