@@ -18,9 +18,10 @@ Steps
 4. Flow width per segment: the mean local pitch of its two vertices (variable width, solid infill),
    or a fixed flow width (sparse infill keeps the slicer's width).  Bead width from the flow model,
    clamped to ``width_range`` times the nozzle diameter (variable widths only: a fixed flow width is
-   the slicer's own choice, e.g. Cura's combined sparse infill printed at double flow).  With a target E (the replaced block's own),
-   the flow widths are scaled by one factor, bounded by ``max_correction``, so the block extrudes
-   the volume the slicer extruded (coverage gaps of the engine are filled by slightly wider beads).
+   the slicer's own choice, e.g. Cura's combined sparse infill printed at double flow).  With a
+   target E (the replaced block's own), the flow widths are scaled by one factor, bounded by
+   ``max_correction``, so the block extrudes the volume the slicer extruded (coverage gaps of the
+   engine are filled by slightly wider beads).
 5. Feedrate: the block's own, lowered per segment where the volumetric rate
    ``area * multiplier * v`` would exceed ``max_volumetric_speed``.
 """
