@@ -54,6 +54,23 @@ def _section_table() -> dict[int, list[int]]:
 _TABLE = _section_table()
 
 
+# reference (l1, l2) of the nodes: corners, then mid-edges (0,1), (1,2), (2,0)
+_REF_NODES = {
+    3: np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+    6: np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]]),
+}
+
+
+def _monomials(L: np.ndarray, k: int | None = None) -> np.ndarray:
+    """``[1, l1, l2]`` (k = 3) or ``[1, l1, l2, l1², l1 l2, l2²]`` (k = 6) at ``(p, 2)`` points."""
+    k = len(L) if k is None else k
+    l1, l2 = L[:, 0], L[:, 1]
+    one = np.ones_like(l1)
+    if k == 3:
+        return np.stack([one, l1, l2], axis=1)
+    return np.stack([one, l1, l2, l1 * l1, l1 * l2, l2 * l2], axis=1)
+
+
 class FEStressField(StressField):
     """Stress field of one layer, interpolated on triangles.
 
@@ -99,6 +116,10 @@ class FEStressField(StressField):
         if self.values.shape[1] not in (3, 6) or self.values.shape[2] != 3:
             raise ValueError(f"values must be (m, 3 or 6, 3), got {self.values.shape}")
         self.locator = TriangleLocator(self.corners, cell_factor=0.5)
+        # per triangle, the interpolant as a polynomial in the barycentric (l1, l2): one gather and
+        # one contraction per query instead of six (the nodal data stays in ``values``)
+        to_coef = np.linalg.inv(_monomials(_REF_NODES[self.values.shape[1]]))
+        self._coef = np.einsum("kn,mnc->mkc", to_coef, self.values)
         self.scale = float(scale)
         self.principal = _check_principal(principal)
         self.region = region
@@ -115,21 +136,10 @@ class FEStressField(StressField):
             ok = tri >= 0
             if not np.any(ok):
                 continue
-            t = tri[ok]
-            L = L[ok]
-            V = self.values
-            if V.shape[1] == 3:
-                acc = L[:, 0:1] * V[t, 0] + L[:, 1:2] * V[t, 1] + L[:, 2:3] * V[t, 2]
-            else:
-                l0, l1, l2 = L[:, 0:1], L[:, 1:2], L[:, 2:3]
-                acc = l0 * (2 * l0 - 1) * V[t, 0]
-                acc += l1 * (2 * l1 - 1) * V[t, 1]
-                acc += l2 * (2 * l2 - 1) * V[t, 2]
-                acc += 4 * l0 * l1 * V[t, 3]
-                acc += 4 * l1 * l2 * V[t, 4]
-                acc += 4 * l2 * l0 * V[t, 5]
+            C = self._coef[tri[ok]]  # (p, k, 3)
+            B = _monomials(L[ok, 1:], C.shape[1])
             block = out[sl]
-            block[ok] = acc
+            block[ok] = np.einsum("pk,pkc->pc", B, C)
         return out
 
     @property
