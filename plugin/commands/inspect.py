@@ -28,7 +28,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the table (and draw the pictures)."""
     from loadpath import gcode, geometry
-    from loadpath.errors import LoadpathError, SettingsError
+    from loadpath.errors import SettingsError
     from loadpath.geometry.summary import (
         describe_resolved,
         distinct_file_layers,
@@ -51,10 +51,7 @@ def run(args: argparse.Namespace) -> int:
     if bad:
         raise SettingsError(f"--replace {','.join(bad)}: unknown kind; "
                             f"use any of {', '.join(geometry.REPLACEABLE)}")
-    try:
-        program = gcode.read(args.gcode)
-    except OSError as exc:
-        raise LoadpathError(f"cannot read {args.gcode}: {exc.strerror or exc}; check the path") from None
+    program = gcode.read(args.gcode)  # a missing/unreadable path is a one-line GCodeParseError
     geo = geometry.layer_geometry(program)
 
     objs = ", ".join(f"{o.name!r} ({len(o.layers)} layers)" for o in geo.objects) or "none"

@@ -83,7 +83,7 @@ def test_pictures_and_load_case(repo_root, tmp_path, capsys):
 def test_bad_input_is_one_line(tmp_path, capsys, sliced):
     assert main(["inspect", str(tmp_path / "missing.gcode")]) == 1
     err = capsys.readouterr().err
-    assert err.startswith("loadpath: cannot read") and err.count("\n") == 1
+    assert err.startswith("loadpath: ") and "does not exist; check the path" in err and err.count("\n") == 1
     no_walls = sliced("prusa", "ohs", "mixed", perimeters=0)
     assert main(["inspect", str(no_walls)]) == 1
     err = capsys.readouterr().err
