@@ -51,9 +51,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
         help="process on the Dask cluster with this scheduler (pip install 'loadpath[cluster]')",
     )
     settings.add_cli_options(parser)
-    # --jobs here is the number of files at once; the per-file engine workers stay at 1
-    # (--set jobs=N changes them).
-    parser.conflict_handler = "resolve"
+    # --jobs here is the number of files at once; each file's engine workers stay at 1 (--set jobs=N)
     parser.add_argument(
         "--jobs",
         dest="files_at_once",
