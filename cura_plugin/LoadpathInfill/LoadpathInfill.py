@@ -12,6 +12,7 @@ already processed (by the script or by this menu) is left alone.
 import json
 import os
 
+from UM.Application import Application
 from UM.Extension import Extension
 from UM.Logger import Logger
 from UM.Message import Message
@@ -70,6 +71,7 @@ class LoadpathInfill(Extension):
         self.addMenuItem("loadpath command...", self.chooseCommand)
         self.addMenuItem("Show last report", self.showLastReport)
         self._message = None
+        self.lastMessage = ""
         if app is not None:
             prefs = app.getPreferences()
             for key, default in PREFERENCES.items():
@@ -201,6 +203,10 @@ class LoadpathInfill(Extension):
             self._show("Loadpath failed, the G-code is saved unchanged: " + outcome.message)
 
     def _show(self, text, report=None):
+        self.lastMessage = text
+        Logger.log("i", "loadpath: %s", text)
+        if Application.getInstance() is None:  # no Cura window (headless tests)
+            return
         if self._message is not None:
             self._message.hide()
         self._message = Message(text, title=TITLE, lifetime=0)

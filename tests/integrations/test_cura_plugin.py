@@ -151,3 +151,47 @@ def test_script_settings_are_loadpaths_schema_as_uranium_reads_them(tmp_path):
 def test_fast_settings_match_the_plugin_defaults():
     """The reference runs differ from the plugin's only in what the tests pass on purpose."""
     assert set(FAST) <= {f for f in cura_setting_definitions(("toolpath", "run"))}
+
+
+@pytest.mark.real_tool("cura")
+@pytest.mark.slow
+def test_extensions_menu_processes_on_save_and_shows_the_report(sliced, tmp_path):
+    """The plugin loaded as Uranium loads it (plugin.json read by Uranium, SDK checked against Cura
+    4.13's), its menu's preferences set, then a save: the chunks are processed once."""
+    require_tool("cura")
+    chunks = cura_chunks(sliced("cura", "bracket", "mixed").read_text(encoding="utf-8"))
+    prefs = {
+        "loadcase": str(write_case(tmp_path)),
+        "command": str(VENV_BIN / "loadpath"),
+        "options": json.dumps({"engine": "streamlines", "pitch": 0.0}),
+        "on_save": True,
+        "timeout": 300,
+    }
+    job = {
+        "plugin_dir": str(SCRIPTS.parent),
+        "chunks": chunks,
+        "preferences": prefs,
+        "out": str(tmp_path / "r.json"),
+    }
+    (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
+    home = tmp_path / "home"  # Cura's cache folder (the last report) goes under HOME
+    home.mkdir()
+    proc = subprocess.run(
+        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={"PATH": "/usr/bin:/bin", "HOME": str(home)},
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    assert res["compatible"] and res["sdk"] == "7.9.0" and res["qt"] == "PyQt5.QtCore"
+    assert res["menu"] == "Loadpath infill" and "Show last report" in res["items"] and len(res["items"]) == 5
+    assert res["plugin_dir_searched"]  # so Modify G-Code finds scripts/LoadpathScript.py
+    new = res["chunks"]
+    assert res["saved_message"].startswith("Stress-aligned infill written"), res["saved_message"]
+    assert len(new) == len(chunks) and new != chunks and new[0].endswith(PROCESSED)
+    assert res["again"] == new  # a list already processed is left alone
+    assert "infill replaced" in res["report_message"] and "beta" in res["report_message"], res[
+        "report_message"
+    ]
