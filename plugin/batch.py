@@ -2,10 +2,8 @@
 
 Each file is one :func:`loadpath.plugin.job.run_job`; a failing file is recorded and the others go
 on.  Locally the files are read and written in place by a process pool (one process per core by
-default, one engine worker inside each).  On a Dask cluster (``--cluster tcp://host:8786``) the
-workers need loadpath installed but not the files: each task carries the file's bytes and the load
-case's text, runs in a temporary folder on the worker and returns the output's bytes, which are
-written here, atomically.
+default, one engine worker inside each); :mod:`loadpath.plugin.batch_cluster` runs the same tasks on a
+Dask cluster (``--cluster tcp://host:8786``).
 
 >>> tasks = plan(["parts/"], Path("case.toml"), cli={"engine": "swarm"})        # doctest: +SKIP
 >>> results = run_local(tasks, workers=4)                                       # doctest: +SKIP
@@ -22,7 +20,7 @@ import tempfile
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -34,13 +32,12 @@ __all__ = [
     "plan",
     "find_inputs",
     "process",
-    "process_remote",
     "run_local",
-    "run_cluster",
     "table",
     "metrics_summary",
     "BatchProgress",
     "SUFFIXES",
+    "Progress",
 ]
 
 SUFFIXES = (".gcode", ".bgcode", ".gco", ".g")
@@ -253,26 +250,6 @@ def process(task: Task) -> FileResult:
             shutil.rmtree(tmp_report, ignore_errors=True)
 
 
-def process_remote(
-    name: str, data: bytes, loadcase_text: str, cli: Mapping[str, Any], metrics: bool = True
-) -> tuple[FileResult, bytes | None]:
-    """One file on a cluster worker: its bytes in, the output's bytes out (no shared file system)."""
-    work = Path(tempfile.mkdtemp(prefix="loadpath-batch-"))
-    try:
-        inp = work / Path(name).name
-        inp.write_bytes(data)
-        case = work / "case.toml"
-        case.write_text(loadcase_text, encoding="utf-8")
-        out = work / ("out" + inp.suffix)
-        res = process(
-            Task(inp, out, case, {**cli, "jobs": 1}, None, metrics)
-        )  # dask workers: no child processes
-        blob = out.read_bytes() if res.output and out.is_file() else None
-        return replace(res, file=name, output=None), blob
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
-
-
 # ---------------------------------------------------------------------------------------------- many files
 
 
@@ -316,67 +293,6 @@ def run_local(
             results[i] = res
             if progress:
                 progress(res, done, n)
-    return [r for r in results if r is not None]
-
-
-def run_cluster(
-    tasks: Sequence[Task], address: str, progress: Progress | None = None, timeout: float = 30.0
-) -> list[FileResult]:
-    """Process the tasks on the Dask cluster whose scheduler is at ``address``; outputs written here.
-
-    Raises
-    ------
-    SettingsError
-        Dask is not installed, or the scheduler cannot be reached.
-    """
-    try:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-    except ImportError:
-        raise SettingsError("--cluster needs Dask: pip install 'loadpath[cluster]'") from None
-    from loadpath.plugin.job import write_atomic
-
-    try:
-        client = Client(address, timeout=timeout)
-    except OSError as exc:
-        raise SettingsError(
-            f"cannot reach the Dask scheduler at {address!r} ({exc}); check the address "
-            "(tcp://host:8786) and that the scheduler is running"
-        ) from None
-    n = len(tasks)
-    results: list[FileResult | None] = [None] * n
-    try:
-        futures = {}
-        for i, t in enumerate(tasks):
-            fut = client.submit(
-                process_remote,
-                str(t.input),
-                t.input.read_bytes(),
-                Path(t.loadcase).read_text(encoding="utf-8"),
-                dict(t.cli),
-                t.metrics,
-                pure=False,
-                key=f"loadpath-{i}-{t.input.name}-{time.time_ns()}",
-            )
-            futures[fut] = i
-        for done, fut in enumerate(dask_completed(list(futures)), 1):
-            i = futures[fut]
-            try:
-                res, blob = fut.result()
-                if blob is not None:
-                    write_atomic(tasks[i].output, blob)
-                    res = replace(res, output=str(tasks[i].output))
-            except LoadpathError as exc:
-                res = FileResult(str(tasks[i].input), "failed", 0.0, message=str(exc))
-            except Exception as exc:  # a worker lost, loadpath missing on a worker, ...
-                res = FileResult(
-                    str(tasks[i].input), "failed", 0.0, message=f"on the cluster: {type(exc).__name__}: {exc}"
-                )
-            results[i] = res
-            if progress:
-                progress(res, done, n)
-    finally:
-        client.close()
     return [r for r in results if r is not None]
 
 

@@ -20,23 +20,16 @@ points there too).  The request body is bounded (``max_request_mb``), at most ``
 once and ``queue`` more wait (others get 503 at once), and each request has a deadline: its job runs
 in a child process that is killed when the deadline passes (504).
 
-FEA cache: solving the stress analysis is the expensive part that does not depend on the print
-settings; :class:`FEACache` keeps each solved :class:`~loadpath.fea.Analysis` under a hash of the
-part outlines (per slab, at 1 µm), the load case's supports, loads, material, frame and object, and
-the loadpath version.  Re-slicing with other print settings (infill, speeds, temperatures) reuses it;
-a changed outline or load case solves again.  At most ``fea_cache_entries`` results are kept (least
-recently used dropped).
+FEA cache: :mod:`loadpath.plugin.fea_cache` keeps each solved stress analysis per part outline and
+load case, so re-slicing with other print settings does not solve again.  Each request runs in a
+child process (:mod:`loadpath.plugin.service_job`).
 """
 
 from __future__ import annotations
 
-import base64
-import dataclasses
-import hashlib
 import json
 import multiprocessing
 import os
-import pickle
 import shutil
 import threading
 import time
@@ -48,7 +41,9 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-__all__ = ["ServiceConfig", "Service", "FEACache", "fea_key", "default_cache_dir", "handle_run", "confine"]
+from loadpath.plugin.service_job import RequestError, check_request, child, confine
+
+__all__ = ["ServiceConfig", "Service", "default_cache_dir", "RequestError", "confine"]
 
 HOST = "127.0.0.1"
 _LOOPBACK = {"127.0.0.1", "localhost", "::1"}
@@ -58,30 +53,6 @@ def default_cache_dir() -> Path:
     """``$XDG_CACHE_HOME/loadpath/serve`` (default ``~/.cache/loadpath/serve``)."""
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "loadpath" / "serve"
-
-
-def confine(cache_dir: Path) -> None:
-    """Point this process's temporary folder and home into ``cache_dir``.
-
-    Libraries keep settings under the home folder (FLTK, under gmsh, creates ``~/.fltk``): with both
-    inside the cache folder, nothing is written outside it.
-    """
-    import tempfile
-
-    cache_dir = Path(cache_dir)
-    for sub in ("tmp", "home"):
-        (cache_dir / sub).mkdir(parents=True, exist_ok=True, mode=0o700)
-    home = str(cache_dir / "home")
-    os.environ.update(
-        {
-            "TMPDIR": str(cache_dir / "tmp"),
-            "HOME": home,
-            "XDG_CONFIG_HOME": home + "/.config",
-            "XDG_CACHE_HOME": home + "/.cache",
-            "XDG_DATA_HOME": home + "/.local/share",
-        }
-    )
-    tempfile.tempdir = str(cache_dir / "tmp")
 
 
 @dataclass(frozen=True)
@@ -112,207 +83,6 @@ class ServiceConfig:
     queue: int = 4
     timeout: float = 600.0
     fea_cache_entries: int = 64
-
-
-class RequestError(Exception):
-    """A request that gets an error answer: HTTP status, code, one-line message."""
-
-    def __init__(self, status: int, code: str, message: str) -> None:
-        super().__init__(message)
-        self.status, self.code, self.message = status, code, message
-
-
-# ---------------------------------------------------------------------------------------------- FEA cache
-
-
-def fea_key(rb: Any) -> str:
-    """Hash of what a stress analysis depends on: outlines, load case (without [toolpath]), version."""
-    import shapely
-    from loadpath import __version__
-
-    h = hashlib.sha256(f"loadpath {__version__}\n{rb.analysis}\n".encode())
-    for slab in rb.body.slabs:
-        h.update(f"{slab.z0:.4f} {slab.z1:.4f}\n".encode())
-        outline = shapely.normalize(shapely.set_precision(slab.outline, 1e-3))
-        h.update(shapely.to_wkb(outline, hex=False))
-    lc = rb.loadcase
-    h.update(repr((lc.version, lc.supports, lc.loads, lc.material, lc.frame, lc.object)).encode())
-    return h.hexdigest()[:32]
-
-
-class FEACache:
-    """``analyze(rb, pitch=...)`` that reuses solved analyses kept in ``folder`` (pickles).
-
-    Only this service writes the folder (mode 0700 under the user's cache), so its pickles are
-    trusted.  ``hits`` and ``misses`` count this instance's lookups.
-    """
-
-    def __init__(self, folder: Path, max_entries: int = 64) -> None:
-        self.folder = Path(folder)
-        self.folder.mkdir(parents=True, exist_ok=True, mode=0o700)
-        self.max_entries = max_entries
-        self.hits = 0
-        self.misses = 0
-
-    def __call__(self, rb: Any, pitch: float | None = None, **kw: Any) -> Any:
-        """Return the cached analysis of ``rb`` (attached to ``rb``), else solve and keep it."""
-        from loadpath import fea
-
-        path = self.folder / f"{fea_key(rb)}.pickle"
-        if path.is_file():
-            try:
-                with path.open("rb") as fh:
-                    cached = pickle.load(fh)
-                os.utime(path)
-                self.hits += 1
-                return dataclasses.replace(cached, resolved=rb, _cache={})
-            except (OSError, pickle.UnpicklingError, EOFError, AttributeError, TypeError):
-                path.unlink(missing_ok=True)  # damaged or from another version: solve again
-        analysis = fea.analyze(rb, pitch=pitch, **kw)
-        self.misses += 1
-        tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-        with tmp.open("wb") as fh:
-            pickle.dump(dataclasses.replace(analysis, _cache={}), fh, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(tmp, path)
-        self.prune()
-        return analysis
-
-    def entries(self) -> list[Path]:
-        """List the cached results, least recently used first."""
-        stamped = []
-        for p in self.folder.glob("*.pickle"):
-            try:
-                stamped.append((p.stat().st_mtime, p))
-            except FileNotFoundError:  # pruned by another job meanwhile
-                continue
-        return [p for _, p in sorted(stamped)]
-
-    def prune(self) -> None:
-        """Drop the least recently used results beyond ``max_entries``."""
-        entries = self.entries()
-        for p in entries[: max(0, len(entries) - self.max_entries)]:
-            p.unlink(missing_ok=True)
-
-
-# ---------------------------------------------------------------------------------------------- one job
-
-
-def _check_request(req: Any) -> dict[str, Any]:
-    """Validate a /v1/run body's shape (values are checked by loadpath itself)."""
-    from loadpath.plugin.settings import SCHEMA
-
-    if not isinstance(req, dict):
-        raise RequestError(400, "bad_request", "the body must be a JSON object")
-    if ("gcode" in req) == ("gcode_base64" in req):
-        raise RequestError(
-            400, "bad_request", "give the G-code as exactly one of 'gcode' (text) or 'gcode_base64'"
-        )
-    if not isinstance(req.get("gcode", req.get("gcode_base64")), str):
-        raise RequestError(400, "bad_request", "'gcode' / 'gcode_base64' must be a string")
-    if not isinstance(req.get("loadcase"), str) or not req["loadcase"].strip():
-        raise RequestError(400, "bad_request", "'loadcase' must be the load case's TOML text")
-    for key in ("settings", "slicer_settings", "slicer_env"):
-        if not isinstance(req.get(key, {}), dict):
-            raise RequestError(400, "bad_request", f"'{key}' must be a JSON object")
-    names = {f.name for f in SCHEMA}
-    unknown = sorted(set(req.get("settings", {})) - names)
-    if unknown:
-        raise RequestError(
-            400, "bad_request", f"unknown setting(s) {', '.join(unknown)}; GET /v1/schema lists them"
-        )
-    extra = sorted(
-        set(req)
-        - {"gcode", "gcode_base64", "loadcase", "settings", "slicer_settings", "slicer_env", "name", "report"}
-    )
-    if extra:
-        raise RequestError(400, "bad_request", f"unknown field(s) {', '.join(extra)}")
-    return req
-
-
-def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: int) -> dict[str, Any]:
-    """Run one request in folder ``work`` (created, not removed); the answer's JSON (without ``ok``).
-
-    Raises
-    ------
-    LoadpathError
-        The job failed (its one-line message goes to the client).
-    """
-    from loadpath.errors import SettingsError
-    from loadpath.plugin.batch import metrics_summary
-    from loadpath.plugin.job import JobRequest, run_job
-
-    binary = "gcode_base64" in req
-    name = Path(str(req.get("name") or ("part.bgcode" if binary else "part.gcode"))).name
-    inp = work / name
-    if binary:
-        try:
-            inp.write_bytes(base64.b64decode(req["gcode_base64"], validate=True))
-        except ValueError:
-            raise SettingsError("'gcode_base64' is not valid base64; encode the file's bytes") from None
-    else:
-        inp.write_bytes(req["gcode"].encode("utf-8"))
-    case = work / "loadcase.toml"
-    case.write_text(req["loadcase"], encoding="utf-8")
-    slicer = None
-    if req.get("slicer_settings"):
-        slicer = work / "slicer_settings.json"
-        slicer.write_text(json.dumps(req["slicer_settings"]), encoding="utf-8")
-    out = work / f"out{inp.suffix or '.gcode'}"
-    report = work / "report" if req.get("report") else None
-    cache = FEACache(fea_dir, fea_entries)
-    env = {str(k): str(v) for k, v in (req.get("slicer_env") or {}).items()}
-    result = run_job(
-        JobRequest(
-            input=inp,
-            loadcase=case,
-            output=out,
-            report=report,
-            cli={**req.get("settings", {}), "jobs": 1},
-            slicer_settings=slicer,
-            env=env or None,
-            analyze=cache,
-        )
-    )
-    data = out.read_bytes() if out.is_file() else inp.read_bytes()
-    metrics = None
-    if report is not None and (report / "metrics.json").is_file():
-        metrics = json.loads((report / "metrics.json").read_text(encoding="utf-8"))
-    beta, cov = metrics_summary(metrics) if metrics else (None, None)
-    answer: dict[str, Any] = {
-        "changed": result.changed,
-        "warnings": list(result.warnings),
-        "error_kept": result.error,
-        "fea_cached": cache.hits > 0 and cache.misses == 0,
-        "fea_solved": cache.misses,
-        "times": {k: round(float(v), 4) for k, v in result.times.items()},
-        "settings": result.settings.as_dict() if result.settings is not None else {},
-        "metrics": metrics,
-        "summary": {"beta": beta, "coverage": cov},
-    }
-    if binary:
-        answer["gcode_base64"] = base64.b64encode(data).decode("ascii")
-    else:
-        answer["gcode"] = data.decode("utf-8", "surrogateescape")
-    return answer
-
-
-def _child(conn: Any, req: Mapping[str, Any], work: str, fea_dir: str, fea_entries: int, cache: str) -> None:
-    """Run :func:`handle_run` in a child process; send ``("ok", answer)`` or ``("error", code, msg)``."""
-    confine(Path(cache))
-    from loadpath.errors import LoadpathError
-
-    try:
-        conn.send(("ok", handle_run(req, Path(work), Path(fea_dir), fea_entries)))
-    except LoadpathError as exc:
-        conn.send(("error", 422, "loadpath_error", " ".join(str(exc).split())))
-    except MemoryError:
-        conn.send(("error", 500, "internal", "out of memory; process a smaller file"))
-    except Exception as exc:  # a bug: still an answer
-        conn.send(
-            ("error", 500, "internal", f"internal error ({type(exc).__name__}: {exc}); please report this")
-        )
-    finally:
-        conn.close()
 
 
 # ---------------------------------------------------------------------------------------------- server
@@ -389,7 +159,7 @@ class Service:
             work.mkdir(mode=0o700)
             recv, send = self._ctx.Pipe(duplex=False)
             proc = self._ctx.Process(
-                target=_child,
+                target=child,
                 args=(
                     send,
                     req,
@@ -546,7 +316,7 @@ class _Handler(BaseHTTPRequestHandler):
                 req = json.loads(self.rfile.read(int(length)))
             except (ValueError, UnicodeDecodeError) as exc:
                 raise RequestError(400, "bad_request", f"the body is not valid JSON ({exc})") from None
-            answer = svc.run(_check_request(req), t0 + svc.config.timeout)
+            answer = svc.run(check_request(req), t0 + svc.config.timeout)
             self._send(200, {"ok": True, **answer})
         except RequestError as exc:
             self._error(exc)

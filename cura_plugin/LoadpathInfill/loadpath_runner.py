@@ -11,6 +11,10 @@ the chunks are then left as they were.
 
 Used by ``scripts/LoadpathScript.py`` (Extensions > Post Processing > Modify G-Code) and by
 ``LoadpathInfill.py`` (the Extensions menu); neither contains logic of its own.
+
+One file of about 500 lines on purpose: the Modify G-Code script is loaded by Cura as a loose file
+and loads this module by its path, so everything the two shells share lives here (settings,
+chunk joining, running the command or the service, the report summary).
 """
 
 import json

@@ -86,7 +86,9 @@ def run(args: argparse.Namespace) -> int:
     bar = batch.BatchProgress()
     try:
         if args.cluster:
-            results = batch.run_cluster(tasks, args.cluster, progress=bar)
+            from loadpath.plugin.batch_cluster import run_cluster
+
+            results = run_cluster(tasks, args.cluster, progress=bar)
         else:
             results = batch.run_local(tasks, args.files_at_once or None, progress=bar)
     finally:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from integration_helpers import assert_spliced, reference, write_case
 from loadpath.errors import SettingsError
-from loadpath.plugin import batch
+from loadpath.plugin import batch, batch_cluster
 from loadpath.plugin.cli import main
 
 ARGS = ["--engine", "streamlines"]
@@ -149,7 +149,7 @@ def test_unreachable_scheduler_is_a_one_line_error(folder):
     pytest.importorskip("distributed")
     tasks = batch.plan([str(folder / "bracket.gcode")], folder / "case.toml")
     with pytest.raises(SettingsError, match="cannot reach the Dask scheduler"):
-        batch.run_cluster(tasks, "tcp://127.0.0.1:9", timeout=2)
+        batch_cluster.run_cluster(tasks, "tcp://127.0.0.1:9", timeout=2)
 
 
 def test_progress_bar_only_on_a_terminal():
