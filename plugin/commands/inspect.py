@@ -52,12 +52,15 @@ def run(args: argparse.Namespace) -> int:
         raise SettingsError(f"--replace {','.join(bad)}: unknown kind; "
                             f"use any of {', '.join(geometry.REPLACEABLE)}")
     program = gcode.read(args.gcode)  # a missing/unreadable path is a one-line GCodeParseError
-    geo = geometry.layer_geometry(program)
+    # Blocks whose own lines leave the region derived for them are reported, not fatal: `run` keeps
+    # them as sliced (loadpath.pipeline.units.unreliable_blocks), so inspect shows the same verdict.
+    geo = geometry.layer_geometry(program, check=False)
 
     objs = ", ".join(f"{o.name!r} ({len(o.layers)} layers)" for o in geo.objects) or "none"
     print(f"{args.gcode}: {program.dialect.name}, {len(program.layers)} layers (counted from 1), "
           f"objects: {objs}")
     print(format_layer_table(layer_rows(program, geo, kinds), kinds))
+    _print_unreliable(program, geo)
 
     resolved = ()
     if lc is not None:
@@ -111,6 +114,18 @@ def _draw(out: Path, program: Any, geo: Any, kinds: tuple[str, ...], resolved: A
             name = out / f"stress_{safe}_{g.layer_index + 1:04d}.png"
             written.append(draw_stress(name, field, g.outline, title))
     return written
+
+
+def _print_unreliable(program: Any, geo: Any) -> None:
+    """One line per infill block whose own lines leave the region derived for it."""
+    from loadpath.pipeline.units import unreliable_blocks
+
+    for b, dist in sorted(unreliable_blocks(geo).items()):
+        line = int(program.blocks["start"][b]) + 1
+        layer = int(program.blocks["layer"][b]) + 1
+        how = ("has no region of its own (other blocks cover its area)" if dist == float("inf")
+               else f"runs {dist:.2f} mm outside the region derived for it")
+        print(f"note: layer {layer}, block at line {line} {how}: `loadpath run` keeps it as sliced")
 
 
 def _safe(name: str) -> str:
