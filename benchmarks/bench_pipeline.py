@@ -55,16 +55,24 @@ force = [1000.0, 0.0, 0.0]
 STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "write")
 
 
-def _child(cmd: list[str]) -> tuple[float, float, int, str]:
-    """Run a command; (wall s, peak RSS MB, exit status, stderr tail)."""
+def _child(cmd: list[str], timeout: float | None = None) -> tuple[float, float, int, str]:
+    """Run a command; (wall s, peak RSS MB, exit status, stderr tail).  Killed after ``timeout`` s."""
     t = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
+    deadline = None if timeout is None else t + timeout
+    while True:
+        pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+        if pid:
+            break
+        if deadline is not None and time.perf_counter() > deadline:
+            proc.kill()
+            _, status, usage = os.wait4(proc.pid, 0)
+            return float("inf"), usage.ru_maxrss / 1024.0, -9, f"killed after {timeout:.0f} s"
+        time.sleep(0.02)
     wall = time.perf_counter() - t
     err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
-    proc.returncode = os.waitstatus_to_exitcode(status)
     lines = err.strip().splitlines()
-    return wall, usage.ru_maxrss / 1024.0, proc.returncode, lines[-1] if lines else ""
+    return wall, usage.ru_maxrss / 1024.0, os.waitstatus_to_exitcode(status), lines[-1] if lines else ""
 
 
 def _slice(stl: Path, out: Path, repeats: int) -> float:
@@ -87,7 +95,9 @@ def _stages(gcode: Path, case: Path, out: Path, engine: str) -> dict[str, float]
     return times
 
 
-def bench(name: str, stl: Path | None, gcode: Path | None, folder: Path, repeats: int, engine: str) -> dict:
+def bench(
+    name: str, stl: Path | None, gcode: Path | None, folder: Path, repeats: int, engine: str, timeout: float
+) -> dict:
     case = folder / "case.toml"
     case.write_text(CASE, encoding="utf-8")
     row: dict = {"part": name, "engine": engine}
@@ -124,36 +134,51 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="specimen and the 100-layer specimen only")
     ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
+    ap.add_argument("--timeout", type=float, default=900.0, help="seconds before a run is given up")
     args, _ = ap.parse_known_args(argv)
     rows = []
-    with tempfile.TemporaryDirectory(prefix="bench_pipeline_") as tmp:
-        folder = Path(tmp)
-        slicing.write_stl(slicing.ohs_mesh(), folder / "ohs.stl")
-        start = [statistics.median(_child([LOADPATH, "--help"])[0] for _ in range(args.repeats))]
-        rows.append(
-            bench("specimen", None, REPO / "examples" / "ohs.gcode", folder, args.repeats, args.engine)
-        )
-        thick = slicing.write_stl(slicing.ohs_mesh(thickness=20.0), folder / "ohs20.stl")
-        rows.append(bench("specimen-20mm", thick, None, folder, max(1, args.repeats // 2), args.engine))
-        if not args.quick:
-            tower = slicing.write_stl(slicing.tower_mesh(), folder / "tower.stl")
-            rows.append(bench("tower", tower, None, folder, 1, args.engine))
-    print(
-        f"loadpath run, end to end (fresh process, median of {args.repeats}); engine {args.engine}; "
-        f"{slicing.prusa_version()}; interpreter + imports (loadpath --help): {start[0]:.2f} s"
-    )
     head = f"{'part':<15}{'layers':>7}{'slice s':>9}{'run s':>8}{'ratio':>7}{'peak MB':>9}{'runs':>6}"
     head += "  stages (s)"
-    print(head)
-    print("-" * len(head))
-    for r in rows:
+
+    def show(r: dict) -> None:
         st = r["stages_s"]
+        if not st:
+            print(
+                f"{r['part']:<15}{r['layers']:>7}{r['prusaslicer_s']:>9.2f}  {r.get('note', '')}", flush=True
+            )
+            return
         stages = " ".join(f"{k} {st.get(k, 0.0):.2f}" for k in STAGES)
         print(
             f"{r['part']:<15}{r['layers']:>7}{r['prusaslicer_s']:>9.2f}{r['run_s']:>8.2f}"
             f"{r['run_s'] / r['prusaslicer_s']:>7.0f}{r['peak_rss_mb']:>9.0f}"
-            f"{st['engine_runs']:>6.0f}  {stages}"
+            f"{st['engine_runs']:>6.0f}  {stages}",
+            flush=True,
         )
+
+    with tempfile.TemporaryDirectory(prefix="bench_pipeline_") as tmp:
+        folder = Path(tmp)
+        slicing.write_stl(slicing.ohs_mesh(), folder / "ohs.stl")
+        start = statistics.median(_child([LOADPATH, "--help"])[0] for _ in range(args.repeats))
+        print(
+            f"loadpath run, end to end (fresh process, median of {args.repeats}); engine {args.engine}; "
+            f"{slicing.prusa_version()}; interpreter + imports (loadpath --help): {start:.2f} s; "
+            f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
+            flush=True,
+        )
+        print(head)
+        print("-" * len(head), flush=True)
+        ex = REPO / "examples" / "ohs.gcode"
+        rows.append(bench("specimen", None, ex, folder, args.repeats, args.engine, args.timeout))
+        show(rows[-1])
+        thick = slicing.write_stl(slicing.ohs_mesh(thickness=20.0), folder / "ohs20.stl")
+        rows.append(
+            bench("specimen-20mm", thick, None, folder, max(1, args.repeats // 2), args.engine, args.timeout)
+        )
+        show(rows[-1])
+        if not args.quick:
+            tower = slicing.write_stl(slicing.tower_mesh(), folder / "tower.stl")
+            rows.append(bench("tower", tower, None, folder, 1, args.engine, args.timeout))
+            show(rows[-1])
     spec = rows[0]["run_s"]
     print(
         f"\nspecimen target: < 3 s including interpreter start; measured {spec:.2f} s "
@@ -162,7 +187,7 @@ def main(argv=None) -> int:
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         (args.out / "bench_pipeline.json").write_text(
-            json.dumps({"start_s": start[0], "rows": rows}, indent=1)
+            json.dumps({"start_s": start, "rows": rows}, indent=1)
         )
     return 0
 
