@@ -10,13 +10,14 @@ each agent coupled to its chain neighbours only).  We solve it with Bertsekas' p
 method ("Projected Newton methods for optimization problems with simple constraints", SIAM J.
 Control Optim. 20(2), 1982): at each iteration the variables at a bound whose gradient pushes
 outward are held fixed, the Newton system on the others is solved with a banded Cholesky
-factorisation (LAPACK ``dpbsv``: O(n) for a fixed band), and an Armijo search along
-the projected arc ``clip(u + a d)`` gives global convergence.  For a strictly convex QP the
+factorisation (O(n) for a fixed band; compiled with numba in :mod:`.kernel_qp`, as the swarm's
+whole step is), and an Armijo search along the projected arc ``clip(u + a d)`` gives global
+convergence.  For a strictly convex QP the
 iteration identifies the optimal active set in finitely many steps and then stops at the exact
 minimiser, so the result is exact to rounding: the stopping test is the projected-gradient KKT
 residual ``|u - clip(u - grad f(u))|_inf <= tol``.
 
-``tests/engines/swarm/test_banded.py`` checks it against OSQP on many random instances.
+``tests/engines/swarm/test_qp.py`` checks it against OSQP on many random instances.
 """
 
 from __future__ import annotations
@@ -25,12 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from loadpath._typing import Floats
-from scipy.linalg import lapack
+from loadpath.engines.swarm import kernel_qp
 
 __all__ = ["BandedQP", "BandedResult", "solve_banded_box_qp", "banded_matvec", "banded_to_dense"]
-
-_ARMIJO = 1e-4
-_MAX_BACKTRACK = 30
 
 
 @dataclass(frozen=True)
@@ -85,15 +83,7 @@ class BandedResult:
 
 def banded_matvec(ab: np.ndarray, x: Floats) -> Floats:
     """``H @ x`` for ``H`` given by its upper band ``ab`` (see :class:`BandedQP`)."""
-    u = ab.shape[0] - 1
-    n = ab.shape[1]
-    y = ab[u] * x
-    for k in range(1, min(u, n - 1) + 1):
-        # H[i, i + k] = ab[u - k, i + k]
-        band = ab[u - k, k:]
-        y[: n - k] += band * x[k:]
-        y[k:] += band * x[: n - k]
-    return y
+    return kernel_qp.banded_matvec(np.ascontiguousarray(ab, dtype=float), np.ascontiguousarray(x, dtype=float))
 
 
 def banded_to_dense(ab: np.ndarray) -> np.ndarray:
@@ -106,21 +96,6 @@ def banded_to_dense(ab: np.ndarray) -> np.ndarray:
         h[idx, idx + k] = ab[u - k, k:]
         h[idx + k, idx] = ab[u - k, k:]
     return h
-
-
-def _reduced(ab: np.ndarray, fixed: np.ndarray) -> np.ndarray:
-    """Return the band with the rows and columns of fixed variables replaced by the identity's."""
-    u = ab.shape[0] - 1
-    out = ab.copy()
-    if not np.any(fixed):
-        return out
-    out[u, fixed] = 1.0
-    n = ab.shape[1]
-    for k in range(1, min(u, n - 1) + 1):
-        # entry (i, i + k) sits in column i + k; zero it if i or i + k is fixed
-        kill = fixed[k:] | fixed[: n - k]
-        out[u - k, k:][kill] = 0.0
-    return out
 
 
 def solve_banded_box_qp(
@@ -144,43 +119,9 @@ def solve_banded_box_qp(
         ``converged`` is False if the iteration limit was hit or a factorisation failed; the
         caller then falls back to OSQP (see :mod:`.qp`).
     """
-    lo, hi, q, ab = qp.lo, qp.hi, qp.q, qp.ab
     n = qp.n
-    x = np.clip(np.zeros(n) if x0 is None else np.asarray(x0, dtype=float), lo, hi)
-    hx = banded_matvec(ab, x)
-    g = hx + q
-    f = 0.5 * float(x @ hx) + float(q @ x)
-    pinned = lo >= hi
-    kkt = float("inf")
-    it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007 (the count is reported)
-        kkt = float(np.abs(x - np.minimum(np.maximum(x - g, lo), hi)).max(initial=0.0))
-        if kkt <= tol:
-            return BandedResult(x, f, kkt, it - 1, True)
-        # epsilon-binding set: at (or within eps of) a bound with the gradient pushing outward
-        eps = min(kkt, 1e-3)
-        fixed = pinned | ((x <= lo + eps) & (g > 0)) | ((x >= hi - eps) & (g < 0))
-        rhs = np.where(fixed, 0.0, -g)
-        # banded Cholesky solve (LAPACK dpbsv, the routine behind scipy's solveh_banded, called
-        # directly: the wrapper's checks cost more than the O(n) factorisation at these sizes)
-        _, d, info = lapack.dpbsv(_reduced(ab, fixed), rhs)
-        if info != 0:
-            return BandedResult(x, f, kkt, it, False)
-        # on the fixed variables take a projected-gradient step so the arc can leave the bound
-        d = np.where(fixed & ~pinned, -g, d)
-        alpha = 1.0
-        for _ in range(_MAX_BACKTRACK):
-            xn = np.minimum(np.maximum(x + alpha * d, lo), hi)
-            hxn = banded_matvec(ab, xn)
-            fn = 0.5 * float(xn @ hxn) + float(q @ xn)
-            # Armijo along the projected arc (Bertsekas 1982, eq. 32)
-            dec = float(g @ (x - xn))
-            if fn <= f - _ARMIJO * max(dec, 0.0):
-                break
-            alpha *= 0.5
-        else:
-            return BandedResult(x, f, kkt, it, False)
-        x, hx, f = xn, hxn, fn
-        g = hx + q
-    kkt = float(np.max(np.abs(x - np.clip(x - g, lo, hi)), initial=0.0))
-    return BandedResult(x, f, kkt, it, kkt <= tol)
+    x0 = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float)
+    x, f, kkt, it, ok = kernel_qp.solve_box_qp(
+        *(np.ascontiguousarray(a, dtype=float) for a in (qp.ab, qp.q, qp.lo, qp.hi, x0)), float(tol), int(max_iter)
+    )
+    return BandedResult(x, float(f), float(kkt), int(it), bool(ok))

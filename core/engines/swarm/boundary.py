@@ -1,16 +1,18 @@
 """The region a swarm fills, as the boundary agents see it (paper Sec. III-B4).
 
 A :class:`Domain` holds the region's boundary as an array of segments (outer rings, holes, and for
-a fill swarm the edges of the beads already laid), and answers, vectorized:
+a fill swarm the edges of the beads already laid), and answers, vectorized (compiled kernels of
+:mod:`.kernel_geom`, which the swarm's step calls directly on :attr:`Domain.data`):
 
 * :meth:`Domain.inside` — is a point far enough inside to carry a moving agent (at least
-  ``margin`` from the boundary)?  An agent whose next position fails this is removed (its path
-  ends), which is how the front stops at the far end, splits at holes and concave corners, and
-  never runs into paths laid before.
+  ``margin`` from the boundary: inside shapely's ``buffer(-margin)`` of the region)?  An agent whose
+  next position fails this is removed (its path ends), which is how the front stops at the far
+  end, splits at holes and concave corners, and never runs into paths laid before.
 * :meth:`Domain.ray` — the first boundary point along a ray: where a chain end's boundary agent
   sits (``x in dP`` of Eq. 12).
-* :meth:`Domain.project` — the nearest boundary point and the tangent there: a boundary agent
+* :meth:`Domain.project_local` — the nearest boundary point near a known segment: a boundary agent
   moves along the tangent in the QP and is then projected back onto the boundary.
+* :meth:`Domain.crosses` — whether segments touch the boundary.
 """
 
 from __future__ import annotations
@@ -20,8 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Bools, Floats, Ints, Points2, Region
+from loadpath.engines.swarm import kernel_geom as kg
 
 __all__ = ["Domain", "boundary_segments"]
+
+_CELLS_PER_SEGMENT = 4
+"""The cell grids of a domain have about this many cells per boundary segment."""
+_MAX_CELLS_PER_AXIS = 2048
 
 
 def boundary_segments(region: Region) -> tuple[Points2, Points2, Ints]:
@@ -48,6 +55,22 @@ def boundary_segments(region: Region) -> tuple[Points2, Points2, Ints]:
     return np.concatenate(a), np.concatenate(b), np.concatenate(ring)
 
 
+def _frame(a: Points2, b: Points2) -> tuple[np.ndarray, float, int, int]:
+    """Origin, cell, nx, ny of a cell grid over segments (about 4 cells per segment, one cell of margin)."""
+    if not len(a):
+        return np.zeros(2), 1.0, 1, 1
+    lo = np.minimum(a.min(axis=0), b.min(axis=0))
+    hi = np.maximum(a.max(axis=0), b.max(axis=0))
+    w, h = hi - lo
+    span = max(w, h, 1e-9)
+    cell = float(np.sqrt(max(w * h, span * span * 1e-6) / (_CELLS_PER_SEGMENT * len(a))))
+    cell = max(cell, span / _MAX_CELLS_PER_AXIS)
+    origin = lo - cell
+    nx = int(np.ceil(w / cell)) + 3
+    ny = int(np.ceil(h / cell)) + 3
+    return origin, cell, nx, ny
+
+
 @dataclass
 class Domain:
     """A region to fill and its boundary (mm).
@@ -68,15 +91,14 @@ class Domain:
 
     def __post_init__(self) -> None:
         self.inner = self.region.buffer(-self.margin) if self.margin > 0 else self.region
-        shapely.prepare(self.inner)
         self.seg_a, self.seg_b, ring = boundary_segments(self.region)
         # first segment and length of each segment's ring (for walking along a ring)
         first = np.ones(len(ring), dtype=bool)
         first[1:] = ring[1:] != ring[:-1]
         starts = np.flatnonzero(first)
         counts = np.diff(np.append(starts, len(ring)))
-        self.ring_start = np.repeat(starts, counts)
-        self.ring_len = np.repeat(counts, counts)
+        self.ring_start = np.repeat(starts, counts).astype(np.int64)
+        self.ring_len = np.repeat(counts, counts).astype(np.int64)
         if self.edge_of is None:
             self.edge = np.ones(len(self.seg_a), dtype=bool)
         else:
@@ -84,21 +106,43 @@ class Domain:
             self.edge = shapely.distance(self.edge_of.boundary, mid) <= 1e-3 * max(self.margin, 1e-3)
         d = self.seg_b - self.seg_a
         self.seg_len = np.linalg.norm(d, axis=1)
-        self.seg_dir = d / self.seg_len[:, None]
-        mid = 0.5 * (self.seg_a + self.seg_b)
-        self._tree = shapely.STRtree(shapely.linestrings(np.stack([self.seg_a, self.seg_b], axis=1)))
-        self._mid = mid
+        self.seg_dir = d / self.seg_len[:, None] if len(d) else np.zeros((0, 2))
+        sg_origin, sg_cell, sg_nx, sg_ny = _frame(self.seg_a, self.seg_b)
+        sg_start, sg_items = kg.cell_grid(self.seg_a, self.seg_b, sg_origin, sg_cell, sg_nx, sg_ny)
+        if self.inner.is_empty:  # nothing is far enough inside: inside() is False everywhere
+            in_a, in_b = np.zeros((0, 2)), np.zeros((0, 2))
+        else:
+            in_a, in_b, _ = boundary_segments(self.inner)
+        ip_origin, ip_cell, ip_nx, ip_ny = _frame(in_a, in_b)
+        ip_start, ip_items = kg.cell_grid(in_a, in_b, ip_origin, ip_cell, ip_nx, ip_ny)
+        self.data = kg.DomainData(
+            seg_a=np.ascontiguousarray(self.seg_a, dtype=float),
+            seg_b=np.ascontiguousarray(self.seg_b, dtype=float),
+            seg_dir=np.ascontiguousarray(self.seg_dir, dtype=float),
+            ring_start=self.ring_start,
+            ring_len=self.ring_len,
+            edge=np.ascontiguousarray(self.edge, dtype=np.bool_),
+            sg_origin=sg_origin,
+            sg_cell=sg_cell,
+            sg_nx=sg_nx,
+            sg_ny=sg_ny,
+            sg_start=sg_start,
+            sg_items=sg_items,
+            in_a=np.ascontiguousarray(in_a, dtype=float),
+            in_b=np.ascontiguousarray(in_b, dtype=float),
+            ip_origin=ip_origin,
+            ip_cell=ip_cell,
+            ip_nx=ip_nx,
+            ip_ny=ip_ny,
+            ip_start=ip_start,
+            ip_items=ip_items,
+            ip_status=kg.pip_status(in_a, in_b, ip_origin, ip_cell, ip_nx, ip_ny),
+        )
 
     def inside(self, points: Points2) -> Bools:
         """Points at least ``margin`` inside the region, (n,) bool."""
-        p = np.asarray(points, dtype=float).reshape(-1, 2)
-        return shapely.contains_xy(self.inner, p[:, 0], p[:, 1])
-
-    def _near(self, points: Points2, radius: float) -> tuple[np.ndarray, np.ndarray]:
-        """Pairs (query index, segment index) of segments within ``radius`` of each point."""
-        p = np.asarray(points, dtype=float).reshape(-1, 2)
-        boxes = shapely.box(p[:, 0] - radius, p[:, 1] - radius, p[:, 0] + radius, p[:, 1] + radius)
-        return self._tree.query(boxes)
+        p = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
+        return kg.inside(self.data, p)
 
     def ray(
         self, origins: Points2, directions: Points2, max_dist: float
@@ -123,37 +167,9 @@ class Domain:
         segment : (m,) int
             Index of the boundary segment hit (-1 where none).
         """
-        o = np.asarray(origins, dtype=float).reshape(-1, 2)
-        d = np.asarray(directions, dtype=float).reshape(-1, 2)
-        m = len(o)
-        dist = np.full(m, np.inf)
-        seg = np.full(m, -1)
-        if m and len(self.seg_a):
-            qi, si = self._near(o + 0.5 * max_dist * d, 0.5 * max_dist)
-            if len(qi):
-                a = self.seg_a[si]
-                e = self.seg_b[si] - a
-                w = a - o[qi]
-                dd = d[qi]
-                den = dd[:, 0] * e[:, 1] - dd[:, 1] * e[:, 0]
-                ok = np.abs(den) > 1e-15
-                den_safe = np.where(ok, den, 1.0)
-                s = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / den_safe  # along the ray
-                r = (w[:, 0] * dd[:, 1] - w[:, 1] * dd[:, 0]) / den_safe  # along the segment
-                ok &= (s > 0) & (s <= max_dist) & (r >= 0) & (r <= 1)
-                s = np.where(ok, s, np.inf)
-                order = np.lexsort((s, qi))
-                qi_s, s_s, si_s = qi[order], s[order], si[order]
-                first = np.ones(len(qi_s), dtype=bool)
-                first[1:] = qi_s[1:] != qi_s[:-1]
-                dist[qi_s[first]] = s_s[first]
-                seg[qi_s[first]] = np.where(np.isfinite(s_s[first]), si_s[first], -1)
-        hit = seg >= 0
-        point = np.full((m, 2), np.nan)
-        tangent = np.full((m, 2), np.nan)
-        point[hit] = o[hit] + dist[hit, None] * d[hit]
-        tangent[hit] = self.seg_dir[seg[hit]]
-        return dist, point, tangent, seg
+        o = np.ascontiguousarray(np.asarray(origins, dtype=float).reshape(-1, 2))
+        d = np.ascontiguousarray(np.asarray(directions, dtype=float).reshape(-1, 2))
+        return kg.ray(self.data, o, d, float(max_dist))
 
     def project_local(self, points: Points2, segment: Ints, reach: int = 6) -> Points2:
         """Nearest point on the boundary near a known segment (within ``reach`` segments along its ring).
@@ -172,53 +188,12 @@ class Domain:
         -------
         (m, 2) float, mm
         """
-        p = np.asarray(points, dtype=float).reshape(-1, 2)
-        seg = np.asarray(segment, dtype=np.int64)
-        rs, rl = self.ring_start[seg], self.ring_len[seg]
-        k = np.arange(-reach, reach + 1)
-        cand = rs[:, None] + (seg[:, None] - rs[:, None] + k[None, :]) % rl[:, None]
-        a = self.seg_a[cand]
-        e = self.seg_b[cand] - a
-        u = np.clip(np.sum((p[:, None, :] - a) * e, axis=2) / np.sum(e * e, axis=2), 0.0, 1.0)
-        q = a + u[..., None] * e
-        best = np.argmin(np.sum((q - p[:, None, :]) ** 2, axis=2), axis=1)
-        return q[np.arange(len(p)), best]
-
-    def project(self, points: Points2) -> tuple[Points2, Points2, Floats]:
-        """Nearest boundary point, the boundary tangent there, and the distance.
-
-        Parameters
-        ----------
-        points : (m, 2) float, mm
-
-        Returns
-        -------
-        nearest : (m, 2) float, mm
-        tangent : (m, 2) float
-        dist : (m,) float, mm
-        """
-        p = np.asarray(points, dtype=float).reshape(-1, 2)
-        m = len(p)
-        nearest = np.full((m, 2), np.nan)
-        tangent = np.full((m, 2), np.nan)
-        dist = np.full(m, np.inf)
-        if not m or not len(self.seg_a):
-            return nearest, tangent, dist
-        nearest_idx = self._tree.query_nearest(shapely.points(p), all_matches=False)
-        qi, si = nearest_idx
-        a = self.seg_a[si]
-        e = self.seg_b[si] - a
-        u = np.clip(np.sum((p[qi] - a) * e, axis=1) / np.sum(e * e, axis=1), 0.0, 1.0)
-        q = a + u[:, None] * e
-        nearest[qi] = q
-        tangent[qi] = self.seg_dir[si]
-        dist[qi] = np.linalg.norm(p[qi] - q, axis=1)
-        return nearest, tangent, dist
+        p = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
+        s = np.ascontiguousarray(np.asarray(segment, dtype=np.int64))
+        return kg.project_local(self.data, p, s, int(reach))
 
     def crosses(self, a: Points2, b: Points2) -> Bools:
-        """Whether segments ``a -> b`` cross the boundary, (m,) bool."""
-        lines = shapely.linestrings(np.stack([np.asarray(a), np.asarray(b)], axis=1))
-        qi, _ = self._tree.query(lines, predicate="intersects")
-        out = np.zeros(len(lines), dtype=bool)
-        out[qi] = True
-        return out
+        """Whether segments ``a -> b`` touch or cross the boundary, (m,) bool."""
+        a = np.ascontiguousarray(np.asarray(a, dtype=float).reshape(-1, 2))
+        b = np.ascontiguousarray(np.asarray(b, dtype=float).reshape(-1, 2))
+        return kg.crosses(self.data, a, b)

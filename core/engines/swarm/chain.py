@@ -25,6 +25,9 @@ So ``P = sum_pairs |c_p + B_{j+1} u_{j+1} - B_j u_j|^2 + K sum_j m_j |u_j|^2`` w
 ``c_p = (t_{j+1} - t_j) / h - L_p d_p``: a QP whose Hessian is block tridiagonal (three
 super-diagonals in the scalar unknowns ``u = [u_0^1, u_0^2, u_1^1, ...]``), whatever the number
 of chains (unlinked neighbours simply have no coupling).
+
+The assembly and the potentials are the compiled kernels of :mod:`.kernel_qp` (the swarm's step
+calls them directly); this module is their documented Python face, used by the tests.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from loadpath._typing import Bools, Floats, Points2
+from loadpath.engines.swarm import kernel_qp
 from loadpath.engines.swarm.banded import BandedQP
 
 __all__ = ["ChainProblem", "build_qp", "potentials", "positions", "MASS_FLOOR"]
@@ -84,9 +88,16 @@ class ChainProblem:
         return int(self.t.shape[0])
 
 
-def _pair_offsets(cp: ChainProblem) -> np.ndarray:
-    """``c_p = t_{j+1} - t_j - L_p d_p`` per pair, (n - 1, 2)."""
-    return cp.t[1:] - cp.t[:-1] - cp.target[:, None] * cp.radial
+def _arrays(cp: ChainProblem) -> tuple[np.ndarray, ...]:
+    c = np.ascontiguousarray
+    return (
+        c(cp.t, dtype=float),
+        c(cp.frame[:, 0, :], dtype=float),
+        c(cp.weight, dtype=float),
+        c(cp.link, dtype=np.bool_),
+        c(cp.radial, dtype=float).reshape(-1, 2),
+        c(cp.target, dtype=float),
+    )
 
 
 def build_qp(cp: ChainProblem) -> tuple[BandedQP, float]:
@@ -99,45 +110,15 @@ def build_qp(cp: ChainProblem) -> tuple[BandedQP, float]:
     c0 : float
         The constant term, so ``P`` itself can be compared between swarms.
     """
-    n = cp.n
-    link = cp.link.astype(float)
-    nl = np.zeros(n)
-    nl[:-1] += link
-    nl[1:] += link
-    diag = 2.0 * (nl + cp.weight)
-    ab = np.zeros((4, 2 * n))
-    ab[3, 0::2] = diag
-    ab[3, 1::2] = diag
-    q = np.zeros(2 * n)
-    c0 = 0.0
-    if n > 1:
-        # frames are rotations: e1 = (c, s), e2 = (-s, c); the off-diagonal block -2 B_j^T B_{j+1}
-        # is -2 [[C, S], [-S, C]] with C = e1_j . e1_{j+1}, S = e1_j . e2_{j+1}
-        e = cp.frame[:, 0, :]
-        c, s_ = e[:, 0], e[:, 1]
-        C = -2.0 * link * (c[:-1] * c[1:] + s_[:-1] * s_[1:])
-        S = -2.0 * link * (s_[:-1] * c[1:] - c[:-1] * s_[1:])
-        ab[1, 2::2] = C  # (2j, 2j+2)
-        ab[0, 3::2] = S  # (2j, 2j+3)
-        ab[2, 2::2] = -S  # (2j+1, 2j+2)
-        ab[1, 3::2] = C  # (2j+1, 2j+3)
-        off = _pair_offsets(cp) * link[:, None]
-        ox, oy = off[:, 0], off[:, 1]
-        qa = np.zeros((n, 2))
-        qa[1:, 0] += 2.0 * (c[1:] * ox + s_[1:] * oy)  # d/du_{j+1}: 2 B_{j+1}^T c
-        qa[1:, 1] += 2.0 * (c[1:] * oy - s_[1:] * ox)
-        qa[:-1, 0] -= 2.0 * (c[:-1] * ox + s_[:-1] * oy)  # d/du_j: -2 B_j^T c
-        qa[:-1, 1] -= 2.0 * (c[:-1] * oy - s_[:-1] * ox)
-        q = qa.ravel()
-        c0 = float(np.sum(off * off))
+    ab, q, c0 = kernel_qp.chain_qp(*_arrays(cp))
     qp = BandedQP(ab=ab, q=q, lo=cp.lo.ravel().astype(float), hi=cp.hi.ravel().astype(float))
-    return qp, c0
+    return qp, float(c0)
 
 
 def positions(cp: ChainProblem, u: Floats) -> Points2:
     """Scaled positions ``t_j + B_j u_j`` of the agents, (n, 2)."""
-    uu = np.asarray(u).reshape(-1, 2)
-    return cp.t + uu[:, 0:1] * cp.frame[:, 0, :] + uu[:, 1:2] * cp.frame[:, 1, :]
+    t, e1 = _arrays(cp)[:2]
+    return kernel_qp.chain_positions(t, e1, np.ascontiguousarray(u, dtype=float))
 
 
 def potentials(cp: ChainProblem, u: Floats) -> tuple[Floats, Floats]:
@@ -150,9 +131,4 @@ def potentials(cp: ChainProblem, u: Floats) -> tuple[Floats, Floats]:
     agent : (n,) float
         ``K m_j |u_j|^2``.
     """
-    uu = np.asarray(u).reshape(-1, 2)
-    x = positions(cp, u)
-    a = x[1:] - x[:-1] - cp.target[:, None] * cp.radial
-    pair = np.where(cp.link, np.add.reduce(a * a, axis=1), 0.0)
-    agent = cp.weight * np.add.reduce(uu * uu, axis=1)
-    return pair, agent
+    return kernel_qp.chain_potentials(*_arrays(cp), np.ascontiguousarray(u, dtype=float))

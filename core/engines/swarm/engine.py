@@ -28,7 +28,7 @@ from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.swarm.boundary import Domain
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.raster import raster_for
-from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, step
+from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, run
 from loadpath.engines.swarm.widths import local_pitch
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
@@ -92,17 +92,14 @@ class _Recorder:
         return [p for p in np.split(pts, cuts) if len(p) >= 2]
 
 
-def _run(state: SwarmState, ctx: Context, rec: _Recorder, direction: int, max_steps: int) -> int:
-    """Advance a swarm until it dies; returns the number of steps."""
-    n = 0
-    while state.n and n < max_steps:
-        n += 1
-        state, pts, pid, pitch, _ = step(state, ctx)
-        rec.add(pts, pid, pitch, direction * n)
-    ctx.count("steps", n)
-    if state.n:
-        ctx.count("step_limit_hit")
-    return n
+def _run(state: SwarmState, ctx: Context, rec: _Recorder, direction: int, max_steps: int) -> None:
+    """Advance a swarm until it dies (one compiled call) and record its points."""
+    pts, pid, pitch, k = run(state, ctx, max_steps, direction)
+    if len(pts):
+        rec.pts.append(pts)
+        rec.pid.append(pid)
+        rec.pitch.append(pitch)
+        rec.k.append(k)
 
 
 def _order_chain(seeds: Points2, head: Points2) -> tuple[Points2, Points2]:

@@ -6,10 +6,10 @@ point the domain's boundary did not see.  The grid is the safety net: a cell is 
 wide, so two points in one cell are closer than ``0.48 pitch``; an agent may not move into (or be
 spawned in) a cell owned by another path.
 
-The cells are kept in flat arrays and addressed with one flat index per point (a 1-D ``take`` is
-several times faster than 2-D fancy indexing at the sizes of a step); the grid extends ``pad``
-cells beyond the region's bounds and points beyond that are clamped to its edge cells, which no
-path ever owns.
+The cells are kept in flat arrays (owner and the last trail sample per cell); the grid extends
+``pad`` cells beyond the region's bounds and points beyond that are clamped to its edge cells,
+which no path ever owns.  The queries are the compiled kernels of :mod:`.kernel_geom`, which the
+swarm's step calls directly on :attr:`Occupancy.data`.
 """
 
 from __future__ import annotations
@@ -18,8 +18,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from loadpath._typing import Bools, Ints, Points2
+from loadpath.engines.swarm import kernel_geom as kg
 
 __all__ = ["Occupancy"]
+
+
+def _pts(points: Points2) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
+
+
+def _ids(path_id: Ints, n: int) -> np.ndarray:
+    return np.array(np.broadcast_to(np.asarray(path_id, dtype=np.int64), (n,)))  # writeable, contiguous
 
 
 @dataclass
@@ -47,67 +56,32 @@ class Occupancy:
         self.ny = int(np.ceil((y1 - y0) / self.cell)) + 2 * pad + 1
         self.owner = np.full(self.nx * self.ny, -1, dtype=np.int64)
         self.point = np.zeros((self.nx * self.ny, 2))
-        self._hi = np.array([self.nx - 3, self.ny - 3], dtype=float)
-        self._stride = np.array([self.ny, 1], dtype=np.intp)
         r = np.arange(-2, 3)
         ring = np.stack(np.meshgrid(r, r, indexing="ij"), -1).reshape(-1, 2)
-        self._ring = ring @ self._stride
-        self._fractions: dict[int, np.ndarray] = {}
-
-    def _index(self, points: Points2) -> np.ndarray:
-        """Flat cell index of each point (clamped two cells inside the grid's edge), (n,) int."""
-        f = np.minimum(np.maximum(np.floor((points - self.origin) / self.cell), 2.0), self._hi)
-        return f.astype(np.intp) @ self._stride
+        self.data = kg.GridData(
+            owner=self.owner,
+            point=self.point,
+            origin=self.origin,
+            cell=float(self.cell),
+            ny=int(self.ny),
+            hi=np.array([self.nx - 3, self.ny - 3], dtype=float),
+            ring=np.ascontiguousarray(ring @ np.array([self.ny, 1], dtype=np.int64)),
+        )
 
     def free_for(self, points: Points2, path_id: Ints) -> Bools:
         """Whether each point's cell is empty or owned by the given path, (n,) bool."""
-        own = self.owner[self._index(np.asarray(points, dtype=float).reshape(-1, 2))]
-        return (own < 0) | (own == np.asarray(path_id))
-
-    def _samples(self, a: Points2, b: Points2) -> tuple[np.ndarray, int]:
-        """Points every half cell (at most) along segments ``a -> b``, (n * k, 2), and ``k``."""
-        d = b - a
-        length = float(np.sqrt(np.max(np.add.reduce(d * d, axis=1), initial=0.0)))
-        k = max(2, int(np.ceil(2.0 * length / self.cell)) + 1)
-        s = self._fractions.get(k)
-        if s is None:
-            s = self._fractions[k] = np.linspace(0.0, 1.0, k)[None, :, None]
-        return (a[:, None, :] + s * d[:, None, :]).reshape(-1, 2), k
-
-    def cells(self, a: Points2, b: Points2) -> tuple[np.ndarray, np.ndarray]:
-        """Cells and sample points along segments ``a -> b``: ``(n, k)`` flat indices, ``(n, k, 2)`` mm."""
-        a = np.asarray(a, dtype=float).reshape(-1, 2)
-        pts, k = self._samples(a, np.asarray(b, dtype=float).reshape(-1, 2))
-        return self._index(pts).reshape(-1, k), pts.reshape(-1, k, 2)
-
-    def free_cells(self, idx: np.ndarray, path_id: Ints) -> Bools:
-        """Whether all cells of each row of ``idx`` (:meth:`cells`) are empty or the path's, (n,) bool."""
-        own = self.owner[idx]
-        return np.all((own < 0) | (own == np.asarray(path_id)[:, None]), axis=1)
-
-    def mark_cells(self, idx: np.ndarray, pts: np.ndarray, path_id: Ints) -> None:
-        """Give the cells of :meth:`cells` to their paths."""
-        self.owner[idx.ravel()] = np.repeat(np.asarray(path_id), idx.shape[1])
-        self.point[idx.ravel()] = pts.reshape(-1, 2)
+        p = _pts(points)
+        return kg.grid_free_for(self.data, p, _ids(path_id, len(p)))
 
     def free_path(self, a: Points2, b: Points2, path_id: Ints) -> Bools:
-        """Whether every cell along segments ``a -> b`` is empty or the given path's, (n,) bool."""
-        a = np.asarray(a, dtype=float).reshape(-1, 2)
-        if not len(a):
-            return np.zeros(0, dtype=bool)
-        pts, k = self._samples(a, np.asarray(b, dtype=float).reshape(-1, 2))
-        own = self.owner[self._index(pts)].reshape(-1, k)
-        return np.all((own < 0) | (own == np.asarray(path_id)[:, None]), axis=1)
+        """Whether every cell along segments ``a -> b`` (sampled every half cell) is free, (n,) bool."""
+        a = _pts(a)
+        return kg.grid_free_path(self.data, a, _pts(b), _ids(path_id, len(a)))
 
     def mark(self, a: Points2, b: Points2, path_id: Ints) -> None:
         """Give the cells along segments ``a -> b`` to their paths (sampled every half cell)."""
-        a = np.asarray(a, dtype=float).reshape(-1, 2)
-        if not len(a):
-            return
-        pts, k = self._samples(a, np.asarray(b, dtype=float).reshape(-1, 2))
-        idx = self._index(pts)
-        self.owner[idx] = np.repeat(np.asarray(path_id), k)
-        self.point[idx] = pts
+        a = _pts(a)
+        kg.grid_mark(self.data, a, _pts(b), _ids(path_id, len(a)))
 
     def clear_of(self, points: Points2, path_id: Ints, radius: float) -> Bools:
         """Whether no point of another path lies within ``radius`` (at most two cells) of each point.
@@ -115,14 +89,5 @@ class Occupancy:
         Distances are measured to the trail samples kept in the cells (one per cell, every half
         cell along the trail), so the test errs by at most a quarter cell.
         """
-        p = np.asarray(points, dtype=float).reshape(-1, 2)
-        kk = self._index(p)[:, None] + self._ring[None, :]
-        own = self.owner[kk]
-        other = (own >= 0) & (own != np.asarray(path_id)[:, None])
-        out = np.ones(len(p), dtype=bool)
-        if not np.any(other):
-            return out
-        r, c = np.nonzero(other)
-        d = self.point[kk[r, c]] - p[r]
-        out[r[np.add.reduce(d * d, axis=1) < radius * radius]] = False
-        return out
+        p = _pts(points)
+        return kg.grid_clear_of(self.data, p, _ids(path_id, len(p)), float(radius))

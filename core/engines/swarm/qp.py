@@ -6,9 +6,11 @@ tolerances of :data:`loadpath.tolerances.TOL` (in the scaled coordinates of the 
 divided by the step ``h``, so they are small against the ``1/8`` box whatever the part's size and
 position), with polishing, and its answer is clipped to the box and checked.
 
-:func:`solve` is what the swarm calls: it runs :func:`~.banded.solve_banded_box_qp`; if that does
-not converge it falls back to OSQP; if OSQP does not report ``solved`` either it raises
-:class:`~loadpath.errors.SolverError`.  Every call returns its status.
+:func:`solve` runs :func:`~.banded.solve_banded_box_qp`; if that does not converge it falls back
+to OSQP; if OSQP does not report ``solved`` either it raises :class:`~loadpath.errors.SolverError`.
+Every call returns its status.  The swarm's compiled step (:mod:`.kernel_step`) runs the same
+exact solver inside the step and calls :func:`osqp_fallback` (numba's object mode) for a QP it
+does not finish, with the same checks.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from loadpath.engines.swarm.banded import BandedQP, banded_matvec, solve_banded_
 from loadpath.errors import SolverError, ToolMissingError
 from loadpath.tolerances import TOL
 
-__all__ = ["QPSolution", "solve", "solve_osqp", "banded_to_csc"]
+__all__ = ["QPSolution", "solve", "solve_osqp", "osqp_fallback", "banded_to_csc"]
 
 _BANDED_TOL = 1e-10
 
@@ -161,9 +163,37 @@ def solve(qp: BandedQP, x0: Floats | None = None) -> QPSolution:
     SolverError
         If the data are not finite or both solvers fail.
     """
-    if not (np.all(np.isfinite(qp.ab)) and np.all(np.isfinite(qp.q))):
-        raise SolverError("a swarm QP has non-finite data; the stress field returned NaN inside the region")
+    _check_finite(qp)
     res = solve_banded_box_qp(qp, x0, tol=_BANDED_TOL)
     if res.converged:
         return QPSolution(res.x, res.objective, "exact", res.kkt, res.iterations)
     return solve_osqp(qp, x0)
+
+
+def _check_finite(qp: BandedQP) -> None:
+    if not (np.all(np.isfinite(qp.ab)) and np.all(np.isfinite(qp.q))):
+        raise SolverError("a swarm QP has non-finite data; the stress field returned NaN inside the region")
+
+
+def osqp_fallback(ab: np.ndarray, q: Floats, lo: Floats, hi: Floats) -> Floats:
+    """Solve a swarm QP the exact solver did not finish with OSQP; the compiled step calls this.
+
+    Parameters
+    ----------
+    ab : (4, n) float
+        Upper band of the Hessian (see :class:`~.banded.BandedQP`).
+    q, lo, hi : (n,) float
+
+    Returns
+    -------
+    (n,) float
+        The minimiser, C-contiguous.
+
+    Raises
+    ------
+    SolverError
+        If the data are not finite or OSQP does not report ``solved``.
+    """
+    qp = BandedQP(np.asarray(ab), np.asarray(q), np.asarray(lo), np.asarray(hi))
+    _check_finite(qp)
+    return np.ascontiguousarray(solve_osqp(qp).x, dtype=float)

@@ -9,6 +9,9 @@ vectors, which have no sign) and decomposes it in closed form, as :meth:`StressF
 Nodes outside the part take the tensor of the nearest node inside, so points near the boundary
 interpolate from the part only.
 
+The lookup is the compiled kernel :func:`.kernel_geom.raster_sample`, which the swarm's step
+calls directly on :attr:`FieldRaster.data`.
+
 Rasters are cached per field (weakly) and reused for any region inside the rastered box with the
 same cell: a 2D analysis gives every layer of a body the same field, so only its first layer pays.
 """
@@ -19,6 +22,7 @@ import weakref
 
 import numpy as np
 from loadpath._typing import Bools, Floats, Points2
+from loadpath.engines.swarm import kernel_geom as kg
 from loadpath.field import StressField
 from loadpath.tolerances import TOL
 from scipy.ndimage import distance_transform_edt
@@ -26,6 +30,7 @@ from scipy.ndimage import distance_transform_edt
 __all__ = ["FieldRaster", "raster_for", "clear_cache"]
 
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_PRINCIPAL = {"tensile": 0, "compressive": 1, "max_abs": 2, "min_abs": 3}
 
 
 class FieldRaster:
@@ -61,6 +66,16 @@ class FieldRaster:
         self.principal = field.principal
         self.scale = field.scale if field.scale > 0 else 1.0
         self._aniso_min = TOL.anisotropy_rel * self.scale
+        self.data = kg.RasterData(
+            tensor=self.tensor,
+            origin=self.origin,
+            cell=self.cell,
+            ny=int(self.ny),
+            imax=self._imax,
+            principal=_PRINCIPAL[self.principal],
+            scale=float(self.scale),
+            aniso_min=float(self._aniso_min),
+        )
 
     def covers(self, bounds: tuple[float, float, float, float], cell: float) -> bool:
         """Whether this raster serves a region with these bounds at this cell size."""
@@ -101,25 +116,8 @@ class FieldRaster:
         valid : (n,) bool
             The direction is defined (anisotropy above ``TOL.anisotropy_rel * scale``).
         """
-        t = self.interpolate(points)
-        sxx, syy, sxy = t[:, 0], t[:, 1], t[:, 2]
-        c = 0.5 * (sxx + syy)
-        r = np.hypot(0.5 * (sxx - syy), sxy)
-        theta = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
-        which = self.principal
-        if which == "tensile":
-            first = True
-        elif which == "compressive":
-            first = False
-        elif which == "max_abs":
-            first = np.abs(c + r) >= np.abs(c - r)
-        else:  # min_abs
-            first = np.abs(c + r) < np.abs(c - r)
-        theta = np.where(first, theta, theta + 0.5 * np.pi)
-        sigma = np.where(first, c + r, c - r)
-        direction = np.stack([np.cos(theta), np.sin(theta)], axis=1)
-        mass = np.minimum(np.abs(sigma) / self.scale, 1.0)
-        return direction, mass, 2.0 * r > self._aniso_min
+        p = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
+        return kg.raster_sample(self.data, p)
 
 
 def raster_for(field: StressField, bounds: tuple[float, float, float, float], cell: float) -> FieldRaster:
