@@ -117,6 +117,33 @@ def _field_ticks(canvas: Canvas, field_: StressField, region, step: float) -> No
     canvas.segments(pts[ok] - half, pts[ok] + half, smp.mass[ok], 0.18 * step)
 
 
+def clip_segments(a: np.ndarray, b: np.ndarray, box: tuple[float, float, float, float]) -> tuple:
+    """Clip segments ``a[i] -> b[i]`` to an axis-aligned box (Liang-Barsky, vectorized).
+
+    Returns ``(a', b', keep)``: the clipped ends of the segments that touch the box and the boolean
+    mask of which input segments they are.
+    """
+    x0, y0, x1, y1 = box
+    d = b - a
+    t0 = np.zeros(len(a))
+    t1 = np.ones(len(a))
+    keep = np.ones(len(a), dtype=bool)
+    for p, q in (
+        (-d[:, 0], a[:, 0] - x0),
+        (d[:, 0], x1 - a[:, 0]),
+        (-d[:, 1], a[:, 1] - y0),
+        (d[:, 1], y1 - a[:, 1]),
+    ):
+        par = p == 0
+        keep &= ~(par & (q < 0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(par, 0.0, q / np.where(par, 1.0, p))
+        t0 = np.where(~par & (p < 0), np.maximum(t0, r), t0)
+        t1 = np.where(~par & (p > 0), np.minimum(t1, r), t1)
+    keep &= t0 <= t1
+    return (a + t0[:, None] * d)[keep], (a + t1[:, None] * d)[keep], keep
+
+
 def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, width: int = 960) -> str:
     """Draw the slicer's and the new paths side by side, zoomed on the region's largest hole.
 
@@ -149,13 +176,8 @@ def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, w
     for k, ((a, b, w, cos), label) in enumerate(zip((old, new), ("the slicer", "loadpath"), strict=True)):
         cv = Canvas(bounds, width=half, pad=4)
         cv.region(region)
-        keep = (
-            (np.minimum(a[:, 0], b[:, 0]) <= bx0 + ww)
-            & (np.maximum(a[:, 0], b[:, 0]) >= bx0)
-            & (np.minimum(a[:, 1], b[:, 1]) <= by0 + wh)
-            & (np.maximum(a[:, 1], b[:, 1]) >= by0)
-        )
-        cv.segments(a[keep], b[keep], np.nan_to_num(cos[keep]), w[keep])
+        ca, cb, keep = clip_segments(a, b, bounds)  # clipped here too: not every viewer honours clipPath
+        cv.segments(ca, cb, np.nan_to_num(cos[keep]), w[keep])
         cv.text(cv.pad + 6, cv.pad + 16, label, 14)
         out.append(
             f'<g transform="translate({k * (half + 12)},0)" clip-path="url(#{uid}{k})">'
