@@ -137,6 +137,7 @@ def test_bridges_and_supports_are_kept(case, tmp_path):
             assert i not in replaced_blocks(result) and span_lines_kept(program, out, result, i), b
 
 
+@pytest.mark.slow
 def test_two_objects_each_on_its_own_and_object_limits(sliced, tmp_path):
     """Each object is solved on its own; object = "bracket.stl" passes the other through with a warning."""
     gpath = sliced("prusa", "two_objects", "solid")

@@ -53,6 +53,7 @@ def test_run_writes_next_to_the_input_and_leaves_it_untouched(work, capsys):
     assert _leftovers(folder) == []
 
 
+@pytest.mark.slow
 def test_run_output_and_report(work):
     folder, g, case = work
     out = folder / "sub" / "x.gcode"
