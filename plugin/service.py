@@ -291,39 +291,50 @@ class _Handler(BaseHTTPRequestHandler):
                 )
             )
             return
+        # the place is given back before the answer is written: a client that sends its next
+        # request as soon as it reads this answer must not find its own finished job still running
         try:
-            self._check_origin()
-            if self.path != "/v1/run":
-                raise RequestError(404, "not_found", f"no POST {self.path}; use POST /v1/run")
-            ctype = (self.headers.get("Content-Type") or "").split(";")[0].strip().lower()
-            if ctype != "application/json":
-                raise RequestError(
-                    415, "unsupported_media_type", "send the request as Content-Type: application/json"
-                )
-            length = self.headers.get("Content-Length")
-            if length is None or not length.isdigit():
-                raise RequestError(411, "length_required", "give the body's Content-Length")
-            limit = int(svc.config.max_request_mb * 1e6)
-            if int(length) > limit:
-                self.close_connection = True
-                raise RequestError(
-                    413,
-                    "too_large",
-                    f"the request has {int(length) / 1e6:.1f} MB, more than the "
-                    f"{svc.config.max_request_mb:g} MB allowed (loadpath serve --max-mb)",
-                )
-            try:
-                req = json.loads(self.rfile.read(int(length)))
-            except (ValueError, UnicodeDecodeError) as exc:
-                raise RequestError(400, "bad_request", f"the body is not valid JSON ({exc})") from None
-            answer = svc.run(check_request(req), t0 + svc.config.timeout)
-            self._send(200, {"ok": True, **answer})
+            status, payload = 200, self._post_run(svc, t0)
         except RequestError as exc:
-            self._error(exc)
+            status, payload = exc.status, {"ok": False, "error": {"code": exc.code, "message": exc.message}}
         except (OSError, TimeoutError):
             self.close_connection = True  # the client went away or was too slow
+            return
         finally:
             svc.release()
+        try:
+            self._send(status, payload)
+        except OSError:
+            self.close_connection = True
+
+    def _post_run(self, svc: Service, t0: float) -> dict[str, Any]:
+        """Check and run one POST /v1/run; the answer's JSON (raises RequestError)."""
+        self._check_origin()
+        if self.path != "/v1/run":
+            raise RequestError(404, "not_found", f"no POST {self.path}; use POST /v1/run")
+        ctype = (self.headers.get("Content-Type") or "").split(";")[0].strip().lower()
+        if ctype != "application/json":
+            raise RequestError(
+                415, "unsupported_media_type", "send the request as Content-Type: application/json"
+            )
+        length = self.headers.get("Content-Length")
+        if length is None or not length.isdigit():
+            raise RequestError(411, "length_required", "give the body's Content-Length")
+        limit = int(svc.config.max_request_mb * 1e6)
+        if int(length) > limit:
+            self.close_connection = True
+            raise RequestError(
+                413,
+                "too_large",
+                f"the request has {int(length) / 1e6:.1f} MB, more than the "
+                f"{svc.config.max_request_mb:g} MB allowed (loadpath serve --max-mb)",
+            )
+        try:
+            req = json.loads(self.rfile.read(int(length)))
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise RequestError(400, "bad_request", f"the body is not valid JSON ({exc})") from None
+        answer = svc.run(check_request(req), t0 + svc.config.timeout)
+        return {"ok": True, **answer}
 
 
 def _version() -> str:
