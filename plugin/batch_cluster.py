@@ -87,7 +87,7 @@ def run_cluster(
             try:
                 res, blob = fut.result()
                 if blob is not None:
-                    write_atomic(tasks[i].output, blob)
+                    write_atomic(tasks[i].output, blob, mode_like=tasks[i].input)
                     res = replace(res, output=str(tasks[i].output))
             except LoadpathError as exc:
                 res = FileResult(str(tasks[i].input), "failed", 0.0, message=str(exc))

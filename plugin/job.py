@@ -17,7 +17,7 @@ output when the output is another file).  Binary G-code is written back as binar
 from __future__ import annotations
 
 import os
-import tempfile
+import secrets
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -108,12 +108,21 @@ def default_output(path: Path) -> Path:
     return path.with_name(f"{path.stem}.loadpath{suffix}")
 
 
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
+def write_atomic(path: Path, data: bytes, mode_like: Path | None = None) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename.
+
+    The file keeps the permission bits of ``path`` if it exists, else takes those of ``mode_like``
+    (the input G-code) if given, else the umask default (``0o666 & ~umask``, what the user's own
+    tools would create); never ``mkstemp``'s 0600.
+    """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
+    mode = next(
+        (Path(p).stat().st_mode & 0o7777 for p in (path, mode_like) if p is not None and Path(p).is_file()),
+        None,
+    )
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        fd, tmp = _create_temp(folder, path.name)
     except OSError as exc:
         raise SettingsError(
             f"cannot write into {str(folder)!r}: {exc.strerror or exc}; choose another output folder with -o"
@@ -123,8 +132,8 @@ def write_atomic(path: Path, data: bytes) -> None:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        if path.exists():
-            os.chmod(tmp, path.stat().st_mode & 0o7777)
+        if mode is not None:
+            os.chmod(tmp, mode)
         os.replace(tmp, path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
@@ -135,6 +144,17 @@ def write_atomic(path: Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _create_temp(folder: Path, name: str) -> tuple[int, str]:
+    """A new hidden file next to the target, created 0o666 so the kernel applies the umask (not 0600)."""
+    for _ in range(100):
+        tmp = str(folder / f".{name}.{secrets.token_hex(4)}.tmp")
+        try:
+            return os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666), tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"no free temporary name next to {name!r} in {str(folder)!r}")
 
 
 def infer_cura_filament(program, geo) -> float | None:
@@ -192,7 +212,7 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     result.error = error
     result.warnings.append(f"kept the slicer's G-code unchanged: {error}")
     if out != inp and inp.is_file():
-        write_atomic(out, inp.read_bytes())
+        write_atomic(out, inp.read_bytes(), mode_like=inp)
         result.written = True
     return result
 
@@ -256,7 +276,7 @@ def _run(
         else inp.read_bytes()
     )
     if pres.changed or out != inp:
-        write_atomic(out, data)
+        write_atomic(out, data, mode_like=inp)
         result.written = True
     times["write"] = time.perf_counter() - t
     if request.report is not None:
