@@ -22,13 +22,14 @@ from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice
 from loadpath.fea.material import elasticity_matrix
 from loadpath.fea.solver import FEAResult, Problem, solve
 from loadpath.field import principal_stresses
-from loadpath.loadcase.resolve import ResolvedBody
+from loadpath.loadcase.body import cover_slabs
+from loadpath.loadcase.resolve import ResolvedBody, resolve_body
 from loadpath.mesh.data import MeshData
-from loadpath.mesh.sizing import MeshSize, default_mesh_size
+from loadpath.mesh.sizing import DEFAULT_MAX_TETS, MeshSize, default_mesh_size
 from scipy.spatial import cKDTree
 from shapely.geometry.base import BaseGeometry
 
-__all__ = ["Analysis", "analyze", "field_for_layer", "build_mesh", "stress_scale"]
+__all__ = ["Analysis", "analyze", "field_for_layer", "build_mesh", "covered_body", "stress_scale"]
 
 
 @dataclass(frozen=True)
@@ -71,9 +72,20 @@ class Analysis:
 
 
 def build_mesh(
-    rb: ResolvedBody, size: MeshSize | float | None = None, pitch: float | None = None
+    rb: ResolvedBody,
+    size: MeshSize | float | None = None,
+    pitch: float | None = None,
+    max_cells: int | None = None,
 ) -> MeshData:
     """Mesh a resolved body for its analysis (2D outline or 3D prism stack).
+
+    A 3D stack is first coarsened to prisms the mesh can resolve
+    (:func:`~loadpath.loadcase.body.cover_slabs` of the layers, with a tolerance of half the bulk
+    element size and a snapping grid of a quarter of the finest size, at most 0.25 mm), so a part
+    whose outline drifts every layer does not force elements as small as the drift. With the
+    default size, a 3D mesh keeps within an element budget: when the layered mesh would have more
+    than ``max_cells`` tetrahedra, every size grows by the cube root of the excess and the part is
+    meshed again (at most four times).
 
     Parameters
     ----------
@@ -82,15 +94,34 @@ def build_mesh(
         Default :func:`~loadpath.mesh.sizing.default_mesh_size` of the largest outline and ``pitch``.
     pitch : float, mm, optional
         The infill pitch the default size is derived from.
+    max_cells : int, optional
+        Element budget of a 3D mesh; default :data:`~loadpath.mesh.sizing.DEFAULT_MAX_TETS` with the
+        default size, none with an explicit ``size``.
+
+    Returns
+    -------
+    MeshData
+        Its ``stats`` record the sizes used (``h``, ``h_min``, ``h_bc``, ``h_z``), the coarsening
+        (``cover_tol``, ``grid``, ``slabs``) and the budget (``max_cells``, ``attempts``).
     """
+    return _mesh_and_body(rb, size, pitch, max_cells)[0]
+
+
+def _mesh_and_body(
+    rb: ResolvedBody,
+    size: MeshSize | float | None,
+    pitch: float | None,
+    max_cells: int | None,
+) -> tuple[MeshData, ResolvedBody]:
+    """Return the mesh and the resolved body its facets are picked on (the coarser stack in 3D)."""
     from loadpath.mesh.gmsh_mesher import mesh_2d
-    from loadpath.mesh.layered import mesh_3d
+    from loadpath.mesh.layered import TooManyCells, mesh_3d
 
     body = rb.body
     largest = max(body.slabs, key=lambda s: s.outline.area).outline
     sz = default_mesh_size(largest, pitch) if size is None else size
     if rb.analysis == "2d":
-        return mesh_2d(
+        mesh = mesh_2d(
             body.slabs[0].outline,
             sz,
             refine_at=rb.refine_lines(),
@@ -98,7 +129,67 @@ def build_mesh(
             thickness=rb.thickness,
             z_range=body.z_range,
         )
-    return mesh_3d(body.slabs, sz, refine_at=rb.refine_lines(), cut_boxes=rb.cut_boxes())
+        return mesh, rb
+    if max_cells is None and size is None:
+        max_cells = DEFAULT_MAX_TETS
+    ms = sz if isinstance(sz, MeshSize) else MeshSize.uniform(float(sz))
+    for attempt in range(1, _BUDGET_ATTEMPTS + 1):
+        tol, grid = _cover(rb, ms)
+        rbm = covered_body(rb, tol, grid)
+        last = attempt == _BUDGET_ATTEMPTS
+        try:
+            mesh = mesh_3d(
+                rbm.body.slabs,
+                ms,
+                refine_at=rbm.refine_lines(),
+                cut_boxes=rbm.cut_boxes(),
+                grid=grid,
+                max_cells=None if last else max_cells,
+            )
+        except TooManyCells as exc:
+            # cells ~ 1 / (h^2 h_z): grow every size by the cube root of the excess (and a little)
+            f = 1.05 * (exc.cells / exc.limit) ** (1.0 / 3.0)
+            ms = MeshSize(ms.h * f, ms.h_min * f, ms.h_bc * f, ms.grading)
+            continue
+        stats = {
+            **mesh.stats,
+            "cover_tol": tol,
+            "grid": grid,
+            "slabs": len(rbm.body.slabs),
+            "max_cells": max_cells,
+            "attempts": attempt,
+        }
+        return dataclasses.replace(mesh, stats=stats), rbm
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+_BUDGET_ATTEMPTS = 5
+
+_MAX_GRID = 0.25
+"""mm: the snapping grid is at most this, so a covering outline misses a layer's outline by at most
+about a grid step, well inside the outer perimeter (the infill is a bead width further in)."""
+
+
+def _cover(rb: ResolvedBody, size: MeshSize) -> tuple[float, float | None]:
+    """Coarsening tolerance and snapping grid of a 3D mesh of this size (none for one prism)."""
+    if len(rb.body.slabs) < 2:
+        return 0.0, None
+    return 0.5 * size.h, min(0.25 * size.h_min, _MAX_GRID)
+
+
+def covered_body(rb: ResolvedBody, tol: float, grid: float | None) -> ResolvedBody:
+    """Return the load case resolved on :func:`~loadpath.loadcase.body.cover_slabs` of the layers.
+
+    The layers as sliced (``rb.layers``; the merged slabs when it is unknown) are covered, so every
+    layer's outline lies in the mesh; the selectors keep the frame origin of ``rb``. The selections
+    of the coarser stack pick the facets of a mesh made from it (a hole ring of a covering outline
+    is where the mesh's hole is). Returns ``rb`` itself when nothing changes.
+    """
+    if tol <= 0 and not grid:
+        return rb
+    layers = getattr(rb, "layers", None) or rb.body
+    body = cover_slabs(layers, tol, grid)
+    return resolve_body(rb.loadcase, body, "3d", origin=getattr(rb, "origin", None))
 
 
 def analyze(
@@ -111,6 +202,7 @@ def analyze(
     scale_percentile: float = 99.0,
     model: str | Path | None = None,
     model_transform: np.ndarray | None = None,
+    max_cells: int | None = None,
 ) -> Analysis:
     """Mesh, load, check, solve.
 
@@ -133,6 +225,8 @@ def analyze(
         analysis), placed with :func:`~loadpath.mesh.place.place_stl` on the body's first layer.
     model_transform : (4, 4) float, optional
         Explicit placement of the STL (rotated or scaled parts).
+    max_cells : int, optional
+        Element budget of a 3D mesh (see :func:`build_mesh`).
 
     Returns
     -------
@@ -159,19 +253,21 @@ def analyze(
         h = sz if not isinstance(sz, MeshSize) else float(np.sqrt(sz.h * sz.h_min))
         mesh = mesh_stl(model, h, transform=T)
     if mesh is None:
-        mesh = build_mesh(rb, size, pitch)
+        mesh, on = _mesh_and_body(rb, size, pitch, max_cells)
     elif (mesh.dim == 2) != (rb.analysis == "2d"):
         raise ValueError(f"a {mesh.dim}D mesh cannot carry a {rb.analysis} analysis")
+    else:  # a mesh from build_mesh records how its stack was coarsened
+        on = covered_body(rb, float(mesh.stats.get("cover_tol", 0.0)), mesh.stats.get("grid"))
     t1 = time.perf_counter()
     facets = facets_of(mesh)
     picked: dict[str, np.ndarray] = {}
     fixed = []
     f = np.zeros(len(mesh.points) * mesh.dim)
-    for sup, sel in rb.supports:
+    for sup, sel in on.supports:
         m = _picked(mesh, facets, sel, rb)
         picked[sup.name] = m
         fixed.append(support_dofs(mesh, facets, m, sup))
-    for load, sel in rb.loads:
+    for load, sel in on.loads:
         m = _picked(mesh, facets, sel, rb)
         picked[load.name] = m
         f += load_vector(mesh, facets, m, load, rb.name)

@@ -19,7 +19,7 @@ from loadpath.tolerances import TOL
 from shapely.geometry import MultiPolygon, Polygon
 from shapely.geometry.polygon import orient
 
-__all__ = ["Slab", "Body", "merge_slabs", "outline_difference", "polygons_of"]
+__all__ = ["Slab", "Body", "merge_slabs", "cover_slabs", "outline_difference", "polygons_of"]
 
 
 def polygons_of(region: Region) -> list[Polygon]:
@@ -206,3 +206,66 @@ def _absorb_thin(runs: list[_Run], min_thickness: float, absorb: float) -> list[
         else:
             break
     return runs
+
+
+def cover_slabs(body: Body, tol: float, grid: float | None = None) -> Body:
+    """Coarser prisms for a 3D mesh: neighbouring slabs within ``tol`` of each other become one.
+
+    A part whose outline drifts a little every layer (twist, taper, ramp) has as many slabs as
+    layers, and a conforming mesh that follows every outline needs elements as small as that drift.
+    Here consecutive slabs join a group while the Hausdorff distance of their outline from the
+    group's first one is at most ``tol`` (a mesh of element size ``h`` resolves no finer detail
+    anyway: ``tol`` of about ``h / 2``), and each group gets an outline covering every layer in it:
+
+    * the union of the group's outlines, so every layer's infill lies inside the mesh and its field
+      is defined everywhere the engines sample it;
+    * with the notches narrower than ``tol`` that the union leaves where outlines drift (the steps
+      between rotated corners) filled (a morphological closing of radius ``tol / 2``, applied only
+      near the parts that differ between the layers, so real slots of the part stay open);
+    * snapped to a grid of ``grid`` mm (snap rounding), so two outlines that nearly touch either
+      share a vertex or stay a grid step apart: no near-coincident lines, no sliver elements.
+
+    A slab whose outline does not drift (a prismatic part, the steps of a stepped part) is returned
+    unchanged, apart from the grid.
+
+    Parameters
+    ----------
+    body : Body
+        Merged slabs (:func:`merge_slabs`).
+    tol : float, mm
+        Largest distance between the outlines of one group; 0 keeps every slab.
+    grid : float, mm, optional
+        Snapping grid; default none.
+
+    Returns
+    -------
+    Body
+        Same name and z range, at most as many slabs.
+    """
+    groups: list[list[Slab]] = [[body.slabs[0]]]
+    for s in body.slabs[1:]:
+        first = groups[-1][0]
+        if tol > 0 and shapely.hausdorff_distance(first.outline, s.outline) <= tol:
+            groups[-1].append(s)
+        else:
+            groups.append([s])
+    slabs = []
+    for g in groups:
+        outlines = [s.outline for s in g]
+        region = outlines[0]
+        if len(g) > 1:
+            region = shapely.union_all(outlines)
+            common = shapely.intersection_all(outlines)
+            drift = shapely.difference(region, common)
+            if not drift.is_empty:
+                r = 0.5 * tol
+                closed = region.buffer(r, join_style="mitre").buffer(-r, join_style="mitre")
+                fill = shapely.intersection(closed, drift.buffer(r))
+                region = shapely.union(region, fill)
+        if grid:
+            region = shapely.set_precision(region, grid)
+        polys = [p for p in getattr(region, "geoms", [region]) if isinstance(p, Polygon) and p.area > 0]
+        if not polys:  # snapped away: keep the group's first outline
+            polys = polygons_of(g[0].outline)
+        slabs.append(Slab(g[0].z0, g[-1].z1, polys[0] if len(polys) == 1 else MultiPolygon(polys)))
+    return dataclasses.replace(body, slabs=tuple(slabs))

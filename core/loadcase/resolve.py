@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -39,6 +39,11 @@ class ResolvedBody:
         ``"2d"``: plane stress over the body's thickness (one prism, in-plane load case).
     reason : str
         Why this analysis was chosen (for reports).
+    layers : Body, optional
+        The body as given, before merging (one slab per layer): what a 3D mesh must cover
+        (:func:`~loadpath.loadcase.body.cover_slabs`).
+    origin : (3,) float, mm, optional
+        Origin of the selector coordinates (the body's minimum corner for ``frame = "part"``).
     """
 
     body: Body
@@ -47,6 +52,8 @@ class ResolvedBody:
     loads: tuple[tuple[Load, Selection], ...]
     analysis: str
     reason: str
+    layers: Body | None = field(default=None, compare=False)
+    origin: np.ndarray | None = field(default=None, compare=False)
 
     @property
     def name(self) -> str:
@@ -156,10 +163,18 @@ def resolve(
     return tuple(resolve_body(loadcase, b, analysis) for b in bodies)
 
 
-def resolve_body(loadcase: LoadCase, body: Body, analysis: str | None = None) -> ResolvedBody:
-    """Apply a load case to one body (see :func:`resolve`)."""
+def resolve_body(
+    loadcase: LoadCase, body: Body, analysis: str | None = None, origin: np.ndarray | None = None
+) -> ResolvedBody:
+    """Apply a load case to one body (see :func:`resolve`).
+
+    ``origin`` overrides the frame's origin (a coarser stack for the mesh keeps the selectors where
+    the part's own frame put them).
+    """
     merged = merge_slabs(body)
-    origin = merged.bounds[0] if loadcase.frame == "part" else np.zeros(3)
+    if origin is None:
+        origin = merged.bounds[0] if loadcase.frame == "part" else np.zeros(3)
+    origin = np.asarray(origin, dtype=float)
     sups = tuple((s, select(s.where, merged, origin, s.name, "support")) for s in loadcase.supports)
     loads = tuple((ld, select(ld.where, merged, origin, ld.name, "load")) for ld in loadcase.loads)
     sels = [s for _, s in sups] + [s for _, s in loads]
@@ -178,7 +193,7 @@ def resolve_body(loadcase: LoadCase, body: Body, analysis: str | None = None) ->
     for sel in sels:
         if sel.measure(kind) <= _tiny(merged):  # picks as thin as the selectors' tolerance are empty
             raise LoadCaseError(_empty_message(loadcase, merged, sel))
-    return ResolvedBody(merged, loadcase, sups, loads, kind, reason)
+    return ResolvedBody(merged, loadcase, sups, loads, kind, reason, layers=body, origin=origin)
 
 
 def _tiny(body: Body) -> float:

@@ -4,7 +4,13 @@ Only :mod:`loadpath.mesh.gmsh_mesher` imports gmsh, and only when a mesh is made
 """
 
 from loadpath.mesh.data import CELL_TYPES, MeshData
-from loadpath.mesh.sizing import DEFAULT_PITCH, MeshSize, default_mesh_size, reentrant_corners
+from loadpath.mesh.sizing import (
+    DEFAULT_MAX_TETS,
+    DEFAULT_PITCH,
+    MeshSize,
+    default_mesh_size,
+    reentrant_corners,
+)
 
 __all__ = [
     "MeshData",
@@ -13,6 +19,7 @@ __all__ = [
     "default_mesh_size",
     "reentrant_corners",
     "DEFAULT_PITCH",
+    "DEFAULT_MAX_TETS",
     "mesh_2d",
     "mesh_3d",
     "mesh_stl",

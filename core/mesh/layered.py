@@ -28,6 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import shapely
+from loadpath.errors import MeshingError
 from loadpath.loadcase.body import Slab
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.gmsh_mesher import mesh_2d, orient_tets
@@ -35,7 +36,17 @@ from loadpath.mesh.sizing import MeshSize
 from shapely.geometry import LineString
 from shapely.geometry.base import BaseGeometry
 
-__all__ = ["mesh_3d", "split_prisms", "promote_tet10"]
+__all__ = ["mesh_3d", "split_prisms", "promote_tet10", "TooManyCells"]
+
+
+class TooManyCells(MeshingError):
+    """A mesh would exceed its element budget (``cells`` > ``limit``); callers coarsen and retry."""
+
+    def __init__(self, cells: int, limit: int) -> None:
+        super().__init__(f"the mesh would have {cells} tetrahedra, more than the budget of {limit}")
+        self.cells = cells
+        self.limit = limit
+
 
 # symmetries of the prism (0,1,2 bottom; 3,4,5 above them) bringing vertex k to position 0
 _PRISM_PERM = np.array(
@@ -128,12 +139,21 @@ def _cut(
 
 
 def _inner_lines(
-    stack: Sequence[Slab], rects: Sequence[BaseGeometry], union: BaseGeometry, tol: float
+    stack: Sequence[Slab],
+    rects: Sequence[BaseGeometry],
+    union: BaseGeometry,
+    tol: float,
+    grid: float | None = None,
 ) -> list[LineString]:
-    """Outline and box edges strictly inside the union of the outlines, noded at their crossings."""
-    edges = [s.outline.boundary for s in stack] + [shapely.intersection(r.boundary, union) for r in rects]
-    noded = shapely.unary_union(edges)
-    inner = shapely.difference(noded, union.boundary)
+    """Outline and box edges strictly inside the union of the outlines, noded at their crossings.
+
+    With ``grid``, noding is snap rounding on that grid (crossings become grid points too).
+    """
+    edges = [s.outline.boundary for s in stack] + [
+        shapely.intersection(r.boundary, union, grid_size=grid) for r in rects
+    ]
+    noded = shapely.unary_union(edges, grid_size=grid)
+    inner = shapely.difference(noded, union.boundary, grid_size=grid)
     out = []
     for g in getattr(inner, "geoms", [inner]):
         if g.geom_type != "LineString" or g.length <= tol:
@@ -155,6 +175,8 @@ def mesh_3d(
     cut_boxes: Sequence[tuple[np.ndarray, np.ndarray]] = (),
     order: int = 2,
     h_z: float | None = None,
+    grid: float | None = None,
+    max_cells: int | None = None,
 ) -> MeshData:
     """Tetrahedralise a stack of prisms in layers.
 
@@ -171,18 +193,32 @@ def mesh_3d(
     order : {1, 2}
     h_z : float, mm, optional
         Layer thickness; default ``sqrt(h h_min)`` clipped to ``[h_min, h]``.
+    grid : float, mm, optional
+        Snap the outlines, their union and their crossings to this grid (snap rounding), so lines
+        that nearly touch do not make sliver elements (see
+        :func:`~loadpath.loadcase.body.cover_slabs`).
+    max_cells : int, optional
+        Raise :class:`TooManyCells` (before the quadratic nodes are made) when the mesh would have
+        more tetrahedra.
 
     Returns
     -------
     MeshData
         ``tet10`` (or ``tet4``), positively oriented.
+
+    Raises
+    ------
+    TooManyCells
+        Above ``max_cells``; its ``cells`` attribute is the count.
     """
     sz = MeshSize.uniform(float(size)) if not isinstance(size, MeshSize) else size
     t0 = time.perf_counter()
     tol = 0.1 * sz.h_min
+    if grid:
+        slabs = [Slab(s.z0, s.z1, shapely.set_precision(s.outline, grid)) for s in slabs]
     stack, rects = _cut(list(slabs), cut_boxes, tol)
-    union = shapely.unary_union([s.outline for s in stack])
-    inner = _inner_lines(stack, rects, union, tol)
+    union = shapely.unary_union([s.outline for s in stack], grid_size=grid)
+    inner = _inner_lines(stack, rects, union, tol, grid)
     # every vertex of an inner line that lies on the outside boundary must be a boundary vertex too
     ends = np.array([c[:2] for ln in inner for c in ln.coords]).reshape(-1, 2)
     on_edge = (
@@ -217,6 +253,8 @@ def mesh_3d(
         t = tri[inside[k]]
         prisms.append(np.column_stack([j * n2 + t, (j + 1) * n2 + t]))
     P = np.concatenate(prisms) if prisms else np.zeros((0, 6), dtype=np.int64)
+    if max_cells is not None and 3 * len(P) > max_cells:
+        raise TooManyCells(3 * len(P), max_cells)
     tets = split_prisms(P)
     used, inv = np.unique(tets, return_inverse=True)
     z = np.asarray(levels)[used // n2]

@@ -16,10 +16,18 @@ import shapely
 from loadpath._typing import Region
 from loadpath.loadcase.body import polygons_of
 
-__all__ = ["MeshSize", "default_mesh_size", "reentrant_corners", "DEFAULT_PITCH"]
+__all__ = ["MeshSize", "default_mesh_size", "reentrant_corners", "DEFAULT_PITCH", "DEFAULT_MAX_TETS"]
 
 DEFAULT_PITCH = 0.45
 """mm: the pitch of a 0.4 mm nozzle's solid infill, when the caller does not know it."""
+
+DEFAULT_MAX_TETS = 60_000
+"""Element budget of a default 3D mesh (quadratic tetrahedra).
+
+The field only steers paths a pitch apart, so it needs the stress resolved to a few millimetres,
+graded at holes and corners; 60 000 tet10 (about 90 000 nodes) solve in well under a minute on one
+core (``benchmarks/bench_fea.py``). Parts that need more are meshed coarser (``loadpath.fea.build_mesh``).
+"""
 
 
 @dataclass(frozen=True)

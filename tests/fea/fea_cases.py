@@ -60,3 +60,32 @@ def kt_at_hole(points: np.ndarray, stress: np.ndarray) -> float:
 def rate(h: np.ndarray, err: np.ndarray) -> float:
     """Slope of the least-squares line through (log h, log err)."""
     return float(np.polyfit(np.log(h), np.log(err), 1)[0])
+
+
+TOWER_CASE = """
+version = 1
+frame = "part"
+[[supports]]
+name = "base"
+where = { side = "z_min", within = 0.5 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "push"
+where = { side = "z_max", within = 0.5 }
+force = [100.0, 0.0, 0.0]
+"""
+
+
+def twisted_tower(n: int = 120, dz: float = 0.2, twist: float = 30.0, scale_top: float = 0.6) -> Body:
+    """Layer outlines of the test tower (``tests/slicing.py``): 30 x 20 plate with an 8 mm hole,
+    twisted and tapered over 24 mm, so every layer's outline differs from the one below."""
+    from shapely import affinity
+
+    plate = box(-15, -10, 15, 10).difference(Point(0, 0).buffer(4, quad_segs=12))
+    layers = []
+    for i in range(n):
+        t = (i + 0.5) / n
+        s = 1.0 + (scale_top - 1.0) * t
+        g = affinity.rotate(affinity.scale(plate, s, s, origin=(0, 0)), twist * t, origin=(0, 0))
+        layers.append((i * dz, (i + 1) * dz, affinity.translate(g, 100.0, 80.0)))
+    return Body.from_layers("tower", layers)
