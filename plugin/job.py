@@ -147,7 +147,7 @@ def write_atomic(path: Path, data: bytes, mode_like: Path | None = None) -> None
 
 
 def _create_temp(folder: Path, name: str) -> tuple[int, str]:
-    """A new hidden file next to the target, created 0o666 so the kernel applies the umask (not 0600)."""
+    """Create a hidden file next to the target, mode 0o666 so the kernel applies the umask (not 0600)."""
     for _ in range(100):
         tmp = str(folder / f".{name}.{secrets.token_hex(4)}.tmp")
         try:

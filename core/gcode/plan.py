@@ -58,8 +58,9 @@ class PlanOptions:
     min_segment : float, mm
         Vertices closer than this to the previous one are dropped.
     resolution : float, mm
-        Largest distance of a dropped vertex from the simplified path (PrusaSlicer's
-        ``gcode_resolution`` default, 0.0125 mm).
+        Largest distance of a dropped vertex from the simplified path in this first, fine pass
+        (position and pitch); the splicer's final pass (:mod:`loadpath.gcode.beadruns`) bounds the
+        total at ``RunOptions.resolution`` times the flow width.
     pitch_resolution : float, mm
         Largest change of a dropped vertex's pitch against the simplified segment's.
     max_volumetric_speed : float, mm^3/s
@@ -76,7 +77,7 @@ class PlanOptions:
     width_range: tuple[float, float] = (0.6, 1.6)
     link_max: float = 2.0
     min_segment: float = 0.05
-    resolution: float = 0.0125
+    resolution: float = 0.005
     pitch_resolution: float = 0.025
     max_volumetric_speed: float = 0.0
     match_volume: bool = True

@@ -343,5 +343,6 @@ def _extrude_chain(
         k = int(np.searchsorted(cum, m73[mi][0] * total_len - 1e-9))
         inserts.setdefault(min(k, len(seg) - 1), []).append(m73[mi][1])
         mi += 1
-    w.extrude_many(c.points, c.filament, c.feedrate, c.width, inserts=inserts)
+    # runs have one width each (loadpath.gcode.beadruns): a marker at every change, to 0.001 mm
+    w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts)
     return mi, float(cum[-1])

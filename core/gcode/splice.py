@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from loadpath._typing import Region
 from loadpath.errors import SettingsError
+from loadpath.gcode.beadruns import RunOptions, bead_runs
 from loadpath.gcode.emit import STYLES, Style
 from loadpath.gcode.flow import FlowModel
 from loadpath.gcode.model import Block, Program
@@ -50,6 +51,7 @@ __all__ = [
     "Motion",
     "Retraction",
     "PlanOptions",
+    "RunOptions",
 ]
 
 
@@ -64,6 +66,9 @@ class SpliceOptions:
         Travel speed and retraction.
     plan : PlanOptions
         Widths, links, volumetric limit, volume matching.
+    runs : RunOptions
+        Runs of one bead width (one ``;WIDTH:`` marker each) and the final simplification
+        (:mod:`loadpath.gcode.beadruns`).
     notes : bool
         Add the updated time / filament estimate after the slicer's footer lines.
     volume_tol : float or None
@@ -75,6 +80,7 @@ class SpliceOptions:
     flow: FlowModel
     motion: Motion = Motion()
     plan: PlanOptions = PlanOptions()
+    runs: RunOptions = RunOptions()
     notes: bool = True
     volume_tol: float | None = 0.03
 
@@ -207,6 +213,11 @@ def _weighted_median(v: np.ndarray, w: np.ndarray) -> float:
     return float(v[order][np.searchsorted(cw, cw[-1] / 2)])
 
 
+def _median_pitch(paths) -> float:
+    """Median vertex pitch of the paths, mm (0 when there are none)."""
+    return float(np.median(np.concatenate([p.pitch for p in paths]))) if paths else 0.0
+
+
 def block_feedrate(program: Program, b: Block) -> float:
     """Return the block's extrusion feedrate (length-weighted median, with cooling slowdown), mm/min."""
     mv = program.moves[b.moves]
@@ -278,6 +289,9 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
             target_filament=b.e,
             simplified=fill.simplified,
         )
+        unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
+        ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
+        plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, options.runs)
         if options.volume_tol is not None and b.e > 0 and abs(plan.filament / b.e - 1) > options.volume_tol:
             skipped.append(
                 (

@@ -24,7 +24,12 @@ def test_prusa_absolute_e_gives_the_same_extrusions(sliced):
     assert "M82" in ab.text and not ab.state.e_relative[ab.layers[0].start]
     a, b = _extrusions(rel), _extrusions(ab)
     assert len(a) == len(b)
-    np.testing.assert_allclose(b["e"], a["e"], atol=2e-5)  # 5-decimal rounding of absolute values
+    # 5-decimal rounding of absolute values; PrusaSlicer 2.5 splits the E of a few consecutive pairs
+    # of moves differently in the two modes (0.02503 + 0.02315 against 0.02409 + 0.02408: the same
+    # total), so per move almost everywhere and the running total everywhere
+    close = np.abs(b["e"] - a["e"]) <= 2e-5
+    assert np.mean(close) > 0.99
+    np.testing.assert_allclose(np.cumsum(b["e"]), np.cumsum(a["e"]), rtol=1e-5, atol=1e-4)
     np.testing.assert_array_equal(b["x1"], a["x1"])
 
 

@@ -143,8 +143,7 @@ def test_new_blocks_carry_the_slicers_markers(spliced):
 def test_extruded_width_matches_the_pitch_and_the_width_markers(spliced):
     """The bead the printer lays (E per mm through the slicer's flow model) has the flow width the
     paths' pitch asks for (solid: tiles at its pitch; sparse: the slicer's own width), within the
-    nozzle's printable range (after volume matching's one correction factor); on PrusaSlicer files every ;WIDTH: marker says the bead width that the
-    extrusions under it really have (within the marker grouping threshold)."""
+    XX"""
     name, program, fills, result, out, check = spliced
     s = S.resolve(program)
     flow = S.splice_options(s).flow
@@ -172,7 +171,10 @@ def test_extruded_width_matches_the_pitch_and_the_width_markers(spliced):
         said = marker[mv["line"] - a]
         assert not np.any(np.isnan(said))
         err = np.abs(bead - said) / said
-        assert np.percentile(err, 95) <= 0.06 and err.max() <= 0.15, (name, f.block, err.max())
+        # runs of one width (loadpath.gcode.beadruns): a marker per run, every segment longer than the
+        # links within the run's 5 % band of it (and the marker's 0.001 mm rounding)
+        long = seg > 2.0 * want
+        assert err[long].max() <= 0.05 + 0.001 / 0.3, (name, f.block, err[long].max())
 
 
 def test_m73_progress_stays_monotone_and_complete(spliced):
@@ -305,10 +307,11 @@ def test_variable_width_follows_pitch_and_is_clamped(sliced):
     assert w.min() >= 0.6 * 0.4 - 0.006 and w.max() <= 1.6 * 0.4 + 0.006
     assert w.max() > 0.6 and w.min() < 0.5  # both the narrow and the (clamped) wide end are printed
     assert len(set(np.round(widths, 2))) > 10
-    # E per mm grows with the width (rounded rectangle at the written width)
+    # E per mm grows with the width (rounded rectangle at the written width); links between paths
+    # (one pitch long) print their own flow under the run's marker, so they are left out
     seg = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])[sel]
     epm = m["e"][sel] / seg
-    ok = seg > 0.3
+    ok = seg > 2 * 0.41
     assert np.corrcoef(w[ok], epm[ok])[0, 1] > 0.99
 
 
