@@ -36,8 +36,12 @@ from loadpath.engines.streamlines.params import StreamlineParams, resolve_params
 from loadpath.engines.streamlines.seeding import boundary_seeds, lattice
 from loadpath.engines.streamlines.segindex import SegmentIndex
 from loadpath.engines.streamlines.widths import tile
+from loadpath.engines.swarm.ends import extend_ends
 from loadpath.errors import GeometryError, SettingsError
 from loadpath.toolpath import EngineInput, Path, Toolpaths
+
+END_GAP = 0.25
+"""Extended path ends keep this many pitches inside the region (as the swarm's ``edge_gap``)."""
 
 __all__ = ["generate"]
 
@@ -95,6 +99,19 @@ def generate(inp: EngineInput, mode: str = "default", **options: Any) -> Toolpat
         lines = packed.to_list()
         widths = [pitch[packed.offsets[i] : packed.offsets[i + 1]] for i in range(len(lines))]
         times["widths"] = time.perf_counter() - t
+        if params.extend_ends and lines:
+            t = time.perf_counter()
+            lines, widths, st = extend_ends(
+                lines,
+                widths,
+                region,
+                params.pitch,
+                edge_gap=END_GAP,
+                clearance=params.min_spacing,
+                field=field,
+            )
+            stats.update(st)
+            times["ends"] = time.perf_counter() - t
     t = time.perf_counter()
     order = link(lines)
     paths = []

@@ -78,6 +78,10 @@ class StreamlineParams:
         The thesis's bead width, layer height and minimum gap (faithful mode).
     principal : str or None
         Principal stress to follow; None keeps the field's own (faithful: ``"tensile"``).
+    extend_ends : bool
+        Default mode: carry every path end on to the next bead or the region's edge
+        (:func:`loadpath.engines.swarm.ends.extend_ends`), so ends stopped by the spacing check
+        leave no void in front of them.
     """
 
     mode: str
@@ -102,6 +106,7 @@ class StreamlineParams:
     layer_height: float = 0.2
     G_p: float = -0.05
     principal: str | None = None
+    extend_ends: bool = True
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

@@ -26,6 +26,7 @@ import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.swarm.boundary import Domain
+from loadpath.engines.swarm.ends import extend_ends
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.raster import raster_for
 from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, run
@@ -38,7 +39,15 @@ from shapely.geometry.base import BaseGeometry
 __all__ = ["generate", "SwarmParams"]
 
 _PARAM_NAMES = {f.name for f in fields(SwarmParams)}
-_ENGINE_OPTIONS = {"coverage_target", "max_swarms", "fill", "fill_min_width", "widths", "width_cap"}
+_ENGINE_OPTIONS = {
+    "coverage_target",
+    "max_swarms",
+    "fill",
+    "fill_min_width",
+    "widths",
+    "width_cap",
+    "extend_ends",
+}
 
 
 class _Recorder:
@@ -271,7 +280,8 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     fill_min_width = float(opts.pop("fill_min_width", 0.6))  # type: ignore[arg-type]
     widths = str(opts.pop("widths", "geometric"))
     width_cap = float(opts.pop("width_cap", 1.5))  # type: ignore[arg-type]
-    if widths not in ("geometric", "swarm"):
+    extend = bool(opts.pop("extend_ends", True))
+    if widths not in ("geometric", "swarm", "measured"):
         raise SettingsError(
             f"widths = {widths!r}; use 'geometric' (from the finished layer) or 'swarm' (from the chains)"
         )
@@ -381,16 +391,21 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     stats["fill_rounds"] = rounds
     stats["swarms"] = swarms
     paths = rec.paths()
-    if widths == "geometric" and paths:
+    if widths in ("geometric", "measured") and paths:
         t_w = time.perf_counter()
+        everywhere = widths == "measured"
         w = local_pitch(
-            [p.points for p in paths], region, pitch, cap=width_cap, only=[p.pitch < 0 for p in paths]
+            [p.points for p in paths],
+            region,
+            pitch,
+            cap=width_cap,
+            only=None if everywhere else [p.pitch < 0 for p in paths],
         )
         stats["widths_measured"] = int(sum(np.count_nonzero(p.pitch < 0) for p in paths))
         paths = [
             Path(
                 points=p.points,
-                pitch=np.where(p.pitch < 0, wi, np.minimum(p.pitch, width_cap * pitch)),
+                pitch=wi if everywhere else np.where(p.pitch < 0, wi, np.minimum(p.pitch, width_cap * pitch)),
                 kind=p.kind,
             )
             for p, wi in zip(paths, w, strict=True)
@@ -398,6 +413,19 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         stats["time_widths_s"] = time.perf_counter() - t_w
     else:
         paths = [Path(points=p.points, pitch=np.abs(p.pitch), kind=p.kind) for p in paths]
+    if extend and paths:
+        t_e = time.perf_counter()
+        pts, wid, st = extend_ends(
+            [p.points for p in paths],
+            [p.pitch for p in paths],
+            region,
+            pitch,
+            edge_gap=params.edge_gap,
+            field=inp.field,
+        )
+        paths = [Path(points=q, pitch=w, kind=p.kind) for q, w, p in zip(pts, wid, paths, strict=True)]
+        stats.update(st)
+        stats["time_ends_s"] = time.perf_counter() - t_e
     stats["time_s"] = time.perf_counter() - t0
     stats["K"] = params.K
     return Toolpaths(paths=tuple(paths), stats=stats)
