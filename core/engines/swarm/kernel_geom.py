@@ -165,11 +165,17 @@ def pip_status(a: np.ndarray, b: np.ndarray, origin: np.ndarray, cell: float, nx
             if (a[s, 1] > y) != (b[s, 1] > y):
                 xs[m] = a[s, 0] + (y - a[s, 1]) * (b[s, 0] - a[s, 0]) / (b[s, 1] - a[s, 1])
                 m += 1
-        xr = np.sort(xs[:m])
+        for p in range(1, m):  # insertion sort (a row crosses few edges; np.sort compiles slowly)
+            v = xs[p]
+            q = p - 1
+            while q >= 0 and xs[q] > v:
+                xs[q + 1] = xs[q]
+                q -= 1
+            xs[q + 1] = v
         p = 0
         for i in range(nx):
             x = origin[0] + (i + _REF_X) * cell
-            while p < m and xr[p] < x:
+            while p < m and xs[p] < x:
                 p += 1
             status[i * ny + j] = p % 2 == 1
     return status

@@ -652,13 +652,42 @@ def _choose(tab: np.ndarray, kills: np.ndarray, kw: np.ndarray, spairs: np.ndarr
 
 
 @njit
+def _stable_argsort(v: np.ndarray) -> np.ndarray:
+    """``np.argsort(v, kind="stable")`` as a bottom-up merge sort, (n,) int.
+
+    numba's own ``np.argsort(kind="mergesort")`` is generic library code that costs seconds of
+    the cold compile; a stable sort's order is unique, so the result is the same.
+    """
+    n = v.shape[0]
+    a = np.arange(n)
+    b = np.zeros(n, dtype=np.int64)
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i, j = lo, mid
+            for k in range(lo, hi):
+                # take from the left run on ties: stable
+                if i < mid and (j >= hi or v[a[j]] >= v[a[i]]):
+                    b[k] = a[i]
+                    i += 1
+                else:
+                    b[k] = a[j]
+                    j += 1
+        a, b = b, a
+        width *= 2
+    return a
+
+
+@njit
 def _near_pairs(x: np.ndarray, idx: np.ndarray, r: float) -> np.ndarray:
     """Pairs ``(i, j)``, ``i < j``, of positions in ``idx`` (indices into it) within ``r``, (p, 2)."""
     n = len(idx)
     xs = np.zeros(n)
     for a in range(n):
         xs[a] = x[idx[a], 0]
-    order = np.argsort(xs, kind="mergesort")
+    order = _stable_argsort(xs)
     out = np.zeros((16, 2), dtype=np.int64)
     k = 0
     r2 = r * r
@@ -839,8 +868,8 @@ def _merge(dom, prm: StepParams, pitch: float, pos: np.ndarray, head: np.ndarray
 # ----------------------------------------------------------------------------------------------
 
 
-@njit
-def step(
+@njit_inline
+def _step(
     r: kg.RasterData,
     dom: kg.DomainData,
     grid: kg.GridData,
@@ -854,6 +883,11 @@ def step(
     counts: np.ndarray,
 ):
     """Advance the swarm by one step (Algorithm 1, lines 2-9).
+
+    Inlined (numba IR) into :func:`run_swarm` and :func:`step`: numba optimises a compiled
+    function together with every compiled function it calls, so a separately compiled step would
+    have the whole step optimised twice (once for itself, once inside the loop): ~12 s of the cold
+    compile.
 
     Returns
     -------
@@ -930,6 +964,24 @@ def step(
 
 
 @njit
+def step(
+    r: kg.RasterData,
+    dom: kg.DomainData,
+    grid: kg.GridData,
+    prm: StepParams,
+    pitch: float,
+    pos: np.ndarray,
+    head: np.ndarray,
+    pid: np.ndarray,
+    start: np.ndarray,
+    next_pid: int,
+    counts: np.ndarray,
+):
+    """One step on its own (:func:`_step`; for :func:`.step.step` and tests, compiled on first use)."""
+    return _step(r, dom, grid, prm, pitch, pos, head, pid, start, next_pid, counts)
+
+
+@njit
 def run_swarm(
     r: kg.RasterData,
     dom: kg.DomainData,
@@ -966,7 +1018,9 @@ def run_swarm(
     n_steps = 0
     while pos.shape[0] > 0 and n_steps < max_steps:
         n_steps += 1
-        pos, head, pid, start, p, i, w, next_pid = step(r, dom, grid, prm, pitch, pos, head, pid, start, next_pid, counts)
+        pos, head, pid, start, p, i, w, next_pid = _step(
+            r, dom, grid, prm, pitch, pos, head, pid, start, next_pid, counts
+        )
         need = k + p.shape[0]
         if need > cap:
             cap = max(2 * cap, need)
