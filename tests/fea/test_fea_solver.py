@@ -1,0 +1,81 @@
+"""Every solve ends with its true residual below the tolerance, and says how it got there."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loadpath.errors import SolverError
+from loadpath.fea import Problem, isotropic_3d, solve
+from loadpath.fea.solver import _pcg
+from loadpath.loadcase import Slab
+from loadpath.mesh import MeshSize, mesh_3d
+from loadpath.tolerances import TOL
+from shapely.geometry import box
+
+
+def _cantilever(contrast: float = 1.0):
+    """A 30 x 6 x 4 mm bar clamped at x = 0, pulled sideways at x = 30; every other cell ``contrast``
+    times softer (a badly conditioned stiffness matrix, as thin wedges and slivers give)."""
+    m = mesh_3d([Slab(0.0, 4.0, box(0, 0, 30, 6))], MeshSize(2.0, 1.0, 1.5))
+    D = np.repeat(isotropic_3d(3500.0, 0.35)[None], len(m.cells), axis=0)
+    D[::2] /= contrast
+    x = m.points[:, 0]
+    clamp = np.flatnonzero(x < 1e-9)
+    fixed = (clamp[:, None] * 3 + np.arange(3)).ravel()
+    f = np.zeros(m.points.size)
+    tip = np.flatnonzero(x > 30 - 1e-9)
+    f[tip * 3 + 1] = 10.0 / len(tip)
+    return Problem(m, D, f, fixed)
+
+
+@pytest.mark.parametrize("contrast", [1.0, 1e4])
+def test_amg_cg_matches_the_direct_solve_within_the_tolerance(contrast):
+    problem = _cantilever(contrast)
+    direct = solve(problem, method="direct")
+    cg = solve(problem, method="amg-cg")
+    for r in (direct, cg):
+        assert r.residual <= TOL.fea_residual
+        assert r.status.startswith("converged")
+    assert cg.method == "amg-cg" and cg.iterations > 0
+    err = np.linalg.norm(cg.u - direct.u) / np.linalg.norm(direct.u)
+    assert err < 1e-6
+
+
+def test_cg_that_misses_the_tolerance_is_finished_directly_and_says_so():
+    problem = _cantilever(1e4)
+    r = solve(problem, method="amg-cg", maxiter=3)
+    assert r.method == "amg-cg+direct"
+    assert "solved directly" in r.status and "3 iterations" in r.status
+    assert r.residual <= TOL.fea_residual
+    ref = solve(problem, method="direct")
+    np.testing.assert_allclose(r.u, ref.u, rtol=0, atol=1e-9 * np.abs(ref.u).max())
+
+
+def test_pcg_restarts_from_the_true_residual_until_it_meets_the_tolerance():
+    """What _pcg returns meets ``accept`` on ``b - A x``, not on its recurrence.
+
+    The recurrence is stopped early here (``rtol`` 1e-4 against ``accept`` 1e-10), as drift on an
+    ill-conditioned system does: CG must notice on the true residual and go on from it.
+    """
+    rng = np.random.default_rng(1)
+    n = 300
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    lam = np.logspace(-8, 0, n)  # SPD, condition number 1e8
+    A = (Q * lam) @ Q.T
+    A = 0.5 * (A + A.T)
+    Minv = (Q * (1.0 / lam * (1.0 + 0.5 * rng.uniform(-1.0, 1.0, n)))) @ Q.T  # an inexact preconditioner
+    M = 0.5 * (Minv + Minv.T)
+    b = A @ rng.standard_normal(n)
+    x, it, restarts = _pcg(A, b, M, 1e-4, 1e-10, maxiter=500)
+    assert restarts >= 1
+    assert np.linalg.norm(b - A @ x) <= 1e-10 * np.linalg.norm(b)
+    x1, it1, r1 = _pcg(A, b, M, 1e-4, 1.0, maxiter=500)  # accepting anything: no restart, fewer iterations
+    assert r1 == 0 and it1 < it
+    assert np.linalg.norm(b - A @ x1) > 1e-10 * np.linalg.norm(b)
+
+
+def test_singular_system_is_an_error_naming_the_cause():
+    problem = _cantilever()
+    free = Problem(problem.mesh, problem.D, problem.f, np.zeros(0, dtype=np.int64))
+    with pytest.raises(SolverError, match="singular|not held|did not converge"):
+        solve(free, method="amg-cg", maxiter=50)
