@@ -90,11 +90,19 @@ class Canvas:
             )
 
     def segments(
-        self, a: Points2, b: Points2, values: Floats, width_mm: float | Floats, opacity: float = 1.0
+        self,
+        a: Points2,
+        b: Points2,
+        values: Floats,
+        width_mm: float | Floats,
+        opacity: float = 1.0,
+        stroke: str | None = None,
     ) -> None:
-        """Segments ``a[i] -> b[i]`` coloured by ``values`` in [0, 1], drawn ``width_mm`` wide."""
+        """Draw segments ``a[i] -> b[i]`` coloured by ``values`` in [0, 1] (or ``stroke``), ``width_mm``."""
         if len(a) == 0:
             return
+        if stroke is not None:
+            values = np.zeros(len(a))
         pa, pb = self.xy(a), self.xy(b)
         level = np.clip(
             np.round(np.nan_to_num(np.asarray(values, dtype=float)) * (LEVELS - 1)), 0, LEVELS - 1
@@ -111,15 +119,17 @@ class Canvas:
             )
             w = max(float(wl[sel][0]), 0.5)
             self.items.append(
-                f'<path d="{d}" stroke="{colours[int(k // 10_000)]}" stroke-width="{w:.1f}" '
+                f'<path d="{d}" stroke="{stroke or colours[int(k // 10_000)]}" stroke-width="{w:.1f}" '
                 f'stroke-linecap="round" fill="none" opacity="{opacity}"/>'
             )
 
-    def text(self, x_px: float, y_px: float, s: str, size: int = 12, anchor: str = "start") -> None:
+    def text(
+        self, x_px: float, y_px: float, s: str, size: int = 12, anchor: str = "start", fill: str = "#000000"
+    ) -> None:
         """Write a label at pixel coordinates."""
         self.items.append(
             f'<text x="{x_px:.1f}" y="{y_px:.1f}" font-size="{size}" text-anchor="{anchor}" '
-            f'font-family="sans-serif">{_esc(s)}</text>'
+            f'font-family="sans-serif" fill="{fill}">{_esc(s)}</text>'
         )
 
     def svg(self, title: str = "") -> str:
