@@ -20,7 +20,8 @@ Parts (sliced by the real PrusaSlicer with the MK3S presets and the shipped exam
     changes every layer, so every layer needs its own paths (3D FEA).  Skipped with ``--quick``.
 
 For each part: PrusaSlicer's own slicing time (median of the repeats), ``loadpath run`` as a fresh
-process (median wall time, peak resident memory of that process from ``wait4``), the interpreter and
+process (median wall time, peak resident memory of that process from ``wait4``), the input's size
+and the output's size against it (``out/in``), the interpreter and
 import time alone (``loadpath --help``), and the stages measured inside one in-process run.  The
 results go to ``OUT_DIR/bench_pipeline.json`` when a folder is given.
 """
@@ -137,7 +138,8 @@ def main(argv=None) -> int:
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds before a run is given up")
     args, _ = ap.parse_known_args(argv)
     rows = []
-    head = f"{'part':<15}{'layers':>7}{'slice s':>9}{'run s':>8}{'ratio':>7}{'peak MB':>9}{'runs':>6}"
+    head = f"{'part':<15}{'layers':>7}{'slice s':>9}{'run s':>8}{'ratio':>7}{'peak MB':>9}"
+    head += f"{'in MB':>7}{'out/in':>7}{'runs':>6}"
     head += "  stages (s)"
 
     def show(r: dict) -> None:
@@ -151,6 +153,7 @@ def main(argv=None) -> int:
         print(
             f"{r['part']:<15}{r['layers']:>7}{r['prusaslicer_s']:>9.2f}{r['run_s']:>8.2f}"
             f"{r['run_s'] / r['prusaslicer_s']:>7.0f}{r['peak_rss_mb']:>9.0f}"
+            f"{r['size_in_mb']:>7.1f}{r['size_out_mb'] / r['size_in_mb']:>7.2f}"
             f"{st['engine_runs']:>6.0f}  {stages}",
             flush=True,
         )
@@ -186,9 +189,7 @@ def main(argv=None) -> int:
     )
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "bench_pipeline.json").write_text(
-            json.dumps({"start_s": start, "rows": rows}, indent=1)
-        )
+        (args.out / "bench_pipeline.json").write_text(json.dumps({"start_s": start, "rows": rows}, indent=1))
     return 0
 
 
