@@ -51,3 +51,23 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$sig" ]; then
   fi
   echo "$sig" > "$stamp"
 fi
+
+# Compile the swarm engine's kernels (numba) into the on-disk cache once, so neither the demo nor
+# the test suite pays it inside a timed step.  About a minute of CPU on a clean clone; when they are
+# cached already this is the check alone (a second or two).  Not fatal: the engine compiles on
+# first use otherwise.
+if ! .venv/bin/python - <<'PY'
+import logging
+import sys
+
+logging.getLogger("loadpath.engines.swarm").setLevel(logging.ERROR)  # setup says it itself
+from loadpath.engines.swarm import _numba
+
+if not _numba.kernels_cached():
+    print(f"setup: compiling the swarm engine (first time only, about {_numba.COMPILE_SECONDS} s)", file=sys.stderr)
+    seconds = _numba.warm_up()
+    print(f"setup: swarm engine compiled in {seconds:.0f} s", file=sys.stderr)
+PY
+then
+  echo "setup: compiling the swarm engine failed (see above); it will compile on first use" >&2
+fi

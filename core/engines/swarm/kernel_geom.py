@@ -23,8 +23,7 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-
-from loadpath.engines.swarm._numba import njit
+from loadpath.engines.swarm._numba import njit, njit_inline
 
 __all__ = [
     "GridData",
@@ -76,7 +75,7 @@ _REF_Y = 0.4871
 # ----------------------------------------------------------------------------------------------
 
 
-@njit
+@njit_inline
 def _cell_span(v0: float, v1: float, origin: float, cell: float, n: int) -> tuple[int, int]:
     """Cells ``[i0, i1]`` covering ``[v0, v1]`` (widened by a hair, clipped to ``[0, n - 1]``)."""
     pad = 1e-9 * cell
@@ -87,7 +86,15 @@ def _cell_span(v0: float, v1: float, origin: float, cell: float, n: int) -> tupl
 
 @njit
 def _segment_cells(
-    ax: float, ay: float, bx: float, by: float, origin: np.ndarray, cell: float, nx: int, ny: int, out: np.ndarray
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    origin: np.ndarray,
+    cell: float,
+    nx: int,
+    ny: int,
+    out: np.ndarray,
 ) -> int:
     """Flat indices of the cells a segment passes through (column by column), written to ``out``."""
     c0, c1 = _cell_span(ax, bx, origin[0], cell, nx)
@@ -186,7 +193,7 @@ def pip_status(a: np.ndarray, b: np.ndarray, origin: np.ndarray, cell: float, nx
 # ----------------------------------------------------------------------------------------------
 
 
-@njit
+@njit_inline
 def _gidx(g: GridData, x: float, y: float) -> int:
     """Flat cell of a point, clamped two cells inside the grid's edge (as ``Occupancy._index``)."""
     fx = min(max(np.floor((x - g.origin[0]) / g.cell), 2.0), g.hi[0])
@@ -302,7 +309,7 @@ def grid_clear_of(g: GridData, p: np.ndarray, pid: np.ndarray, radius: float) ->
 # ----------------------------------------------------------------------------------------------
 
 
-@njit
+@njit_inline
 def _inside1(d: DomainData, px: float, py: float) -> bool:
     cell = d.ip_cell
     fi = np.floor((px - d.ip_origin[0]) / cell)
@@ -421,17 +428,17 @@ def project_local(d: DomainData, p: np.ndarray, segment: np.ndarray, reach: int)
     return out
 
 
-@njit
+@njit_inline
 def _orient(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-@njit
+@njit_inline
 def _on_segment(ax: float, ay: float, bx: float, by: float, px: float, py: float) -> bool:
     return min(ax, bx) <= px <= max(ax, bx) and min(ay, by) <= py <= max(ay, by)
 
 
-@njit
+@njit_inline
 def _segments_meet(
     ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float
 ) -> bool:
@@ -465,7 +472,14 @@ def crosses(d: DomainData, a: np.ndarray, b: np.ndarray) -> np.ndarray:
                 for k in range(d.sg_start[c], d.sg_start[c + 1]):
                     s = d.sg_items[k]
                     if _segments_meet(
-                        a[q, 0], a[q, 1], b[q, 0], b[q, 1], d.seg_a[s, 0], d.seg_a[s, 1], d.seg_b[s, 0], d.seg_b[s, 1]
+                        a[q, 0],
+                        a[q, 1],
+                        b[q, 0],
+                        b[q, 1],
+                        d.seg_a[s, 0],
+                        d.seg_a[s, 1],
+                        d.seg_b[s, 0],
+                        d.seg_b[s, 1],
                     ):
                         out[q] = True
                         break

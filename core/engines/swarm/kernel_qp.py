@@ -17,8 +17,7 @@ and :mod:`.kernel_step` fall back to OSQP when it is False.
 from __future__ import annotations
 
 import numpy as np
-
-from loadpath.engines.swarm._numba import njit
+from loadpath.engines.swarm._numba import njit, njit_inline
 
 __all__ = ["banded_matvec", "solve_box_qp", "chain_qp", "chain_potentials"]
 
@@ -41,7 +40,7 @@ def banded_matvec(ab: np.ndarray, x: np.ndarray) -> np.ndarray:
     return y
 
 
-@njit
+@njit_inline
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
     s = 0.0
     for i in range(a.shape[0]):
@@ -95,7 +94,7 @@ def _factor_solve(ab: np.ndarray, fixed: np.ndarray, rhs: np.ndarray, work: np.n
     return True
 
 
-@njit
+@njit_inline
 def _kkt(x: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     k = 0.0
     for i in range(x.shape[0]):

@@ -32,10 +32,9 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-
 from loadpath.engines.swarm import kernel_geom as kg
 from loadpath.engines.swarm import qp as _qp
-from loadpath.engines.swarm._numba import njit, njit_inline, objmode
+from loadpath.engines.swarm._numba import announce_compile, njit, njit_inline, objmode
 from loadpath.engines.swarm.chain import BOUNDARY_SLIDE, BOX_ACROSS, BOX_ALONG, MASS_FLOOR
 from loadpath.engines.swarm.kernel_qp import chain_positions, chain_potentials, chain_qp, solve_box_qp
 
@@ -91,7 +90,7 @@ _NCOL = 14
 # ----------------------------------------------------------------------------------------------
 
 
-@njit
+@njit_inline
 def _unit2(x: float, y: float) -> tuple[float, float]:
     n = np.sqrt(x * x + y * y)
     if n == 0.0:
@@ -105,7 +104,7 @@ def _take(a: np.ndarray, keep: np.ndarray) -> np.ndarray:
     return a[np.flatnonzero(keep)]
 
 
-@njit
+@njit_inline
 def _point_segment(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
     """Distance from a point to the segment ``a -> b``."""
     ex = bx - ax
@@ -118,7 +117,7 @@ def _point_segment(px: float, py: float, ax: float, ay: float, bx: float, by: fl
     return np.sqrt(qx * qx + qy * qy)
 
 
-@njit
+@njit_inline
 def _row(
     out: np.ndarray,
     i: int,
@@ -355,7 +354,9 @@ def _extend(
         for k in range(2 * nc):
             cand[k, 0] = ts[k, 0] + pitch * dirs[k, 0]
             cand[k, 1] = ts[k, 1] + pitch * dirs[k, 1]
-        spawn = ~hit & kg.inside(dom, cand) & kg.grid_free_for(grid, cand, np.full(2 * nc, -2, dtype=np.int64))
+        spawn = (
+            ~hit & kg.inside(dom, cand) & kg.grid_free_for(grid, cand, np.full(2 * nc, -2, dtype=np.int64))
+        )
         for k in range(2 * nc):
             if not spawn[k]:
                 continue
@@ -434,14 +435,16 @@ def _links(tab: np.ndarray, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray, n
     return link, radial, target
 
 
-@njit
+@njit_inline
 def _pair_window(tab: np.ndarray, j: int) -> int:
     """Window of the pair ``(j, j + 1)``: its left agent's, or the right one's if the left is a boundary."""
     return int(tab[j, _WIN]) if tab[j, _KIND] >= 0 else int(tab[j + 1, _WIN])
 
 
 @njit
-def _propose(tab: np.ndarray, prm: StepParams, pitch: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _propose(
+    tab: np.ndarray, prm: StepParams, pitch: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per window the agent to kill and the pair to split; returns kill windows/agents, spawn windows/pairs."""
     m = tab.shape[0]
     link, radial, target = _links(tab, 0, m)
@@ -575,7 +578,9 @@ def _solve(tab: np.ndarray, blocks: np.ndarray, prm: StepParams, pitch: float, c
 
 
 @njit
-def _choose(tab: np.ndarray, kills: np.ndarray, kw: np.ndarray, spairs: np.ndarray, sw: np.ndarray, prm, pitch, counts):
+def _choose(
+    tab: np.ndarray, kills: np.ndarray, kw: np.ndarray, spairs: np.ndarray, sw: np.ndarray, prm, pitch, counts
+):
     """Solve X0, X-1, X+1 (Eq. 12) and keep per window the lowest potential per agent (Eq. 13).
 
     Returns the chosen table and the scaled positions of its agents, (m, 2).
@@ -927,7 +932,6 @@ def _step(
         x = x[keep]
         cells = cells[keep]
         samples = samples[keep]
-        m = final.shape[0]
     lp = _local_pitch(final, x, pitch)
     mv = np.flatnonzero(final[:, _KIND] >= 0)
     nm = len(mv)
@@ -1045,3 +1049,7 @@ def run_swarm(
     if pos.shape[0] > 0:
         counts[_C_LIMIT] += 1
     return pts[:k].copy(), ppid[:k].copy(), ppitch[:k].copy(), pstep[:k].copy(), next_pid
+
+
+# one log line now if the kernels are not in numba's cache: the first layer compiles them
+announce_compile(run_swarm)
