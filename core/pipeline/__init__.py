@@ -43,7 +43,14 @@ from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
 from loadpath.gcode.verify import SpliceCheck, check_splice
 from loadpath.pipeline.paths import Job, assign, plan_jobs, run_jobs, stagger
-from loadpath.pipeline.units import Unit, passthrough_reason, purge_blocks, select_units, unreliable_blocks
+from loadpath.pipeline.units import (
+    Unit,
+    passthrough_reason,
+    purge_blocks,
+    select_units,
+    unreliable_blocks,
+    with_overlap,
+)
 from loadpath.toolpath import Path, Toolpaths
 
 __all__ = ["PipelineOptions", "PipelineResult", "JobResult", "run", "STAGES"]
@@ -76,6 +83,9 @@ class PipelineOptions:
         Re-read and check the result (:mod:`loadpath.gcode.verify`).
     volume_tol : float
         Largest relative difference of a block's volume accepted by the check.
+    overlap : bool
+        Grow each unit's region by the slicer's own infill-perimeter overlap before the engine
+        fills it (:func:`loadpath.pipeline.units.with_overlap`).
     """
 
     engine: str = "swarm"
@@ -87,6 +97,7 @@ class PipelineOptions:
     workers: int = 1
     check: bool = True
     volume_tol: float = 0.03
+    overlap: bool = True
 
 
 @dataclass
@@ -246,6 +257,8 @@ def run(
                 "the infill region found from the perimeters)"
             )
     units = select_units(geo, names, options.replace, options.pitch, exclude=purges | set(unsure))
+    if options.overlap:
+        units = with_overlap(units, program, geo)
     clock.lap("loadcase")
     if not units:
         kinds = ", ".join(options.replace)
@@ -357,13 +370,13 @@ def _fills(
         for k, u in enumerate(sorted(members, key=lambda m: m.layer)):
             use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
             if use_shift and shifted is None:
-                shifted = _simplified(stagger(tp.paths, job.unit.region, 0.25 * job.unit.pitch), plan)
+                shifted = _simplified(stagger(tp.paths, job.unit.fill_region, 0.25 * job.unit.pitch), plan)
             paths = shifted if use_shift else base
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():
                 entry = per_block.setdefault(block, {"paths": [], "regions": [], "unit": u})
                 entry["paths"].extend(ps)
-                entry["regions"].append(u.region)
+                entry["regions"].append(u.fill_region)
         job_results.append(JobResult(job, sorted(members, key=lambda m: m.layer), tp, secs, flags))
     fills = []
     for block, e in sorted(per_block.items()):

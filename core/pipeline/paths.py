@@ -111,7 +111,7 @@ def plan_jobs(
         keyed.setdefault(key, []).append(i)
     jobs: list[Job] = []
     for key, idx in keyed.items():
-        labels = group_regions([units[i].region for i in idx])
+        labels = group_regions([units[i].fill_region for i in idx])
         groups: dict[int, list[int]] = {}
         for i, lab in zip(idx, labels, strict=True):
             groups.setdefault(lab, []).append(i)
@@ -124,13 +124,13 @@ def plan_jobs(
                 rest = []
                 for i in pending[1:]:
                     if analysis_kind(units[i]) == "2d" or fields_agree(
-                        f, field_of(units[i], key[2]), rep.region
+                        f, field_of(units[i], key[2]), rep.fill_region
                     ):
                         same.append(i)
                     else:
                         rest.append(i)
                 entry = getattr(f, "load_entry", None)
-                jobs.append(Job(rep, key[2], EngineInput(rep.region, f, rep.pitch, entry), same))
+                jobs.append(Job(rep, key[2], EngineInput(rep.fill_region, f, rep.pitch, entry), same))
                 pending = rest
     jobs.sort(key=lambda j: min(j.units))
     return jobs

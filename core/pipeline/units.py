@@ -15,7 +15,7 @@ island, its pitch the slicer's (the median over its blocks) unless the user set 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import shapely
@@ -29,6 +29,8 @@ __all__ = [
     "purge_blocks",
     "unreliable_blocks",
     "FIXED_WIDTH_KINDS",
+    "slicer_overlap",
+    "with_overlap",
 ]
 
 FIXED_WIDTH_KINDS = ("sparse",)
@@ -60,6 +62,11 @@ class Unit:
         Layer height.
     z : float, mm
         Top of the layer.
+    overlap : float, mm
+        How far the slicer's own beads of these blocks reach past the region's edge into the
+        perimeters (:func:`slicer_overlap`); 0 until :func:`with_overlap` measured it.
+    engine_region : Polygon or MultiPolygon or None
+        What the engine fills: the region grown by ``overlap`` towards the walls (None: the region).
     """
 
     object: str
@@ -72,6 +79,13 @@ class Unit:
     flow_width: float
     height: float
     z: float
+    overlap: float = 0.0
+    engine_region: Region | None = field(default=None, repr=False)
+
+    @property
+    def fill_region(self) -> Region:
+        """The area the new paths fill: ``engine_region`` if set, else ``region``."""
+        return self.region if self.engine_region is None else self.engine_region
 
     @property
     def z_mid(self) -> float:
@@ -213,4 +227,76 @@ def select_units(
                         )
                     )
     out.sort(key=lambda u: (u.layer, min(b.block_index for b in u.blocks)))
+    return out
+
+
+def slicer_overlap(program, unit: Unit) -> float:
+    """How far the slicer's beads of a unit's blocks reach past the region's edge, mm.
+
+    Slicers run infill into the innermost perimeter for a good bond (PrusaSlicer's
+    ``infill_overlap``, 25 % in the MK3S profiles; Cura's ``skin_overlap`` / ``infill_overlap``).
+    Measured, not read from the settings, so every slicer and version is handled alike: the ends
+    of the blocks' extrusions that lie within a flow width of the region's edge sit, in the median,
+    ``d`` mm inside it; their beads (flow width ``w``) reach ``w / 2 - d`` past it.  PrusaSlicer 2.5
+    at 0.45 mm solid infill: ends 0.123 mm inside, 0.10 mm past the edge.
+
+    Returns
+    -------
+    float, mm
+        In ``[0, w / 2]``; 0 when fewer than 8 ends lie near the edge.
+    """
+    m = program.moves
+    ends = []
+    for b in unit.blocks:
+        a, z = (
+            int(program.blocks["move_start"][b.block_index]),
+            int(program.blocks["move_stop"][b.block_index]),
+        )
+        rows = np.arange(a, z)[m["extrude"][a:z]]
+        if len(rows):
+            ends.append(np.column_stack([m["x0"][rows], m["y0"][rows]]))
+            ends.append(np.column_stack([m["x1"][rows], m["y1"][rows]]))
+    if not ends:
+        return 0.0
+    pts = np.concatenate(ends)
+    w = unit.flow_width
+    d = shapely.distance(unit.region.boundary, shapely.points(pts))
+    inside = shapely.contains_xy(unit.region, pts[:, 0], pts[:, 1])
+    d = np.where(inside, d, -d)
+    near = np.abs(d) < w
+    if np.count_nonzero(near) < 8:
+        return 0.0
+    return float(np.clip(0.5 * w - np.median(d[near]), 0.0, 0.5 * w))
+
+
+def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry) -> list[Unit]:
+    """Units whose engine region reaches as far into the perimeters as the slicer's own beads did.
+
+    The region is grown by :func:`slicer_overlap` towards the walls only (not into the blocks that
+    are kept), so the engine's outermost beads and path ends meet the perimeters as the slicer's
+    did instead of stopping at the perimeters' flow edge.  Fixed-width (sparse) units are left as
+    they are.
+    """
+    domains = {
+        (obj.name, lg.layer_index, isl.index): isl.domain
+        for obj in geo.objects
+        for lg in obj.layers
+        for isl in lg.islands
+    }
+    out = []
+    for u in units:
+        o = 0.0 if u.fixed_width else slicer_overlap(program, u)
+        if o <= 0:
+            out.append(u)
+            continue
+        grown = u.region.buffer(o, join_style="mitre", mitre_limit=2.0)
+        domain = domains.get((u.object, u.layer, u.island))
+        if domain is not None:
+            kept = domain.difference(u.region)
+            grown = grown.difference(kept) if not kept.is_empty else grown
+            grown = grown.intersection(domain.buffer(o, join_style="mitre", mitre_limit=2.0))
+        grown = shapely.make_valid(grown) if not grown.is_valid else grown
+        parts = [g for g in shapely.get_parts(grown) if g.geom_type == "Polygon" and g.area > 0]
+        region = shapely.union_all(parts) if parts else u.region
+        out.append(replace(u, overlap=o, engine_region=region))
     return out

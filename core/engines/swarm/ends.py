@@ -166,7 +166,7 @@ def extend_ends(
     # clearance from the paths (own path: only points far along it from this end)
     dp, did, dw, darc = _densify(paths, widths, 0.5 * step)
     tree = cKDTree(dp)
-    r_max = max(clear, 0.5 * float(dw.max())) + step
+    r_max = max(clear, 0.5 * float(dw.max()) + cap * float(end_w.max())) + step
     near = tree.query_ball_point(flat, r_max)
     counts = np.array([len(n) for n in near])
     own_far = (reach + 1.0) * pitch

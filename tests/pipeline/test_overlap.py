@@ -1,0 +1,61 @@
+"""The engines fill as far into the perimeters as the slicer's own infill did (real PrusaSlicer 2.5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from loadpath import gcode, geometry
+from loadpath.pipeline.units import select_units, slicer_overlap, with_overlap
+
+
+def test_overlap_is_measured_from_the_slicers_lines_and_grows_the_engine_region(sliced):
+    path = sliced("prusa", "ohs", "solid", infill_overlap="25%")
+    program = gcode.read(path)
+    geo = geometry.layer_geometry(program, check=False)
+    names = [o.name for o in geo.objects]
+    units = select_units(geo, names, ("solid",))
+    assert units
+    grown = with_overlap(units, program, geo)
+    o = np.array([u.overlap for u in grown])
+    # MK3S: 25 % of (perimeter spacing + infill spacing) / 2 is about 0.1 mm; the ends of the
+    # slicer's lines sit a little more than half a bead inside the perimeters' flow edge
+    assert np.all((o > 0.05) & (o < 0.15)), o
+    for u in grown:
+        assert u.fill_region.contains(u.region.buffer(-1e-6))
+        added = u.fill_region.area - u.region.area
+        # grown by the overlap all round its edge (minus corners), never more
+        assert 0.8 * u.overlap * u.region.length <= added <= 1.05 * u.overlap * u.region.length
+        # and only into the perimeters: inside the part outline
+        outline = next(
+            i.outline
+            for ob in geo.objects
+            for lg in ob.layers
+            if lg.layer_index == u.layer
+            for i in lg.islands
+            if i.index == u.island
+        )
+        assert outline.contains(u.fill_region)
+    # without overlap in the file, nothing grows
+    flush = sliced("prusa", "ohs", "solid", infill_overlap="0%")
+    p2 = gcode.read(flush)
+    g2 = geometry.layer_geometry(p2, check=False)
+    u2 = select_units(g2, [o.name for o in g2.objects], ("solid",))
+    assert all(slicer_overlap(p2, u) < 0.03 for u in u2)
+
+
+def test_overlap_reaches_the_output(sliced, tmp_path):
+    """A whole run: the new beads reach past the region's edge as the slicer's did, and the check passes."""
+    from pipeline_helpers import run, write_case
+
+    case = write_case(tmp_path)
+    program, result, out = run(sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode", engine="swarm")
+    assert result.pipeline.check.problems == []
+    units = [u for j in result.pipeline.jobs for u in j.units]
+    assert units and all(u.overlap > 0.05 for u in units)
+    # every engine run filled the grown region, whose edge lies beyond the slicer's region
+    for j in result.pipeline.jobs:
+        u = j.units[0]
+        pts = np.concatenate([p.points for p in j.paths.paths])
+        outside = ~shapely.contains_xy(u.region, pts[:, 0], pts[:, 1])
+        assert outside.any()  # some ends and edge paths now lie in the overlap band
+        assert np.all(shapely.distance(u.region, shapely.points(pts[outside])) <= u.overlap + 1e-6)
