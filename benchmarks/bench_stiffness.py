@@ -189,7 +189,13 @@ def loadpath_run(
 
 
 def direct_deposits(program, lc, opts, meshes, engine: str, K: float | None):
-    """The engine's paths put into the deposits directly (no splice): what ``run`` would print."""
+    """The engine's paths put into the deposits directly (no splice): what ``run`` would print.
+
+    The engine fills what ``loadpath run`` gives it: each unit's replace region grown by the
+    slicer's own infill-perimeter overlap (:func:`loadpath.pipeline.units.with_overlap`).
+    """
+    from loadpath.pipeline.units import select_units, with_overlap
+
     geo = geometry.layer_geometry(program, check=False)
     (rb,) = loadcase.resolve(lc, geo.bodies())
     obj = geo.object(rb.name)
@@ -197,17 +203,18 @@ def direct_deposits(program, lc, opts, meshes, engine: str, K: float | None):
     iso = analyze(rb, mesh=mesh)
     cache, parts, excl = {}, [], []
     kw = {} if K is None else {"K": K}
-    for g in obj.layers:
-        region = g.replace_region(KINDS)
-        if region.is_empty:
-            continue
-        excl += [b.block_index for b in g.blocks if b.kind in KINDS]
+    units = with_overlap(select_units(geo, [rb.name], KINDS, SPACING), program, geo)
+    z_of = {g.layer_index: (g.z, g.height) for g in obj.layers}
+    for u in units:
+        region = u.fill_region
+        excl += [b.block_index for b in u.blocks]
+        z, h = z_of[u.layer]
         if region.wkb not in cache:
-            field = iso.field(g.z - 0.5 * g.height)
+            field = iso.field(z - 0.5 * h)
             cache[region.wkb] = engines.generate(
                 engine, EngineInput(region, field, SPACING, field.load_entry), **kw
             )
-        parts.append(stiffness.from_toolpaths(cache[region.wkb], g.z, g.height, g.layer_index))
+        parts.append(stiffness.from_toolpaths(cache[region.wkb], z, h, u.layer))
     kept = stiffness.from_program(program, obj.code, exclude_blocks=excl)
     return rb, stiffness.Deposits.concat([kept, *parts])
 
