@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_swarm.py OUT_DIR [--repeats 5] [--quick]
+    python benchmarks/bench_swarm.py OUT_DIR [--repeats 5] [--quick] [--speed-only] [--no-compile]
 
 Prints, for one slice of the open-hole specimen (150 x 36 x 2 mm, 6 mm hole, 1000 N tension at
 x_max, clamped at x_min, l = 0.4 mm) and K = 0.5, 5, 50: beta (Eq. 14) overall and where the field
@@ -21,6 +21,12 @@ for the "beyond the paper" item, the 200 x 200 mm layer with three holes (real F
 overlap / crossings on the other test regions (an L-bracket with a real bearing load on its bolt
 hole, fixed at the other leg).  PNGs (paths around the hole, spacing histograms, the L-bracket) go
 to OUT_DIR.
+
+First, the compiled kernels (numba): the cold compile (a new process with an empty
+``NUMBA_CACHE_DIR``, as on a clean clone), the load from the on-disk cache (a second process), and
+the warm time per layer at K = 0.5 / 5 / 50 beside the numpy engine the kernels replaced (the
+swarm package as of commit 2344ebc^, taken from git history into a temporary package; skipped
+without git history) in the same run.  ``--speed-only`` stops after that section.
 """
 
 from __future__ import annotations
@@ -31,7 +37,11 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUME
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
+import re  # noqa: E402
 import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -140,6 +150,93 @@ def timed(inp, K, repeats, **kw):
         WALL.append(time.perf_counter() - w0)
         CPU.append(warm[-1])
     return tp, cold, statistics.median(warm) if warm else cold
+
+
+# --------------------------------------------------------------------------- compile and speed
+
+NUMPY_COMMIT = "2344ebc^"
+"""The last commit whose swarm step ran in numpy (the numba kernels came with 2344ebc)."""
+
+_CHILD = (
+    "import time; t0 = time.process_time(); w0 = time.perf_counter();"
+    "from loadpath.engines.swarm import _numba, kernel_step;"
+    "t1 = time.process_time(); w1 = time.perf_counter();"
+    "_numba.warm_up();"
+    "print('TIMES', t1 - t0, time.process_time() - t1, time.perf_counter() - w1)"
+)
+
+
+def _child_times(env) -> tuple[float, float, float]:
+    """Import CPU s, warm-up CPU s, warm-up wall s of a new process (warm-up: a tiny layer)."""
+    out = subprocess.run([sys.executable, "-c", _CHILD], env=env, capture_output=True, text=True, check=True)
+    m = re.search(r"TIMES (\S+) (\S+) (\S+)", out.stdout)
+    if m is None:
+        raise RuntimeError(f"no times from the compile child: {out.stdout!r} {out.stderr!r}")
+    return float(m.group(1)), float(m.group(2)), float(m.group(3))
+
+
+def compile_times() -> None:
+    """Print the cold compile and the cache load of the kernels (new processes, empty cache dir)."""
+    with tempfile.TemporaryDirectory(prefix="numba-cache-") as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        imp, cold, cold_wall = _child_times(env)
+        imp2, load, load_wall = _child_times(env)
+    print(
+        f"cold compile (empty cache, new process, tiny layer): {cold:6.1f} s CPU ({cold_wall:.1f} s wall;"
+        f" imports {imp:.1f} s)"
+    )
+    print(
+        f"from the cache (second process, tiny layer):        {load:6.2f} s CPU ({load_wall:.2f} s wall;"
+        f" imports {imp2:.1f} s)"
+    )
+
+
+def numpy_engine(tmp: Path):
+    """``generate`` of the numpy swarm engine (:data:`NUMPY_COMMIT`), or None without git history."""
+    pkg = tmp / "_swarm_numpy"
+    pkg.mkdir()
+    try:
+        names = subprocess.run(
+            ["git", "-C", str(REPO), "ls-tree", "--name-only", NUMPY_COMMIT, "core/engines/swarm/"],
+            capture_output=True, text=True, check=True,
+        ).stdout.split()  # fmt: skip
+        for name in names:
+            src = subprocess.run(
+                ["git", "-C", str(REPO), "show", f"{NUMPY_COMMIT}:{name}"],
+                capture_output=True,
+                text=True,
+                check=True,
+            ).stdout
+            (pkg / Path(name).name).write_text(src.replace("loadpath.engines.swarm", "_swarm_numpy"))
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    sys.path.insert(0, str(tmp))
+    import _swarm_numpy  # noqa: PLC0415
+
+    return _swarm_numpy.generate
+
+
+def speed(args, inp) -> None:
+    """Warm CPU time per layer, compiled kernels against the numpy engine, same run, same layer."""
+    with tempfile.TemporaryDirectory() as tmp:
+        ref = numpy_engine(Path(tmp))
+        print(
+            f"{'K':>5}  {'numba ms':>9}  {'numpy ms':>9}  {'ratio':>6}   (CPU, median of {args.repeats};"
+            f" paper 198 ms, target 50 ms; numpy = the engine as of {NUMPY_COMMIT})"
+        )
+        for K in (0.5, 5.0, 50.0):
+            _, _, warm = timed(inp, K, args.repeats + 1)
+            if ref is None:
+                print(f"{K:5g}  {warm * 1e3:9.0f}  {'-':>9}  {'-':>6}")
+                continue
+            ref(inp, K=K)  # its raster cache, as the numba run's
+            t = []
+            for _ in range(args.repeats):
+                t0 = time.process_time()
+                ref(inp, K=K)
+                t.append(time.process_time() - t0)
+            ref_ms = statistics.median(t) * 1e3
+            print(f"{K:5g}  {warm * 1e3:9.0f}  {ref_ms:9.0f}  {ref_ms / (warm * 1e3):6.1f}")
 
 
 def fmt_row(name, m, t=None, paper=None):
@@ -251,8 +348,14 @@ def main(argv=None) -> int:
     ap.add_argument("out", type=Path, help="folder for the PNG plots")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="skip the 200 x 200 mm layer and the K sweep")
+    ap.add_argument("--speed-only", action="store_true", help="only the compile and per-layer times")
+    ap.add_argument("--no-compile", action="store_true", help="skip the cold compile (about a minute of CPU)")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+
+    print("Compiled kernels (numba)")
+    if not args.no_compile:
+        compile_times()
 
     print("spacing: var_next = distance to the following path (the paper's), var_near = nearest other path;")
     print("coverage/overlap with beads of each path's local pitch (flow width); x = crossing pairs;")
@@ -264,6 +367,9 @@ def main(argv=None) -> int:
         f" = max |s| away from supports/loads), load entry {load};\nl = 0.4 mm (paper Table 1 in brackets;"
         " paper 198 ms)"
     )
+    speed(args, EngineInput(region=region, field=field, pitch=PITCH, load_entry=load))
+    if args.speed_only:
+        return 0
     fea_runs = table1(args, "fea", region, field, load)
     reg2, f2, ld2, _ = fea_case("ohs", specimen_region(), None, 2.0, 100.0, REPO / "examples" / "ohs.toml")
     tp, cold, warm = timed(EngineInput(region=reg2, field=f2, pitch=PITCH, load_entry=ld2), 5.0, args.repeats)
