@@ -70,7 +70,9 @@ class RunOptions:
     min_segment: float = 0.05
 
 
-def runs_of_widths(width: Floats, length: Floats, step: float, short: float) -> np.ndarray:
+def runs_of_widths(
+    width: Floats, length: Floats, step: float, short: float, start: np.ndarray | None = None
+) -> np.ndarray:
     """Run index of every segment (see the module docstring, step 1).
 
     Parameters
@@ -82,6 +84,8 @@ def runs_of_widths(width: Floats, length: Floats, step: float, short: float) -> 
         Largest relative spread of the widths in a run.
     short : float, mm
         Segments shorter than this join the current run.
+    start : (n,) bool, optional
+        Segments that begin a new chain: they always start a run.
 
     Returns
     -------
@@ -96,16 +100,21 @@ def runs_of_widths(width: Floats, length: Floats, step: float, short: float) -> 
     # plain floats over the segments of a chain, like the marker pass in Writer.extrude_many.
     w = width.tolist()
     is_short = (length < short).tolist()
-    k = 0
+    first = [False] * n if start is None else start.tolist()
+    k = -1
     lo = hi = None
     limit = 1.0 + step
     for i in range(n):
+        if first[i]:
+            k += 1
+            lo = hi = None
         if is_short[i] and lo is not None:
             run[i] = k
             continue
         wi = w[i]
         if lo is None:
             lo = hi = wi
+            k = max(k, 0)
         else:
             nlo, nhi = min(lo, wi), max(hi, wi)
             if nhi <= nlo * limit:
@@ -192,65 +201,91 @@ def bead_runs(
     if not plan.chains or flow_width <= 0:
         return plan
     tol = max(options.resolution * flow_width - done, 0.0)
-    ends = None if path_ends is None else np.unique(np.asarray(path_ends, float) @ np.array([1.0, 1j]))
-    # 1. stretches between path ends; extrusion per mm smoothed inside each; cumulative filament
-    pieces: list[tuple[int, int, int]] = []  # (chain, first vertex, last vertex) of each stretch
-    arcs, cums, feeds = [], [], []
-    for ci, c in enumerate(plan.chains):
-        seg = np.hypot(*np.diff(c.points, axis=0).T)
-        cut = np.zeros(len(c.points), dtype=bool)
-        if ends is not None:
-            cut = np.isin(c.points @ np.array([1.0, 1j]), ends)
-        cut[0] = cut[-1] = True
-        group = np.cumsum(cut[:-1]) - 1
-        fil = smooth_filament(c.filament, seg, options.smooth * flow_width, group)
-        arcs.append(np.concatenate([[0.0], np.cumsum(seg)]))
-        cums.append(np.concatenate([[0.0], np.cumsum(fil)]))
-        feeds.append(c.feedrate)
-        at = np.flatnonzero(cut)
-        pieces.extend((ci, a, z) for a, z in zip(at[:-1], at[1:], strict=True))
-    # 2. simplification of every stretch at once, on position and on the cumulative extrusion
-    #    (in mm of nominal bead): a dropped vertex is within tol of the new segment, and the
-    #    material between kept vertices moves along the path by at most ``shift`` flow widths
-    #    (width ramps keep their vertices)
-    rho = sum(float(c[-1]) for c in cums) / max(sum(float(a[-1]) for a in arcs), 1e-12)
-    gcum = [c / rho for c in cums]
-    gpieces = [(plan.chains[o].points[a : z + 1], gcum[o][a : z + 1]) for o, a, z in pieces]
     shift = options.shift * flow_width
-    simple = simplify(gpieces, tol, shift, options.min_segment) if tol > 0 and shift > 0 else gpieces
-    owner = np.array([o for o, _, _ in pieces])
-    chains, n_runs = [], 0
-    for ci, (s, cum, f) in enumerate(zip(arcs, cums, feeds, strict=True)):
-        mine = [simple[k] for k in np.flatnonzero(owner == ci)]
-        pts = np.concatenate([mine[0][0]] + [p[1:] for p, _ in mine[1:]])
-        g_kept = np.concatenate([mine[0][1]] + [q[1:] for _, q in mine[1:]])
-        group = np.repeat(np.arange(len(mine)), [len(p) - 1 for p, _ in mine])
-        # kept vertices are original ones: find them by their cumulative extrusion (increasing:
-        # every planned segment extrudes)
-        vi = np.minimum(np.searchsorted(gcum[ci], g_kept), len(s) - 1)
-        if not np.array_equal(plan.chains[ci].points[vi], pts):
-            raise AssertionError("bead_runs: kept vertices are not the chain's own")  # a bug, not input
-        # 3. filament between kept vertices: exactly what the plan put there; feedrate: the
-        #    slowest original segment in between
-        fil = np.diff(cum[vi])
-        feed = np.minimum.reduceat(f, vi[:-1])
-        seg = np.hypot(*np.diff(pts, axis=0).T)
-        width = _width(fil, seg, flow, height)
-        # 4. runs of one width (they may span a path end); inside a run each path's stretch is
-        #    printed at its own mean extrusion, the marker says the run's width (within width_step)
-        run = runs_of_widths(width, seg, options.width_step, options.short * flow_width)
-        key = run * (group.max() + 1) + group  # (run, stretch) pieces, in order
-        first = np.concatenate([[0], np.flatnonzero(np.diff(key)) + 1])
-        piece = np.cumsum(np.isin(np.arange(len(seg)), first)) - 1
-        dens = np.add.reduceat(fil, first) / np.maximum(np.add.reduceat(seg, first), 1e-12)
-        rfirst = np.concatenate([[0], np.flatnonzero(np.diff(run)) + 1])
-        run_width = _width(np.add.reduceat(fil, rfirst), np.add.reduceat(seg, rfirst), flow, height)
-        run_feed = np.minimum.reduceat(feed, rfirst)
-        chains.append(Chain(pts, dens[piece] * seg, run_width[run], run_feed[run]))
-        n_runs += len(rfirst)
-    widths = np.concatenate([c.width for c in chains])
-    stats = {**plan.stats, "width_min": float(widths.min()), "width_max": float(widths.max()), "runs": n_runs}
-    return dataclasses.replace(plan, chains=tuple(chains), stats=stats)
+    # every chain's vertices in one array; vertex v of the block, chain of each
+    sizes = np.array([len(c.points) for c in plan.chains])
+    pts = np.concatenate([c.points for c in plan.chains])
+    vstart = np.cumsum(sizes) - sizes  # first vertex of each chain
+    vlast = vstart + sizes - 1
+    seg_v = np.setdiff1d(np.arange(len(pts)), vlast, assume_unique=True)  # first vertex of each segment
+    seg = np.hypot(*(pts[seg_v + 1] - pts[seg_v]).T)
+    fil0 = np.concatenate([c.filament for c in plan.chains])
+    feed0 = np.concatenate([c.feedrate for c in plan.chains])
+    # 1. stretches between path ends (and chain ends); extrusion per mm smoothed inside each
+    cut = np.zeros(len(pts), dtype=bool)
+    if path_ends is not None:
+        ends = np.unique(np.asarray(path_ends, dtype=float) @ np.array([1.0, 1j]))
+        cut = np.isin(pts @ np.array([1.0, 1j]), ends)
+    cut[vstart] = cut[vlast] = True
+    stretch = np.cumsum(cut[seg_v]) - 1  # stretch of each segment (a chain end always cuts)
+    fil = smooth_filament(fil0, seg, options.smooth * flow_width, stretch)
+    # cumulative extrusion in mm of nominal bead, strictly increasing over the whole block (each
+    # chain starts one unit above the previous one's end)
+    rho = float(fil.sum() / max(seg.sum(), 1e-12))
+    g = np.zeros(len(pts))
+    g[seg_v + 1] = fil / rho
+    g[vstart] = 1.0
+    g = np.cumsum(g)
+    # 2. simplification of every stretch, on position and on the cumulative extrusion: a dropped
+    #    vertex is within tol of the new segment, and the material between kept vertices moves along
+    #    the path by at most ``shift`` (width ramps keep their vertices); one-segment stretches (links)
+    #    have nothing to drop
+    at = np.flatnonzero(cut)
+    first_v, last_v = at[:-1], at[1:]
+    inner = ~np.isin(first_v, vlast)  # not from one chain's end to the next chain's start
+    first_v, last_v = first_v[inner], last_v[inner]
+    keep = np.zeros(len(pts), dtype=bool)
+    keep[cut] = True
+    long = np.flatnonzero(last_v - first_v > 1)
+    if tol <= 0 or shift <= 0:
+        keep[:] = True
+    elif len(long):
+        pieces = [(pts[first_v[k] : last_v[k] + 1], g[first_v[k] : last_v[k] + 1]) for k in long]
+        kept_g = np.concatenate([q for _, q in simplify(pieces, tol, shift, options.min_segment)])
+        keep[np.searchsorted(g, kept_g)] = True
+    kv = np.flatnonzero(keep)  # kept vertices, in order; chain ends among them
+    # 3. segments between consecutive kept vertices of the same chain: the plan's filament between
+    #    them, the slowest original feedrate in between
+    chain_v = np.repeat(np.arange(len(sizes)), sizes)
+    same = chain_v[kv[1:]] == chain_v[kv[:-1]]
+    ka, kb = kv[:-1][same], kv[1:][same]
+    cum = np.concatenate([[0.0], np.cumsum(fil)])  # filament before each segment (block order)
+    seg_of_v = np.searchsorted(seg_v, np.arange(len(pts)))  # segment index starting at vertex v
+    nfil = cum[seg_of_v[kb - 1] + 1] - cum[seg_of_v[ka]]
+    nfeed = np.minimum.reduceat(feed0, seg_of_v[ka]) if len(ka) else np.zeros(0)
+    # (reduceat groups run to the next start: exactly the original segments of each new segment)
+    nseg = np.hypot(*(pts[kb] - pts[ka]).T)
+    nstretch = stretch[seg_of_v[ka]]
+    nstart = np.isin(ka, vstart)
+    width = _width(nfil, nseg, flow, height)
+    # 4. runs of one width (they may span a path end, never a chain end); inside a run each
+    #    stretch is printed at its own mean extrusion, the marker says the run's width
+    run = runs_of_widths(width, nseg, options.width_step, options.short * flow_width, nstart)
+    key = run * (int(nstretch.max()) + 1) + nstretch
+    pfirst = np.concatenate([[0], np.flatnonzero(np.diff(key)) + 1])
+    piece = np.cumsum(np.isin(np.arange(len(nseg)), pfirst)) - 1
+    dens = np.add.reduceat(nfil, pfirst) / np.maximum(np.add.reduceat(nseg, pfirst), 1e-12)
+    rfirst = np.concatenate([[0], np.flatnonzero(np.diff(run)) + 1])
+    run_width = _width(np.add.reduceat(nfil, rfirst), np.add.reduceat(nseg, rfirst), flow, height)
+    run_feed = np.minimum.reduceat(nfeed, rfirst)
+    out_fil, out_w, out_f = dens[piece] * nseg, run_width[run], run_feed[run]
+    # back into chains
+    n_per_chain = np.bincount(chain_v[ka], minlength=len(sizes))
+    bounds = np.cumsum(n_per_chain)[:-1]
+    kv_chain = np.split(kv, np.cumsum(np.bincount(chain_v[kv], minlength=len(sizes)))[:-1])
+    chains = tuple(
+        Chain(pts[v], f_, w_, e_)
+        for v, f_, w_, e_ in zip(
+            kv_chain, np.split(out_fil, bounds), np.split(out_w, bounds), np.split(out_f, bounds), strict=True
+        )
+    )
+    stats = {
+        **plan.stats,
+        "width_min": float(out_w.min()),
+        "width_max": float(out_w.max()),
+        "runs": len(rfirst),
+    }
+    return dataclasses.replace(plan, chains=chains, stats=stats)
 
 
 def _width(filament: Floats, length: Floats, flow: FlowModel, height: float) -> Floats:
