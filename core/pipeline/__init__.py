@@ -370,7 +370,8 @@ def _fills(
         for k, u in enumerate(sorted(members, key=lambda m: m.layer)):
             use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
             if use_shift and shifted is None:
-                shifted = _simplified(stagger(tp.paths, job.unit.fill_region, 0.25 * job.unit.pitch), plan)
+                u0 = job.unit
+                shifted = _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
             paths = shifted if use_shift else base
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():

@@ -218,12 +218,22 @@ def _dominant_normal(paths: Sequence[Path]) -> np.ndarray:
     return np.array([-np.sin(theta), np.cos(theta)])
 
 
-def stagger(paths: Sequence[Path], region: Region, inset: float) -> tuple[Path, ...]:
+def stagger(
+    paths: Sequence[Path], region: Region, inset: float, pitch: float | None = None
+) -> tuple[Path, ...]:
     """Paths shifted sideways by half their local pitch, clipped to ``region`` shrunk by ``inset``.
 
     Every path moves to the same side (the side of the paths' dominant normal), each vertex along the
     path's local normal by half its pitch, so a shifted path runs between two original ones.  Pieces
     shorter than two pitches are dropped.
+
+    With ``pitch`` (the nominal pitch) the shifted layer is then made whole again, as the engines
+    make theirs: the bead widths are measured on the shifted paths (the outermost path on the side
+    the paths moved away from widens to reach the edge; :func:`loadpath.engines.swarm.widths.local_pitch`)
+    and the path ends clipped short are carried on to the next bead or the edge
+    (:func:`loadpath.engines.swarm.ends.extend_ends`).  Without that a staggered layer lost a half
+    pitch strip along every wall parallel to the paths and a void at every clipped end (bench
+    L-bracket: coverage 93.7 % against 95.6 % unstaggered).
     """
     ref = _dominant_normal(paths)
     inner = region.buffer(-inset) if inset > 0 else region
@@ -244,7 +254,14 @@ def stagger(paths: Sequence[Path], region: Region, inset: float) -> tuple[Path, 
             piece = q[a:z]
             if np.sum(np.hypot(*np.diff(piece, axis=0).T)) >= 2 * float(np.median(p.pitch)):
                 out.append(Path(piece, p.pitch[a:z], p.kind))
-    return tuple(out)
+    if pitch is None or not out:
+        return tuple(out)
+    from loadpath.engines.swarm.ends import extend_ends
+    from loadpath.engines.swarm.widths import local_pitch
+
+    width = local_pitch([p.points for p in out], region, pitch)
+    pts, width, _ = extend_ends([p.points for p in out], width, region, pitch, edge_gap=inset / pitch)
+    return tuple(Path(q, w, p.kind) for q, w, p in zip(pts, width, out, strict=True))
 
 
 def assign(paths: Sequence[Path], unit: Unit) -> dict[int, list[Path]]:
