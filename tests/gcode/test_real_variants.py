@@ -30,7 +30,9 @@ def test_prusa_absolute_e_gives_the_same_extrusions(sliced):
     close = np.abs(b["e"] - a["e"]) <= 2e-5
     assert np.mean(close) > 0.99
     np.testing.assert_allclose(np.cumsum(b["e"]), np.cumsum(a["e"]), rtol=1e-5, atol=1e-4)
-    np.testing.assert_array_equal(b["x1"], a["x1"])
+    # the same positions (two separate slicer runs: a couple of points move by the last digit)
+    assert np.mean(b["x1"] == a["x1"]) > 0.999
+    np.testing.assert_allclose(b["x1"], a["x1"], atol=0.005)
 
 
 def test_prusa_volumetric_e_is_turned_into_filament_length(sliced):
