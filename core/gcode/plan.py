@@ -343,40 +343,63 @@ def plan_block(
             n_links += 1
         else:
             groups.append([(pts, pitch)])
-    chains_pts, chains_fw = [], []
+    chains_pts, chains_fw, chains_link = [], [], []
     for g in groups:
         pts = np.concatenate([p for p, _ in g])
-        seg_fw = []
+        seg_fw, seg_link = [], []
         for j, (p, pp) in enumerate(g):
             if j > 0:
                 seg_fw.append(np.array([nominal if flow_width is None else flow_width]))  # the link
+                seg_link.append(np.ones(1, dtype=bool))
             seg_fw.append(_segment_values(pp) if flow_width is None else np.full(len(p) - 1, flow_width))
+            seg_link.append(np.zeros(len(p) - 1, dtype=bool))
         chains_pts.append(pts)
         chains_fw.append(np.concatenate(seg_fw))
+        chains_link.append(np.concatenate(seg_link))
     lengths = [np.hypot(*np.diff(p, axis=0).T) for p in chains_pts]
     fw = np.concatenate(chains_fw)
+    link = np.concatenate(chains_link)
     ln = np.concatenate(lengths)
 
     wmin, wmax = (r * options.nozzle_diameter for r in options.width_range)
     if flow_width is not None:  # the slicer's own width (e.g. Cura's combined sparse infill at double flow)
         wmin, wmax = 0.0, float("inf")
 
-    def areas(scale: float) -> tuple[Floats, Floats]:
-        bead = np.clip(flow.bead_width(fw * scale, height), wmin, wmax)
+    def areas(scale: float, link_scale: float = 1.0) -> tuple[Floats, Floats]:
+        bead = np.clip(flow.bead_width(fw * np.where(link, link_scale, scale), height), wmin, wmax)
         return bead, flow.area(bead, height)
+
+    def total(area: Floats) -> float:
+        return float(np.sum(flow.filament_mm(flow.e_for_area(area)) * ln))
 
     bead, area = areas(1.0)
     raw = float(np.sum(flow.filament_mm(flow.e_for_area(area)) * ln))
     scale = 1.0
     t = float(target_filament or 0.0)
     band = (t * (1.0 - options.volume_floor), t * (1.0 + options.volume_cap))
+    link_scale = 1.0
     if options.match_volume and t > 0 and raw > 0 and not band[0] <= raw <= band[1]:
         goal = band[0] if raw < band[0] else band[1]
+        if raw > goal and np.any(link) and flow_width is None:
+            # too much: the links give it back first (a link lies over the two ends it joins;
+            # thinning it loses no coverage), down to the narrowest bead
+            thin = areas(1.0, 0.0)[1]
+            if total(thin) <= goal:
+                lo_s, hi_s = 0.0, 1.0
+                for _ in range(30):  # bisection on the links' flow
+                    mid = 0.5 * (lo_s + hi_s)
+                    lo_s, hi_s = (mid, hi_s) if total(areas(1.0, mid)[1]) > goal else (lo_s, mid)
+                link_scale = hi_s
+            else:
+                link_scale = 0.0
+            bead, area = areas(1.0, link_scale)
         lo, hi = 1.0 - options.max_correction, 1.0 + options.max_correction
         for _ in range(4):  # clamping makes the total non-linear in the scale: a few fixed-point steps
-            got = float(np.sum(flow.filament_mm(flow.e_for_area(area)) * ln))
+            got = total(area)
+            if abs(got - goal) <= 1e-9 * goal:
+                break
             scale = float(np.clip(scale * goal / got, lo, hi)) if got > 0 else scale
-            bead, area = areas(scale)
+            bead, area = areas(scale, link_scale * scale if link_scale < 1.0 else scale)
     filament = flow.filament_mm(flow.e_for_area(area)) * ln
     f = np.full(len(ln), float(feedrate))
     if options.max_volumetric_speed > 0:
