@@ -21,13 +21,16 @@ Steps
    the slicer's own choice, e.g. Cura's combined sparse infill printed at double flow).
    Volume policy, with a target E (the replaced block's own): the engine's widths are kept when
    the block's filament lies within ``[1 - volume_floor, 1 + volume_cap]`` times the target;
-   otherwise the flow widths are scaled by the one factor (bounded by ``max_correction``) that
-   brings it to the nearer end of that band.  The cap protects the print (never much more plastic
-   than the slicer planned); the floor keeps the block within the splicer's and the check's
-   tolerance (3 %).  Matching the slicer's volume exactly, as before, spread the engine's missing
-   material uniformly over the bulk, where the beads already tile and it adds nothing, while the
-   voids that caused the shortfall stayed voids: on the bench's L-bracket that cost more than the
-   whole alignment gain (``benchmarks/bench_stiffness.py``).  Where a gap needs a wider bead, the
+   otherwise, when there is too much, the printed links give it back first (a link lies over
+   the two path ends it joins, so thinning it, down to the narrowest bead, loses no coverage),
+   and only then, or when there is too little, the flow widths are scaled by the one factor
+   (bounded by ``max_correction``) that brings it to the nearer end of that band.  The cap
+   protects the print (never much more plastic than the slicer planned); the floor keeps the
+   block within the splicer's and the check's tolerance (3 %). Matching the slicer's volume
+   exactly, as before, spread the engine's missing material uniformly over the bulk, where the
+   beads already tile and it adds nothing, while the voids that caused the shortfall stayed voids:
+   on the bench's L-bracket that cost more than the whole alignment gain
+   (``benchmarks/bench_stiffness.py``). Where a gap needs a wider bead, the
    engine's local pitch already says so.  The band is empty by default (exact matching, as
    before) until the rewriter handles blocks that extrude other than the slicer's E in Cura's
    files (with a 2 % band, ``tests/splice/test_splice.py`` fails on cura-relE and
@@ -388,8 +391,8 @@ def plan_block(
                 lo_s, hi_s = 0.0, 1.0
                 for _ in range(30):  # bisection on the links' flow
                     mid = 0.5 * (lo_s + hi_s)
-                    lo_s, hi_s = (mid, hi_s) if total(areas(1.0, mid)[1]) > goal else (lo_s, mid)
-                link_scale = hi_s
+                    lo_s, hi_s = (lo_s, mid) if total(areas(1.0, mid)[1]) > goal else (mid, hi_s)
+                link_scale = lo_s
             else:
                 link_scale = 0.0
             bead, area = areas(1.0, link_scale)
