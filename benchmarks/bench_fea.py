@@ -18,6 +18,11 @@ with its target from issue 3:
    specimen and a 3D section, for batches of 100 to 1 000 000 points. Target: >= 1e6 points/s.
 4. Time against element count, 2D and 3D, four sizes each, gmsh time separate; the fitted exponent
    of ``time ~ cells^k``.
+5. The default 3D mesh of the test tower (tests/slicing.py: 30 x 20 mm plate with an 8 mm hole,
+   twisted 30 degrees and tapered to 0.6 over 24 mm, 120 layers whose outlines all differ),
+   clamped at the base and pushed sideways at the top, in a child process: tetrahedra, slabs,
+   mesh / assemble / solve time, peak memory. Target (issue 3 review): well under a minute of FEA,
+   within the default element budget.
 """
 
 from __future__ import annotations
@@ -274,15 +279,103 @@ def section_growth(repeats, quick):
     print()
 
 
+TOWER = """
+version = 1
+frame = "part"
+[[supports]]
+name = "base"
+where = { side = "z_min", within = 0.5 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "push"
+where = { side = "z_max", within = 0.5 }
+force = [100.0, 0.0, 0.0]
+"""
+
+
+def _tower_body(n=120, dz=0.2, twist=30.0, scale_top=0.6):
+    from shapely import affinity
+
+    plate = box(-15, -10, 15, 10).difference(Point(0, 0).buffer(4, quad_segs=12))
+    layers = []
+    for i in range(n):
+        t = (i + 0.5) / n
+        s = 1.0 + (scale_top - 1.0) * t
+        g = affinity.rotate(affinity.scale(plate, s, s, origin=(0, 0)), twist * t, origin=(0, 0))
+        layers.append((i * dz, (i + 1) * dz, affinity.translate(g, 100.0, 80.0)))
+    return lc.Body.from_layers("tower", layers)
+
+
+def run_tower():
+    """The tower with the default mesh (pitch 0.45 mm); returns a JSON-able dict (child process)."""
+    (rb,) = lc.resolve(lc.parse(TOWER), [_tower_body()])
+    w0, c0 = time.perf_counter(), time.process_time()
+    a = analyze(rb, pitch=0.45)
+    return {
+        "layers": len(rb.layers.slabs),
+        "merged": len(rb.body.slabs),
+        "slabs": a.mesh.stats["slabs"],
+        "attempts": a.mesh.stats["attempts"],
+        "h": a.mesh.stats["h"],
+        "cells": len(a.mesh.cells),
+        "dofs": a.mesh.points.size,
+        **{f"t_{k}": v for k, v in a.times.items()},
+        "wall": time.perf_counter() - w0,
+        "cpu": time.process_time() - c0,
+        "method": a.result.method,
+        "iterations": a.result.iterations,
+        "residual": a.result.residual,
+        "status": a.result.status,
+        "maxrss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
+    }
+
+
+def section_tower():
+    from loadpath.mesh import DEFAULT_MAX_TETS
+
+    print("5. Default 3D mesh of the twisted tower (120 distinct layers; child process, one core)")
+    code = (
+        f"import json, sys; sys.path.insert(0, {os.path.dirname(__file__)!r}); import bench_fea; "
+        "print(json.dumps(bench_fea.run_tower()))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    r = json.loads(out.stdout.strip().splitlines()[-1])
+    print(
+        f"   {r['layers']} layers -> {r['merged']} merged slabs -> {r['slabs']} covering prisms; "
+        f"h {r['h']:.2f} mm after {r['attempts']} mesh attempt(s)"
+    )
+    print(
+        f"   {r['cells']} tet10 (budget {DEFAULT_MAX_TETS}), {r['dofs']} dofs; solver {r['method']}, "
+        f"{r['iterations']} iterations, residual {r['residual']:.1e} ({r['status']})"
+    )
+    print(
+        f"   mesh {r['t_mesh']:.1f} s  assemble {r['t_assemble']:.1f} s  solve {r['t_solve']:.1f} s  "
+        f"stress {r['t_stress']:.1f} s"
+    )
+    verdict = "MET" if r["wall"] < 60 and r["cells"] <= DEFAULT_MAX_TETS else "MISSED"
+    print(
+        f"   total {r['wall']:.1f} s wall, {r['cpu']:.1f} s CPU; peak memory {r['maxrss_gb']:.2f} GB "
+        f"(target: < 60 s within the budget: {verdict})"
+    )
+    print()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="smaller 3D cases (a smoke run, not the targets)")
+    ap.add_argument("--only", choices=["accuracy", "3d", "sampling", "growth", "tower"], help="one section")
     args = ap.parse_args(argv)
-    section_accuracy(args.repeats)
-    section_3d(args.quick)
-    section_sampling(args.repeats)
-    section_growth(args.repeats, args.quick)
+    sections = {
+        "accuracy": lambda: section_accuracy(args.repeats),
+        "3d": lambda: section_3d(args.quick),
+        "sampling": lambda: section_sampling(args.repeats),
+        "growth": lambda: section_growth(args.repeats, args.quick),
+        "tower": section_tower,
+    }
+    for name, run in sections.items():
+        if args.only in (None, name):
+            run()
 
 
 if __name__ == "__main__":
