@@ -304,7 +304,10 @@ def stress_scale(
     ``|s| = max(|sigma1|, |sigma2|)`` of the in-plane stress at the nodes, each node weighted by its
     share of the cell sizes; nodes closer to the supported or loaded boundary than 5 % of the
     body's bounding-box diagonal are left out, so the result does not depend on the mesh at a
-    boundary-condition singularity.
+    boundary-condition singularity. A re-entrant corner needs no exclusion: its singular peak covers
+    a vanishing area, so the area-weighted percentile stays put under refinement (an L-bracket:
+    82.7-82.9 MPa while the corner peak grows from 234 to 836 MPa as ``h_min`` goes from 1 to
+    0.06 mm; ``tests/fea/test_fea_field.py``).
 
     Returns
     -------

@@ -9,10 +9,10 @@ import shapely
 from fea_cases import SIGMA_GROSS, open_hole_body, open_hole_case
 from loadpath.fea import FEStressField, analyze, field_for_layer, slice_tets
 from loadpath.fea.field import field_from_2d
-from loadpath.field import StressField
+from loadpath.field import StressField, principal_stresses
 from loadpath.loadcase import Slab
 from loadpath.mesh import MeshSize, mesh_2d, mesh_3d
-from shapely.geometry import Point, box
+from shapely.geometry import Point, Polygon, box
 
 
 @pytest.fixture(scope="module")
@@ -132,3 +132,25 @@ def test_sampling_many_points_at_once_matches_one_by_one(specimen):
     assert np.array_equal(np.isfinite(big[:, 0]), inside)
     few = np.concatenate([f.tensor(pts[i : i + 7]) for i in range(0, 5000, 7)])
     np.testing.assert_array_equal(big, few)
+
+
+def test_scale_does_not_follow_a_reentrant_corner_singularity():
+    """The L-bracket's inner corner stress grows without bound under refinement; the scale does not."""
+    outline = Polygon([(0, 0), (60, 0), (60, 15), (15, 15), (15, 40), (0, 40)]).difference(
+        Point(52.5, 7.5).buffer(2.5, quad_segs=12)
+    )
+    case = lc.parse(
+        'version = 1\n[[supports]]\nname = "wall"\nwhere = { side = "y_max", within = 0.5 }\n'
+        'fix = ["x", "y", "z"]\n[[loads]]\nname = "pin"\nwhere = { hole_near = [52.5, 7.5], radius = 4.0 }\n'
+        "force = [0.0, -200.0, 0.0]\n"
+    )
+    (rb,) = lc.resolve(case, [lc.Body.from_layers("bracket", [(0, 3, outline)])])
+    peaks, scales = [], []
+    for h_min in (0.5, 0.06):
+        a = analyze(rb, size=MeshSize(2.0, h_min, 2 * h_min))
+        s1, s2, _, _ = principal_stresses(a.result.stress)
+        peaks.append(float(np.max(np.maximum(np.abs(s1), np.abs(s2)))))
+        scales.append(a.scale)
+    assert peaks[1] > 2.0 * peaks[0]  # the singularity at (15, 15)
+    assert scales[1] == pytest.approx(scales[0], rel=0.02)
+    assert scales[0] < 0.5 * peaks[0]
