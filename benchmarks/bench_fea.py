@@ -40,12 +40,16 @@ import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import loadpath.loadcase as lc  # noqa: E402
 import numpy as np  # noqa: E402
 from loadpath.fea import analyze  # noqa: E402
 from loadpath.mesh import MeshSize  # noqa: E402
 from shapely.geometry import Point, box  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+import slicing  # noqa: E402
 
 OPEN_HOLE = """
 version = 1
@@ -293,17 +297,9 @@ force = [100.0, 0.0, 0.0]
 """
 
 
-def _tower_body(n=120, dz=0.2, twist=30.0, scale_top=0.6):
-    from shapely import affinity
-
-    plate = box(-15, -10, 15, 10).difference(Point(0, 0).buffer(4, quad_segs=12))
-    layers = []
-    for i in range(n):
-        t = (i + 0.5) / n
-        s = 1.0 + (scale_top - 1.0) * t
-        g = affinity.rotate(affinity.scale(plate, s, s, origin=(0, 0)), twist * t, origin=(0, 0))
-        layers.append((i * dz, (i + 1) * dz, affinity.translate(g, 100.0, 80.0)))
-    return lc.Body.from_layers("tower", layers)
+def _tower_body():
+    """The test tower (``tests/slicing.py``) as its 120 layer outlines."""
+    return lc.Body.from_layers("tower", slicing.tower_layers())
 
 
 def run_tower():

@@ -12,7 +12,8 @@ Parts (millimetres, bounding box starting at the origin unless said otherwise):
 - :func:`two_islands_mesh` — two 40 x 20 x 2 plates 10 mm apart: one object, two islands per layer.
 - :func:`bracket_mesh` — an L-bracket (concave outline) 60 x 40 x 3, legs 15 wide, 5 mm bolt hole.
 - :func:`tower_mesh` — a 30 x 20 plate with an 8 mm hole extruded 24 mm high with a twist and a taper,
-  so the outline changes with height (120 layers at 0.2 mm).
+  so the outline changes with height (120 layers at 0.2 mm); :func:`tower_layers` gives the same part
+  as layer outlines without slicing.
 
 Settings (keyword dictionaries for :func:`slice_prusa` / :func:`slice_cura`):
 
@@ -33,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from shapely import affinity
+from shapely.geometry import Point, Polygon, box
 
 __all__ = [
     "SlicerError",
@@ -48,6 +51,7 @@ __all__ = [
     "two_islands_mesh",
     "bracket_mesh",
     "tower_mesh",
+    "tower_layers",
     "PARTS",
     "write_stl",
     "flatten_prusa_presets",
@@ -169,6 +173,28 @@ def tower_mesh(
         cs, height, n_divisions=48, twist_degrees=twist_deg, scale_top=(scale_top, scale_top)
     )
     return _at_origin(_to_trimesh(solid))
+
+
+def tower_layers(
+    n: int = 120,
+    dz: float = 0.2,
+    twist_deg: float = 30.0,
+    scale_top: float = 0.6,
+    at: tuple[float, float] = (100.0, 80.0),
+) -> list[tuple[float, float, Polygon]]:
+    """The :func:`tower_mesh` part as layer outlines, without slicing: ``(z0, z1, outline)`` per layer.
+
+    Each layer's outline is the plate scaled and twisted as at its mid-height, centred at ``at``
+    (mm, where the slicer puts the part on the bed); for :meth:`loadpath.loadcase.Body.from_layers`.
+    """
+    plate = box(-15, -10, 15, 10).difference(Point(0, 0).buffer(4, quad_segs=12))
+    layers = []
+    for i in range(n):
+        t = (i + 0.5) / n
+        s = 1.0 + (scale_top - 1.0) * t
+        g = affinity.rotate(affinity.scale(plate, s, s, origin=(0, 0)), twist_deg * t, origin=(0, 0))
+        layers.append((i * dz, (i + 1) * dz, affinity.translate(g, *at)))
+    return layers
 
 
 PARTS = {

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import slicing
 from loadpath.loadcase import Body, parse
 from shapely.geometry import Point, box
 
@@ -77,15 +78,6 @@ force = [100.0, 0.0, 0.0]
 
 
 def twisted_tower(n: int = 120, dz: float = 0.2, twist: float = 30.0, scale_top: float = 0.6) -> Body:
-    """Layer outlines of the test tower (``tests/slicing.py``): 30 x 20 plate with an 8 mm hole,
-    twisted and tapered over 24 mm, so every layer's outline differs from the one below."""
-    from shapely import affinity
-
-    plate = box(-15, -10, 15, 10).difference(Point(0, 0).buffer(4, quad_segs=12))
-    layers = []
-    for i in range(n):
-        t = (i + 0.5) / n
-        s = 1.0 + (scale_top - 1.0) * t
-        g = affinity.rotate(affinity.scale(plate, s, s, origin=(0, 0)), twist * t, origin=(0, 0))
-        layers.append((i * dz, (i + 1) * dz, affinity.translate(g, 100.0, 80.0)))
-    return Body.from_layers("tower", layers)
+    """The test tower (``slicing.tower_mesh``) as a body of ``n`` layer outlines: 30 x 20 plate with an
+    8 mm hole, twisted and tapered, so every layer's outline differs from the one below."""
+    return Body.from_layers("tower", slicing.tower_layers(n, dz, twist, scale_top))

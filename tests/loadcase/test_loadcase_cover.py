@@ -7,23 +7,15 @@ import math
 import numpy as np
 import pytest
 import shapely
+import slicing
 from loadpath.loadcase import Body, merge_slabs, parse, resolve
 from loadpath.loadcase.body import cover_slabs
-from shapely import affinity
 from shapely.geometry import Point, box
 
-PLATE = box(-15, -10, 15, 10).difference(Point(0, 0).buffer(4, quad_segs=12))
 
-
-def twisted_tower(n: int = 120, dz: float = 0.2, twist: float = 30.0, scale_top: float = 0.6) -> Body:
-    """Layer outlines of the test tower (``tests/slicing.py``): 30 x 20 plate, 8 mm hole, twisted, tapered."""
-    layers = []
-    for i in range(n):
-        t = (i + 0.5) / n
-        s = 1.0 + (scale_top - 1.0) * t
-        g = affinity.rotate(affinity.scale(PLATE, s, s, origin=(0, 0)), twist * t, origin=(0, 0))
-        layers.append((i * dz, (i + 1) * dz, affinity.translate(g, 100.0, 80.0)))
-    return Body.from_layers("tower", layers)
+def twisted_tower() -> Body:
+    """The test tower (``slicing.tower_mesh``) as 120 layer outlines (twisted, tapered plate, 8 mm hole)."""
+    return Body.from_layers("tower", slicing.tower_layers())
 
 
 def _miss(cover: Body, layers: Body) -> float:
