@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import tempfile
 from pathlib import Path
 
 HELP = "predicted stiffness of G-code files under a load case, relative to the first"
@@ -129,12 +127,8 @@ def _table(rows) -> str:  # type: ignore[no-untyped-def]
 
 
 def _write_atomic(path: Path, text: str) -> None:
+    """Write the JSON table with the shared temporary-file-and-rename writer (umask permissions, not 0600)."""
+    from loadpath.plugin.job import write_atomic
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, text.encode("utf-8"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 
 import pytest
@@ -62,6 +63,9 @@ def test_compare_prints_and_writes_rows_relative_to_the_first_file(prusa_pair, t
     text = capsys.readouterr().out
     assert "relative" in text.lower() or "rel. stiffness" in text
     rows = json.loads(out.read_text())
+    umask = os.umask(0)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # readable like any file the user makes
     assert [r["file"] for r in rows] == [str(cross), str(aligned), str(again)]
     for r in rows:
         assert {"file", "compliance", "peak_displacement", "relative_stiffness", "beta", "coverage"} <= set(r)
