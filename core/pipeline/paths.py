@@ -189,6 +189,12 @@ def run_jobs(
                 if progress:
                     progress(i + 1, n)
         else:
+            if engine == "swarm":
+                # compile (or load) the numba kernels once here: forked workers inherit them, where
+                # each would otherwise compile them on its own on a cold cache
+                from loadpath.engines.swarm._numba import warm_up
+
+                warm_up()
             ctx = multiprocessing.get_context("fork")
             with ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx) as pool:
                 futures = {pool.submit(_run_one, i): i for i in range(n)}
