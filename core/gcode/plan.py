@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from loadpath._typing import Floats, Points2, Region
+from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.gcode.flow import FlowModel
 from loadpath.toolpath import Path
 from shapely.geometry import LineString
@@ -56,7 +56,7 @@ from shapely.geometry import LineString
 FEED_STEP = 120.0
 """Feedrates lowered for the volumetric limit are multiples of this, mm/min (2 mm/s)."""
 
-__all__ = ["PlanOptions", "Chain", "BlockPlan", "plan_block", "simplify", "order_paths"]
+__all__ = ["PlanOptions", "Chain", "BlockPlan", "plan_block", "simplify", "simplify_mask", "order_paths"]
 
 
 @dataclass(frozen=True)
@@ -165,6 +165,92 @@ class BlockPlan:
         return float(sum(c.length for c in self.chains))
 
 
+def simplify_mask(
+    points: Points2,
+    pitch: Floats,
+    sizes: Ints,
+    tol: float,
+    pitch_tol: float = 0.01,
+    min_segment: float = 0.05,
+) -> np.ndarray:
+    """Return the vertices :func:`simplify` keeps, for paths given as one ragged array.
+
+    Parameters
+    ----------
+    points : (N, 2) float, mm
+        The vertices of every path, one path after the other.
+    pitch : (N,) float, mm
+    sizes : (P,) int
+        Vertices per path (each >= 1); they sum to N.
+    tol, pitch_tol, min_segment : float, mm
+        As for :func:`simplify`.
+
+    Returns
+    -------
+    (N,) bool
+        Kept vertices (every path's first and last among them).
+    """
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    pit = np.asarray(pitch, dtype=float)
+    sizes = np.asarray(sizes, dtype=np.int64)
+    keep = np.zeros(len(pts), dtype=bool)
+    if not len(sizes):
+        return keep
+    ends = np.cumsum(sizes)
+    starts = ends - sizes
+    keep[starts] = keep[ends - 1] = True
+    px, py = pts[:, 0].copy(), pts[:, 1].copy()
+    # Ramer-Douglas-Peucker, one numpy pass per recursion level over the inner vertices of every
+    # segment still being split (segments [a, z], vertex indices into the ragged array)
+    a, z = starts, ends - 1
+    while len(a):
+        inner = z - a - 1
+        a, z, inner = a[inner > 0], z[inner > 0], inner[inner > 0]
+        if not len(a):
+            break
+        first = np.cumsum(inner) - inner  # each segment's first row below
+        seg_id = np.repeat(np.arange(len(a)), inner)
+        idx = np.arange(int(inner.sum())) + np.repeat(a + 1 - first, inner)
+        # per segment: chord (dx, dy), its squared length; per inner vertex: offset from the start
+        dx, dy = px[z] - px[a], py[z] - py[a]
+        seg2 = dx * dx + dy * dy
+        seg = np.sqrt(seg2)
+        rx, ry = px[idx] - px[a][seg_id], py[idx] - py[a][seg_id]
+        dx, dy, seg2, seg = dx[seg_id], dy[seg_id], seg2[seg_id], seg[seg_id]
+        safe = np.where(seg > 0, seg, 1.0)
+        dist = np.where(seg > 0, np.abs(rx * dy - ry * dx) / safe, np.hypot(rx, ry))
+        t = np.where(seg2 > 0, np.clip((rx * dx + ry * dy) / np.where(seg2 > 0, seg2, 1.0), 0, 1), 0.0)
+        wa, wz = pit[a][seg_id], pit[z][seg_id]
+        err = np.maximum(dist / tol, np.abs(pit[idx] - (wa + t * (wz - wa))) / pitch_tol)
+        # worst vertex of each segment: its largest error (NaN ignored), the first one on a tie
+        worst_err = np.fmax.reduceat(err, first)
+        split = worst_err > 1.0
+        rows = np.where(err == worst_err[seg_id], np.arange(len(err)), len(err))
+        worst = np.minimum.reduceat(rows, first)[split]
+        m = idx[worst]
+        keep[m] = True
+        a, z = np.concatenate([a[split], m]), np.concatenate([m, z[split]])
+    if min_segment > 0:
+        # then kept vertices closer than min_segment to the previous kept one go, and the one before
+        # a path's last vertex when it is that close to it (paths of more than two kept vertices)
+        kv = np.flatnonzero(keep)
+        path = np.searchsorted(ends, kv, side="right")
+        count = np.bincount(path, minlength=len(sizes))[path]
+        head = np.ones(len(kv), dtype=bool)
+        head[1:] = path[1:] != path[:-1]
+        tail = np.ones(len(kv), dtype=bool)
+        tail[:-1] = head[1:]
+        gap = np.zeros(len(kv))
+        gap[1:] = np.hypot(*np.diff(pts[kv], axis=0).T)  # from the previous kept vertex
+        drop = ~head & ~tail & (gap < min_segment)
+        before_tail = np.flatnonzero(tail & ~head)
+        before_tail = before_tail[gap[before_tail] < min_segment] - 1
+        drop[before_tail] = True
+        drop &= (count > 2) & ~head & ~tail
+        keep[kv[drop]] = False
+    return keep
+
+
 def simplify(
     paths: Sequence[tuple[Points2, Floats]], tol: float, pitch_tol: float = 0.01, min_segment: float = 0.05
 ) -> list[tuple[Points2, Floats]]:
@@ -173,8 +259,9 @@ def simplify(
     A vertex is dropped when the simplified polyline passes within ``tol`` mm of it and the pitch
     interpolated along the simplified segment is within ``pitch_tol`` mm of its own (so the bead width
     is kept too).  Then vertices closer than ``min_segment`` to the previous kept one go (ends kept).
-    All paths are simplified together: each recursion level is one numpy pass over the vertices of
-    every segment still being split.
+    All paths are simplified together (:func:`simplify_mask`): each recursion level is one numpy pass
+    over the vertices of every segment still being split, and the ``min_segment`` pass one over all
+    kept vertices.
 
     Parameters
     ----------
@@ -187,57 +274,17 @@ def simplify(
     Returns
     -------
     list of (points (m, 2), pitch (m,))
+        Each path's kept vertices (views into one array per call).
     """
     if not paths:
         return []
     sizes = np.array([len(p) for p, _ in paths])
     pts = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p, _ in paths])
     pit = np.concatenate([np.asarray(w, dtype=float) for _, w in paths])
-    ends = np.cumsum(sizes)
-    starts = ends - sizes
-    keep = np.zeros(len(pts), dtype=bool)
-    keep[starts] = keep[ends - 1] = True
-    a, z = starts.copy(), ends - 1
-    while len(a):
-        inner = z - a - 1
-        a, z, inner = a[inner > 0], z[inner > 0], inner[inner > 0]
-        if not len(a):
-            break
-        seg_id = np.repeat(np.arange(len(a)), inner)
-        first = np.cumsum(inner) - inner
-        idx = a[seg_id] + 1 + (np.arange(int(inner.sum())) - first[seg_id])
-        pa, pz = pts[a][seg_id], pts[z][seg_id]
-        d = pz - pa
-        rel = pts[idx] - pa
-        seg2 = np.sum(d * d, axis=1)
-        seg = np.sqrt(seg2)
-        safe = np.where(seg > 0, seg, 1.0)
-        dist = np.where(seg > 0, np.abs(rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]) / safe, np.hypot(*rel.T))
-        t = np.where(seg2 > 0, np.clip(np.sum(rel * d, axis=1) / np.where(seg2 > 0, seg2, 1.0), 0, 1), 0.0)
-        wa, wz = pit[a][seg_id], pit[z][seg_id]
-        err = np.maximum(dist / tol, np.abs(pit[idx] - (wa + t * (wz - wa))) / pitch_tol)
-        # worst vertex of each segment
-        order = np.lexsort((-err, seg_id))
-        head = np.ones(len(order), dtype=bool)
-        head[1:] = seg_id[order][1:] != seg_id[order][:-1]
-        worst = order[head]
-        split = err[worst] > 1.0
-        m = idx[worst][split]
-        keep[m] = True
-        a, z = np.concatenate([a[split], m]), np.concatenate([m, z[split]])
-    out = []
-    for s0, e0 in zip(starts, ends, strict=True):
-        ix = s0 + np.flatnonzero(keep[s0:e0])
-        if len(ix) > 2 and min_segment > 0:
-            gap = np.hypot(*np.diff(pts[ix], axis=0).T)
-            drop = np.zeros(len(ix), dtype=bool)
-            drop[1:-1] = gap[:-1] < min_segment
-            if gap[-1] < min_segment:
-                drop[-2] = True
-            drop[0] = drop[-1] = False
-            ix = ix[~drop]
-        out.append((pts[ix], pit[ix]))
-    return out
+    keep = simplify_mask(pts, pit, sizes, tol, pitch_tol, min_segment)
+    kept = np.bincount(np.repeat(np.arange(len(sizes)), sizes)[keep], minlength=len(sizes))
+    bounds = np.cumsum(kept)[:-1]
+    return list(zip(np.split(pts[keep], bounds), np.split(pit[keep], bounds), strict=True))
 
 
 def order_paths(paths: Sequence[tuple[Points2, Floats]], start: Points2) -> list[tuple[Points2, Floats]]:
