@@ -1,0 +1,125 @@
+"""verify.check_output (the check from the output's bytes, no second Program) against check_splice.
+
+The pipeline checks every file it writes with :func:`check_output`; it must find exactly what
+:func:`check_splice` on the fully parsed output finds, on real PrusaSlicer 2.5 and CuraEngine 4.13
+files (relative and absolute E, firmware retraction, volumetric E, two objects), for a good splice
+and for spliced files damaged in each way the check looks for.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loadpath import gcode
+from loadpath.gcode.blocks import EXTRUDE
+from loadpath.gcode.lineview import read_lines
+from loadpath.gcode.verify import check_output, check_splice, layer_features
+from splice_helpers import infill_blocks, rectilinear_fills, run_splice
+
+CASES = {
+    "prusa-relE": ("prusa", "ohs", "mixed", {}),
+    "prusa-absE": (
+        "prusa",
+        "ohs",
+        "solid",
+        {"use_relative_e_distances": 0, "before_layer_gcode": '""', "layer_gcode": '""'},
+    ),
+    "prusa-fwretract": ("prusa", "ohs", "mixed", {"use_firmware_retraction": 1, "wipe": 0}),
+    "prusa-volumetricE": ("prusa", "ohs", "mixed", {"use_volumetric_e": 1}),
+    "prusa-two-objects": ("prusa", "two_objects", "mixed", {}),
+    "cura-absE": ("cura", "ohs", "mixed", {}),
+    "cura-relE": ("cura", "ohs", "solid", {"relative_extrusion": "true"}),
+}
+
+
+@pytest.fixture(scope="module", params=list(CASES), ids=list(CASES))
+def spliced(request, sliced):
+    slicer, part, settings, overrides = CASES[request.param]
+    program = gcode.read(sliced(slicer, part, settings, **overrides))
+    fills = rectilinear_fills(program, infill_blocks(program))
+    result, out, check = run_splice(program, fills)
+    regions = {f.block: f.region for f in fills if f.region is not None}
+    return program, result, out, check, regions
+
+
+def _same(a, b):
+    assert a.problems == b.problems
+    assert a.volume_ratio == b.volume_ratio  # exactly: the same sums of the same numbers
+    assert a.outside_mm == b.outside_mm
+
+
+def test_line_view_holds_the_programs_arrays(spliced):
+    """Every array the check reads is the parsed Program's, bit for bit."""
+    program, result, out, _, _ = spliced
+    view = read_lines(result.data)
+    assert view.n_lines == out.n_lines and view.dialect == out.dialect and view.n_layers == len(out.layers)
+    for name in ("cmd", "x", "y", "z", "e", "de", "f", "absolute_xyz", "e_relative", "moved_xy"):
+        assert np.array_equal(getattr(view.state, name), getattr(out.state, name), equal_nan=name == "f"), (
+            name
+        )
+    for name in ("fw_retracted", "retracted", "tool"):
+        assert np.array_equal(getattr(view.state, name), getattr(out.state, name)), name
+    assert np.array_equal(view.kind_of_line, out.kind_of_line)
+    assert view.layer_features() == layer_features(out)
+    n_ext = 0
+    for rep in result.blocks:
+        for a, z in result.output_ranges(program, rep.block):
+            mv = out.moves[out.move_rows(a, z)]
+            mv = mv[mv["extrude"]]
+            ext = view.extrusions(a, z)
+            assert len(ext) == len(mv)
+            n_ext += len(ext)
+            for f in ext.dtype.names:
+                assert np.array_equal(ext[f], mv[f], equal_nan=True), f
+    assert n_ext > 0
+
+
+def test_same_verdict_on_a_good_splice(spliced):
+    program, result, out, check, regions = spliced
+    assert check.problems == []
+    _same(check_output(program, result.data, result, regions=regions), check)
+
+
+def _damage(program, result, out, how):
+    """The output's bytes with one defect of the kind the check looks for."""
+    lmap = result.line_map(program.n_lines)
+    kept = np.flatnonzero(lmap >= 0)
+    new = np.ones(out.n_lines, dtype=bool)
+    new[lmap[kept]] = False
+    lines = result.data.split(b"\n")
+    first_new_extrusion = next(
+        i for i in np.flatnonzero(new) if out.kind_of_line[i] == EXTRUDE and b" E" in lines[i]
+    )
+    if how == "kept line":
+        j = int(lmap[kept[len(kept) // 2]])
+        lines[j] = lines[j] + b" ; edited"
+    elif how == "volume":  # every new extrusion pushes 10 % more
+        for i in np.flatnonzero(new & (out.kind_of_line == EXTRUDE)):
+            head, e = lines[i].rsplit(b" E", 1)
+            lines[i] = head + b" E" + f"{float(e.split()[0]) * 1.1:.5f}".encode()
+    elif how == "retraction":  # a new line pulls 20 mm of filament back
+        lines.insert(
+            first_new_extrusion,
+            b"G1 E-20 F2100"
+            if out.state.e_relative[first_new_extrusion]
+            else f"G1 E{out.state.e[first_new_extrusion - 1] - 20:.5f} F2100".encode(),
+        )
+    elif how == "outside":  # a new extrusion ends 100 mm away from its region
+        head, e = lines[first_new_extrusion].rsplit(b" E", 1)
+        x = out.state.x[first_new_extrusion] + 100.0
+        y = out.state.y[first_new_extrusion]
+        lines[first_new_extrusion] = f"G1 X{x:.3f} Y{y:.3f}".encode() + b" E" + e
+    elif how == "layer":  # a layer marker dropped
+        marker = b";LAYER_CHANGE" if program.dialect.family != "cura" else b";LAYER:"
+        k = max(i for i, ln in enumerate(lines) if ln.startswith(marker))
+        lines[k] = b";"
+    return b"\n".join(lines)
+
+
+@pytest.mark.parametrize("how", ["kept line", "volume", "retraction", "outside", "layer"])
+def test_same_verdict_on_damaged_files(spliced, how):
+    program, result, _, _, regions = spliced
+    data = _damage(program, result, gcode.parse(result.data, strict=False), how)
+    want = check_splice(program, gcode.parse(data, strict=False), result, regions=regions)
+    assert want.problems, f"the damage ({how}) went unnoticed"
+    _same(check_output(program, data, result, regions=regions), want)
