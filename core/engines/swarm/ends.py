@@ -13,9 +13,17 @@ go while
 * it stays ``edge_gap`` pitches inside the region (as the swarm's own last step does: the bead
   then reaches just past the edge, like a slicer's infill meeting its perimeter), and
 * its centre line keeps ``clearance`` from every other path's centre line, and from the other
-  ends' extensions: at least half the pitch, and at least half the other bead's width plus a
-  quarter of its own (:data:`_CAP`), so the new bead end meets the bead it runs into without
+  ends' extensions: at least half the pitch, and at least half the other bead's width plus
+  ``cap`` of its own (:data:`_CAP`), so the new bead end meets the bead it runs into without
   covering it, and the half-pitch rule of the engines still holds;
+* with ``overlap`` set, the new piece of bead (a rectangle from the old end, as wide as the end's
+  bead) also covers at most ``overlap`` of its own width of the beads *beside* it: an end
+  squeezed between converging neighbours does not run on along them.  The swarm engine uses 0:
+  on the small test bracket's layer (flat-ended beads) overlap falls from 7.4 to 4.2 % while
+  coverage falls from 96.1 to 91.4 %, and the stiffness benchmark's bracket gains (0.32 -> 0.49
+  of the model's ceiling gain at equal mass: the overlapping plastic was taken from everywhere
+  else by volume matching).  ``None``, the centre-line test alone, suits the streamline engine
+  (0.63 against 0.55 with 0), whose ends are seldom squeezed;
 
 while the followed stress keeps within ``max_turn`` degrees of its direction, and at most
 ``reach`` pitches.  Extensions shorter than ``min_length`` pitches are dropped (the
@@ -90,6 +98,7 @@ def extend_ends(
     field: object | None = None,
     max_turn: float = 30.0,
     cap: float = _CAP,
+    overlap: float | None = None,
 ) -> tuple[list[Points2], list[Floats], dict]:
     """Carry every path end on to the next bead or the region's edge (module docstring).
 
@@ -121,6 +130,9 @@ def extend_ends(
     max_turn : float, degrees
     cap : float
         How far short of the bead it runs into an end stops, in its own widths (:data:`_CAP`).
+    overlap : float, optional
+        How much of its own width an extension may cover of the beads beside it (module
+        docstring); ``None`` checks only the centre-line clearance.
 
     Returns
     -------
@@ -180,7 +192,14 @@ def extend_ends(
     # farther than the path itself, 0.01 pitch at half a pitch, within the margin
     # (only the segments that come near a candidate)
     sa, sb, swa, swb, spid, sarc = _segments(paths, widths)
-    r_max = max(clear, 0.5 * float(max(swa.max(), swb.max())) + cap * float(end_w.max())) + step
+    r_max = (
+        max(
+            clear,
+            0.5 * float(max(swa.max(), swb.max()))
+            + (cap if overlap is None else max(cap, 0.5)) * float(end_w.max()),
+        )
+        + step
+    )
     live = np.flatnonzero(ok.ravel())
     own_far = (reach + 1.0) * pitch
     if len(live):
@@ -194,10 +213,26 @@ def extend_ends(
         pairs = ctree.sparse_distance_matrix(cKDTree(dp), r_max, output_type="ndarray")
         rows, cols, d = live[pairs["i"]], pairs["j"], pairs["v"]
         e_of = rows // n_s
-        need = np.maximum(clear, 0.5 * dw[cols] + cap * end_w[e_of])
         own = did[cols] == end_pid[e_of]
         own_ok = np.abs(darc[cols] - end_arc[e_of]) > own_far
-        bad = (d < need) & (~own | own_ok)
+        # the new bead is the rectangle from the end to the candidate, its own width wide: a path
+        # sample beside it must keep half of both widths from it (less the allowed overlap), one
+        # ahead of it half the other width plus ``cap`` of its own from the candidate
+        rel = dp[cols] - end_pt[e_of]
+        u = np.sum(rel * end_dir[e_of], axis=1)
+        v = np.abs(rel[:, 0] * end_dir[e_of, 1] - rel[:, 1] * end_dir[e_of, 0])
+        s_c = s[rows % n_s]
+        hw = 0.5 * end_w[e_of]
+        dx = np.maximum(np.maximum(u - s_c, -u), 0.0)
+        dy = np.maximum(v - hw, 0.0)
+        to_rect = np.hypot(dx, dy)
+        inside = (dx == 0.0) & (dy == 0.0)
+        lateral_bad = inside | (to_rect < 0.5 * dw[cols] - (overlap or 0.0) * end_w[e_of])
+        ahead_bad = d < np.maximum(clear, 0.5 * dw[cols] + cap * end_w[e_of])
+        if overlap is None:  # centre-line clearance only
+            bad = ahead_bad & (~own | own_ok)
+        else:
+            bad = np.where(u > s_c, ahead_bad, lateral_bad | (d < clear)) & (~own | own_ok)
         blocked = np.zeros(len(flat), dtype=bool)
         blocked[rows[bad]] = True
         ok &= ~blocked.reshape(len(end_pt), n_s)
