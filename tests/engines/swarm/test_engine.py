@@ -128,13 +128,13 @@ def test_bearing_load_through_a_hole():
     assert M.crossings(tp) == 0
     # known limitation (see the report): the fanning front gets to 0.45 pitch at one point
     assert M.spacing(tp, PITCH).min >= 0.44
-    assert M.coverage(tp, region).coverage >= 0.97
+    assert M.coverage(tp, region).coverage >= 0.98
 
 
 @pytest.mark.xfail(
     strict=True,
-    reason="fanning front from a pin hole: path ends of the fan and of the fill swarms "
-    "overlap by ~6 % (coverage ~97 %)",
+    reason="fanning front from a pin hole: round-capped beads at the many path ends of the fan "
+    "and of the fill swarms overlap by ~5 % (coverage ~98.5 %)",
 )
 def test_bearing_load_overlap_target():
     tp, region = _bearing()

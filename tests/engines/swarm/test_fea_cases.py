@@ -117,13 +117,14 @@ def test_bearing_load_real_field(bracket):
     ours = M.alignment(tp, field, PITCH, region=region)
     _, best = M.best_rectilinear(region, field, PITCH, angles_deg=range(0, 180, 10))
     assert ours.beta_curved > best.beta_curved + 0.1, (ours, best)
-    assert M.coverage(tp, region).coverage >= 0.95
+    assert M.coverage(tp, region).coverage >= 0.975
 
 
 @pytest.mark.xfail(
     strict=True,
     reason="bearing load on a bent bracket: fill swarms meet the first front at the "
-    "neutral axis, where the max-|sigma| direction turns by 90 degrees (~95 % coverage, ~6 % overlap)",
+    "neutral axis, where the max-|sigma| direction turns by 90 degrees; round-capped beads at "
+    "the path ends there overlap (~98 % coverage, ~7 % overlap)",
 )
 def test_bearing_load_real_field_targets(bracket):
     region, _, _, tp = bracket
