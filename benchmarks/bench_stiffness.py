@@ -561,6 +561,7 @@ def main(argv=None) -> int:
         default="run",
         help="loadpath's output from `loadpath run` (default) or the engines' paths put in directly",
     )
+    ap.add_argument("--case", choices=tuple(CASES), action="append", help="run only this case (repeatable)")
     args, _ = ap.parse_known_args(argv)
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_stiffness_"))
     out.mkdir(parents=True, exist_ok=True)
@@ -576,8 +577,12 @@ def main(argv=None) -> int:
     )
     data = {}
     for name, spec in CASES.items():
+        if args.case and name not in args.case:
+            continue
         data[name] = run_case(name, spec, work, out, args)
         model_variants(name, data[name])
+    if "specimen" not in data:
+        return 0
 
     spec = data["specimen"]
     res, ref = spec["results"], spec["results"]["cross-hatching"]
