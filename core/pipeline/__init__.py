@@ -22,8 +22,9 @@ Stages (each timed in :attr:`PipelineResult.times`):
 ``splice``
     the new paths written into the slicer's G-code (:func:`loadpath.gcode.splice.splice`);
 ``check``
-    the result re-read and checked against the original (:func:`loadpath.gcode.verify.check_splice`);
-    a failure raises :class:`~loadpath.errors.SpliceError` and nothing is returned.
+    the result re-read and checked against the original (:func:`loadpath.gcode.verify.check_output`,
+    from the new bytes: no second Program is built); a failure raises
+    :class:`~loadpath.errors.SpliceError` and nothing is returned.
 
 Files with nothing to replace, and vase-mode or sequential prints, come back unchanged with a warning.
 """
@@ -33,6 +34,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -41,7 +43,7 @@ from loadpath.errors import SpliceError
 from loadpath.gcode import Program, parse
 from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
-from loadpath.gcode.verify import SpliceCheck, check_splice
+from loadpath.gcode.verify import SpliceCheck, check_output
 from loadpath.pipeline.paths import Job, assign, plan_jobs, run_jobs, stagger
 from loadpath.pipeline.units import (
     Unit,
@@ -139,8 +141,6 @@ class PipelineResult:
         The new G-code text (the input's bytes when nothing was replaced).
     program : Program
         The input.
-    output : Program or None
-        The output re-read (None when nothing was replaced).
     splice : SpliceResult or None
     check : SpliceCheck or None
     jobs : tuple of JobResult
@@ -155,7 +155,6 @@ class PipelineResult:
 
     data: bytes
     program: Program
-    output: Program | None = None
     splice: SpliceResult | None = None
     check: SpliceCheck | None = None
     jobs: tuple[JobResult, ...] = ()
@@ -169,6 +168,15 @@ class PipelineResult:
     def changed(self) -> bool:
         """Whether any block was replaced."""
         return self.splice is not None and bool(self.splice.blocks)
+
+    @cached_property
+    def output(self) -> Program | None:
+        """The output parsed (None when nothing was replaced), on first use only (the report's).
+
+        A whole Program of a large output is several times the file (1.1 GB for 4.6M lines); the
+        check reads the bytes without it (:func:`loadpath.gcode.verify.check_output`).
+        """
+        return parse(self.data, strict=False) if self.splice is not None else None
 
 
 class _Clock:
@@ -310,13 +318,12 @@ def run(
     clock.lap("splice")
     tell("splice", 1, 1)
 
-    out = parse(sres.data, strict=False)
     check = None
     if options.check:
         regions = {f.block: f.region for f in fills if f.region is not None}
-        check = check_splice(
+        check = check_output(
             program,
-            out,
+            sres.data,
             sres,
             volume_tol=options.volume_tol,
             regions=regions,
@@ -329,7 +336,7 @@ def run(
             )
     clock.lap("check")
     return PipelineResult(
-        sres.data, program, out, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings)
+        sres.data, program, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings)
     )
 
 
