@@ -42,7 +42,8 @@ __all__ = ["StepParams", "COUNTERS", "run_swarm", "step"]
 
 StepParams = namedtuple(
     "StepParams",
-    "K window kill_below spawn_above min_gap ray_reach merge_reach grow_free_ends edge_gap qp_max_iter qp_tol",
+    "K window kill_below spawn_above min_gap ray_reach merge_reach grow_free_ends edge_gap qp_max_iter qp_tol "
+    "cos_turn",
 )
 """The :class:`~.step.SwarmParams` the kernels use, as plain numbers (see there)."""
 
@@ -218,6 +219,11 @@ def _remove_blocked(
     n = pos.shape[0]
     in_dom = kg.inside(dom, t)
     ok = in_dom & kg.grid_free_path(grid, pos, t, pid)
+    # where the followed stress jumps (the max-|sigma| direction turning by ~90 degrees where the
+    # principal stresses cross, e.g. a bent bar's neutral axis) the path ends instead of kinking
+    for i in range(n):
+        if mass[i] > 0.0 and sdir[i, 0] * head[i, 0] + sdir[i, 1] * head[i, 1] < prm.cos_turn:
+            ok[i] = False
     last = np.zeros((0, 2))
     last_pid = np.zeros(0, dtype=np.int64)
     if np.all(ok):

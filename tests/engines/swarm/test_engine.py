@@ -86,8 +86,11 @@ def test_open_hole_specimen_follows_the_stress_around_the_hole():
     ours = M.alignment(tp, field, PITCH, region=region)
     _, best = M.best_rectilinear(region, field, PITCH, angles_deg=range(0, 180, 10))
     assert ours.beta_curved > best.beta_curved + 0.03
-    # internal boundary agents at the hole, chains merging behind it, QPs all solved exactly
-    assert tp.stats["blocked"] > 0 and tp.stats["qp_exact"] == tp.stats["qp_solves"]
+    # internal boundary agents at the hole, chains merging behind it; every QP solved, nearly all by
+    # the exact banded solver (the rest by OSQP, status checked)
+    st = tp.stats
+    assert st["blocked"] > 0 and st["qp_exact"] + st["qp_osqp_solved"] == st["qp_solves"]
+    assert st["qp_exact"] >= 0.95 * st["qp_solves"]
 
 
 def test_larger_K_aligns_better_and_spaces_less_evenly():
