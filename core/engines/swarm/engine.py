@@ -52,6 +52,7 @@ _ENGINE_OPTIONS = {
     "centre",
     "end_overlap",
     "gaps",
+    "phase",
 }
 
 
@@ -125,15 +126,19 @@ def _order_chain(seeds: Points2, head: Points2) -> tuple[Points2, Points2]:
     return seeds, head
 
 
-def _sample_curve(line: shapely.LineString, pitch: float) -> Points2:
-    """Points one pitch apart along a curve, centred on it, (n, 2)."""
+def _sample_curve(line: shapely.LineString, pitch: float, phase: float = 0.0) -> Points2:
+    """Points one pitch apart along a curve, centred on it and moved on by ``phase`` pitches, (n, 2)."""
     length = line.length
     n = int(np.floor(length / pitch + 1e-9)) + 1
-    s = np.clip(0.5 * (length - (n - 1) * pitch) + pitch * np.arange(n), 0.0, length)
+    s = 0.5 * (length - (n - 1) * pitch) + pitch * (np.arange(-1, n + 1) + phase % 1.0)
+    s = s[(s >= -1e-9) & (s <= length + 1e-9)] if phase % 1.0 else s[1:-1]
+    s = np.clip(s, 0.0, length)
     return shapely.get_coordinates(shapely.line_interpolate_point(line, s))
 
 
-def _load_seeds(region: Region, load_entry: BaseGeometry, pitch: float) -> list[tuple[Points2, Points2]]:
+def _load_seeds(
+    region: Region, load_entry: BaseGeometry, pitch: float, phase: float = 0.0
+) -> list[tuple[Points2, Points2]]:
     """Chains of seeds half a pitch inside the region next to where the load enters."""
     inner = region.buffer(-0.5 * pitch, join_style="mitre")
     if inner.is_empty:
@@ -146,7 +151,9 @@ def _load_seeds(region: Region, load_entry: BaseGeometry, pitch: float) -> list[
     for piece in shapely.get_parts(near):
         if piece.geom_type != "LineString" or piece.length < 0.5 * pitch:
             continue
-        seeds = _sample_curve(piece, pitch)
+        seeds = _sample_curve(piece, pitch, phase)
+        if not len(seeds):
+            continue
         foot = shapely.get_coordinates(shapely.shortest_line(shapely.points(seeds), load_entry)).reshape(
             -1, 2, 2
         )[:, 1]
@@ -180,7 +187,7 @@ def _dominant(field: StressField, pts: Points2) -> Floats | None:
 
 
 def _fill_seeds(
-    piece: Region, field: StressField, pitch: float, inset: float
+    piece: Region, field: StressField, pitch: float, inset: float, phase: float = 0.0
 ) -> tuple[Points2, Points2] | None:
     """Seeds on a line across an uncovered piece, perpendicular to the stress at its deepest point.
 
@@ -211,7 +218,9 @@ def _fill_seeds(
         seeds = np.asarray(core.representative_point().coords)
     else:
         best = min(parts, key=lambda g: g.distance(shapely.Point(c)))
-        seeds = _sample_curve(best, pitch)
+        seeds = _sample_curve(best, pitch, phase)
+        if not len(seeds):
+            seeds = _sample_curve(best, pitch)
     head = np.tile(s, (len(seeds), 1))
     return _order_chain(seeds, head)
 
@@ -280,7 +289,10 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         (default 0: how much of its own width an extension may cover of the beads beside it;
         ``None``: only the centre-line clearance is checked, as the streamline engine does; on
         the bracket 0 gives 0.49 of the ceiling gain, ``None`` 0.32), ``gaps`` (default True:
-        a straight bead in each void left where path ends meet, :mod:`.gaps`).
+        a straight bead in each void left where path ends meet, :mod:`.gaps`), ``phase``
+        (default 0: the seeds of every swarm, one pitch apart along their line, move on by this
+        many pitches; 0.5 gives a layer whose paths run between those of phase 0, which the
+        pipeline prints on every other of a run of identical layers).
 
     Returns
     -------
@@ -301,6 +313,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     end_cap = float(opts.pop("end_cap", 0.0))  # type: ignore[arg-type]
     centre = float(opts.pop("centre", 0.25))  # type: ignore[arg-type]
     gaps = bool(opts.pop("gaps", True))
+    phase = float(opts.pop("phase", 0.0))  # type: ignore[arg-type]
     end_overlap = opts.pop("end_overlap", 0.0)
     end_overlap = None if end_overlap is None else float(end_overlap)  # type: ignore[arg-type]
     if widths not in ("geometric", "swarm", "measured"):
@@ -372,7 +385,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
 
     t_first = time.perf_counter()
     if inp.load_entry is not None and not inp.load_entry.is_empty:
-        chains = _load_seeds(region, inp.load_entry, pitch)
+        chains = _load_seeds(region, inp.load_entry, pitch, phase)
         if chains:
             run_swarm(region, chains, both_ways=False)
     stats["time_first_swarm_s"] = time.perf_counter() - t_first
@@ -397,7 +410,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         for piece in pieces:
             if swarms >= max_swarms:
                 break
-            seeds = _fill_seeds(piece, inp.field, pitch, (params.margin + 0.05) * pitch)
+            seeds = _fill_seeds(piece, inp.field, pitch, (params.margin + 0.05) * pitch, phase)
             if seeds is None:
                 given_up.append(piece)
                 continue

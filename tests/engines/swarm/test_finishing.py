@@ -93,3 +93,28 @@ def test_gap_bead_in_the_void_where_two_fronts_meet_head_on():
         assert abs(d[0]) < 0.2 * abs(d[1])
     assert M.crossings(tp_after) == 0
     assert M.spacing(tp_after, PITCH).min >= 0.5
+
+
+def test_phase_half_lays_paths_between_those_of_phase_zero():
+    # a strip pulled along x: the staggered layer's paths run between the first layer's
+    from loadpath.engines.swarm import generate
+    from loadpath.field import AnalyticField
+    from loadpath.toolpath import EngineInput
+    from shapely.geometry import LineString
+
+    region = box(0, 0, 20, 6)
+    field = AnalyticField(lambda p: np.tile([1.0, 0.0, 0.0], (len(p), 1)), region, scale=1.0)
+    inp = EngineInput(region=region, field=field, pitch=PITCH, load_entry=LineString([(20, 0), (20, 6)]))
+    ys = [
+        np.sort(
+            [np.median(p.points[:, 1]) for p in generate(inp, K=5.0, phase=ph).paths if len(p.points) > 20]
+        )
+        for ph in (0.0, 0.5)
+    ]
+    a, b = ys
+    inner = b[(b > a[0]) & (b < a[-1])]
+    assert len(inner) >= len(a) - 2
+    # the staggered paths sit between those of phase 0: half a pitch off in the middle, less toward
+    # the long sides, where the boundary agents hold the outermost paths at the same distance
+    off = np.min(np.abs(inner[:, None] - a[None, :]), axis=1)
+    assert np.median(off) > 0.4 * PITCH and off.min() > 0.2 * PITCH, off / PITCH
