@@ -49,12 +49,16 @@ class Job:
     input : EngineInput
     units : list of int
         Indices of the units that use these paths (the first is the representative).
+    params : dict
+        Engine parameters of this run on top of the shared ones (e.g. the swarm's ``phase`` for
+        the staggered copy of a run of identical layers).
     """
 
     unit: Unit
     principal: str
     input: EngineInput = field(repr=False)
     units: list[int] = field(default_factory=list)
+    params: dict[str, Any] = field(default_factory=dict)
 
 
 def fields_agree(a: StressField, b: StressField, region: Region, cos_min: float = 0.99, n: int = 24) -> bool:
@@ -178,7 +182,7 @@ def run_jobs(
         ``progress(done, total)`` after each job.
     """
     global _WORK
-    _WORK = [(engine, j.input, dict(params)) for j in jobs]
+    _WORK = [(engine, j.input, {**params, **j.params}) for j in jobs]
     n = len(jobs)
     out: list[tuple[Toolpaths, float] | None] = [None] * n
     try:

@@ -59,3 +59,30 @@ def test_overlap_reaches_the_output(sliced, tmp_path):
         outside = ~shapely.contains_xy(u.region, pts[:, 0], pts[:, 1])
         assert outside.any()  # some ends and edge paths now lie in the overlap band
         assert np.all(shapely.distance(u.region, shapely.points(pts[outside])) <= u.overlap + 1e-6)
+
+
+def test_staggered_layers_are_laid_by_the_swarm_itself(sliced, tmp_path):
+    """Identical layers alternate between the swarm's paths and its own copy from seeds half a pitch on.
+
+    Real PrusaSlicer 2.5 specimen, solid infill.
+    """
+    from loadpath.metrics import coverage, resample
+    from pipeline_helpers import run, write_case
+
+    case = write_case(tmp_path)
+    _, result, _ = run(sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode", engine="swarm")
+    assert result.pipeline.check.problems == []
+    multi = [j for j in result.pipeline.jobs if len(j.units) > 1]
+    assert multi
+    for j in multi:
+        assert j.staggered[0] is False and j.staggered[1] is True and j.shifted_by_engine
+        u = j.units[0]
+        # a whole layer again: it covers the region as well as the first copy does
+        base, shifted = coverage(j.paths, u.fill_region).coverage, coverage(j.shifted, u.fill_region).coverage
+        assert shifted > 0.97 and shifted > base - 0.01
+        # and its paths do not lie on the first copy's: they start half a pitch on, and the swarm's
+        # spacing pulls them part of the way back over 150 mm (median 0.23 pitch off on this part)
+        pts = shapely.points(resample(j.shifted, u.pitch)[0])
+        lines = np.array([shapely.LineString(p.points) for p in j.paths.paths], dtype=object)
+        d = shapely.distance(pts, lines[shapely.STRtree(lines).nearest(pts)])
+        assert 0.15 * u.pitch < np.median(d) < 0.65 * u.pitch
