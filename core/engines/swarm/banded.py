@@ -83,7 +83,8 @@ class BandedResult:
 
 def banded_matvec(ab: np.ndarray, x: Floats) -> Floats:
     """``H @ x`` for ``H`` given by its upper band ``ab`` (see :class:`BandedQP`)."""
-    return kernel_qp.banded_matvec(np.ascontiguousarray(ab, dtype=float), np.ascontiguousarray(x, dtype=float))
+    c = np.ascontiguousarray
+    return kernel_qp.banded_matvec(c(ab, dtype=float), c(x, dtype=float))
 
 
 def banded_to_dense(ab: np.ndarray) -> np.ndarray:
@@ -122,6 +123,8 @@ def solve_banded_box_qp(
     n = qp.n
     x0 = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float)
     x, f, kkt, it, ok = kernel_qp.solve_box_qp(
-        *(np.ascontiguousarray(a, dtype=float) for a in (qp.ab, qp.q, qp.lo, qp.hi, x0)), float(tol), int(max_iter)
+        *(np.ascontiguousarray(a, dtype=float) for a in (qp.ab, qp.q, qp.lo, qp.hi, x0)),
+        float(tol),
+        int(max_iter),
     )
     return BandedResult(x, float(f), float(kkt), int(it), bool(ok))

@@ -203,7 +203,7 @@ def _gidx(g: GridData, x: float, y: float) -> int:
 
 @njit
 def _nsamples(g: GridData, a: np.ndarray, b: np.ndarray) -> int:
-    """Samples per segment: every half cell along the longest of the segments ``a -> b``."""
+    """Count the samples per segment: every half cell along the longest of the segments ``a -> b``."""
     m = 0.0
     for i in range(a.shape[0]):
         dx = b[i, 0] - a[i, 0]

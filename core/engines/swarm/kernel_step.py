@@ -42,8 +42,8 @@ __all__ = ["StepParams", "COUNTERS", "run_swarm", "step"]
 
 StepParams = namedtuple(
     "StepParams",
-    "K window kill_below spawn_above min_gap ray_reach merge_reach grow_free_ends edge_gap qp_max_iter qp_tol "
-    "cos_turn",
+    "K window kill_below spawn_above min_gap ray_reach merge_reach grow_free_ends edge_gap qp_max_iter "
+    "qp_tol cos_turn",
 )
 """The :class:`~.step.SwarmParams` the kernels use, as plain numbers (see there)."""
 
@@ -410,8 +410,8 @@ def _extend(
                     r += 1
                 elif o == 1 and spawn[k]:
                     _row(
-                        tab, r, cand[k, 0], cand[k, 1], sdir[s, 0], sdir[s, 1], mass[s], head[s, 0], head[s, 1],
-                        cand[k, 0], cand[k, 1], 1.0, chain[s], new_pid[k], -1.0,
+                        tab, r, cand[k, 0], cand[k, 1], sdir[s, 0], sdir[s, 1], mass[s],
+                        head[s, 0], head[s, 1], cand[k, 0], cand[k, 1], 1.0, chain[s], new_pid[k], -1.0,
                     )  # fmt: skip
                     r += 1
     _windows(tab, prm.window)
@@ -451,7 +451,10 @@ def _pair_window(tab: np.ndarray, j: int) -> int:
 def _propose(
     tab: np.ndarray, prm: StepParams, pitch: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per window the agent to kill and the pair to split; returns kill windows/agents, spawn windows/pairs."""
+    """Propose per window the agent to kill and the pair to split.
+
+    Returns kill windows and agents, spawn windows and pairs.
+    """
     m = tab.shape[0]
     link, radial, target = _links(tab, 0, m)
     gap = np.full(max(m - 1, 0), np.nan)
@@ -499,7 +502,7 @@ def _propose(
 
 @njit
 def _variant(tab: np.ndarray, kill: np.ndarray, spawn_pairs: np.ndarray) -> np.ndarray:
-    """The swarm with the given agents killed and new agents in the given gaps ``(j, j + 1)``.
+    """Return the swarm with the given agents killed and new agents in the given gaps ``(j, j + 1)``.
 
     A new agent splits the gap by the target distances; it takes the mean frame, heading and mass
     of the moving agents beside it.
@@ -920,7 +923,6 @@ def _step(
     tab, next_pid = _extend(dom, grid, prm, pitch, pos, head, pid, start, t, sdir, mass, next_pid, counts)
     kw, kills, sw, spairs = _propose(tab, prm, pitch)
     final, xs = _choose(tab, kills, kw, spairs, sw, prm, pitch, counts)
-    m = final.shape[0]
     x = xs * pitch
     # boundary agents: tangent step done in the QP, now back onto the boundary
     bnd = np.flatnonzero(final[:, _KIND] < 0)

@@ -175,7 +175,12 @@ def _kernel_params(p: SwarmParams) -> ks.StepParams:
 
 def _state_arrays(st: SwarmState) -> tuple[np.ndarray, ...]:
     c = np.ascontiguousarray
-    return c(st.pos, dtype=float), c(st.head, dtype=float), c(st.pid, dtype=np.int64), c(st.start, dtype=np.bool_)
+    return (
+        c(st.pos, dtype=float),
+        c(st.head, dtype=float),
+        c(st.pid, dtype=np.int64),
+        c(st.start, dtype=np.bool_),
+    )
 
 
 def _add_counts(ctx: Context, counts: np.ndarray) -> None:
@@ -183,7 +188,9 @@ def _add_counts(ctx: Context, counts: np.ndarray) -> None:
         ctx.count(name, v)
 
 
-def run(st: SwarmState, ctx: Context, max_steps: int, direction: int = 1) -> tuple[Points2, Ints, Floats, Ints]:
+def run(
+    st: SwarmState, ctx: Context, max_steps: int, direction: int = 1
+) -> tuple[Points2, Ints, Floats, Ints]:
     """Advance a swarm until it dies (or ``max_steps``), in one compiled call.
 
     Parameters
