@@ -45,7 +45,7 @@ from loadpath.gcode import Program, parse
 from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
 from loadpath.gcode.verify import SpliceCheck, check_output
-from loadpath.pipeline.paths import Job, assign, plan_jobs, run_jobs, stagger
+from loadpath.pipeline.paths import Job, assign, clip_to, plan_jobs, run_jobs, stagger
 from loadpath.pipeline.units import (
     Unit,
     passthrough_reason,
@@ -410,6 +410,8 @@ def _fills(
                 else:
                     shifted = _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
             paths = shifted if use_shift else base
+            if not u.fill_region.equals(job.unit.fill_region):
+                paths = clip_to(paths, u.fill_region, 2.0 * u.pitch)
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():
                 entry = per_block.setdefault(block, {"paths": [], "regions": [], "unit": u})

@@ -34,7 +34,7 @@ from loadpath.geometry import group_regions
 from loadpath.pipeline.units import Unit
 from loadpath.toolpath import EngineInput, Path, Toolpaths
 
-__all__ = ["Job", "plan_jobs", "run_jobs", "stagger", "assign", "fields_agree", "default_workers"]
+__all__ = ["Job", "plan_jobs", "run_jobs", "stagger", "assign", "clip_to", "fields_agree", "default_workers"]
 
 
 @dataclass
@@ -272,6 +272,38 @@ def stagger(
     width = local_pitch([p.points for p in out], region, pitch)
     pts, width, _ = extend_ends([p.points for p in out], width, region, pitch, edge_gap=inset / pitch)
     return tuple(Path(q, w, p.kind) for q, w, p in zip(pts, width, out, strict=True))
+
+
+def clip_to(paths: Sequence[Path], region: Region, min_length: float) -> tuple[Path, ...]:
+    """Paths cut to ``region``: what lies outside is dropped, pieces shorter than ``min_length`` too.
+
+    A job's paths are laid in its representative unit's region; another unit of the job may differ
+    from it by a little (the grouping tolerance) or, where a layer's perimeters differ locally, by
+    a sliver (a 1000-layer specimen had one layer whose region lacked 0.75 mm² next to the hole,
+    and a reused path ran 1.4 mm into its perimeters).  Paths wholly inside are kept as they are;
+    the others are intersected with the region, each new vertex taking the width of the nearest
+    old one.
+    """
+    if not paths:
+        return ()
+    lines = np.array([shapely.LineString(p.points) for p in paths], dtype=object)
+    grown = region.buffer(1e-6)
+    shapely.prepare(grown)
+    inside = shapely.within(lines, grown)
+    if inside.all():
+        return tuple(paths)
+    out: list[Path] = []
+    for p, line, ok in zip(paths, lines, inside, strict=True):
+        if ok:
+            out.append(p)
+            continue
+        for g in shapely.get_parts(shapely.intersection(line, region)):
+            if g.geom_type != "LineString" or g.length < min_length:
+                continue
+            q = shapely.get_coordinates(g)
+            near = np.argmin(np.sum((q[:, None, :] - p.points[None, :, :]) ** 2, axis=2), axis=1)
+            out.append(Path(q, p.pitch[near], p.kind))
+    return tuple(out)
 
 
 def assign(paths: Sequence[Path], unit: Unit) -> dict[int, list[Path]]:
