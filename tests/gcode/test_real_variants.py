@@ -41,8 +41,13 @@ def test_prusa_volumetric_e_is_turned_into_filament_length(sliced):
     assert vol.config["use_volumetric_e"] == "1"
     a, b = _extrusions(mm), _extrusions(vol)
     assert len(a) == len(b)
-    # E is written with 5 decimals in mm^3 (2.405 mm^2 of filament): about 4e-6 mm of filament
-    np.testing.assert_allclose(b["e"], a["e"], atol=2e-5)
+    # E is written with 5 decimals in mm^3 (2.405 mm^2 of filament): about 4e-6 mm of filament.
+    # Two runs of PrusaSlicer 2.5 sometimes split the E of a pair of consecutive moves differently
+    # (seen in CI: 0.02503 + 0.02315 against 0.02408 + 0.02408, the same total; see the absolute-E
+    # test above), so per move almost everywhere and the running total everywhere
+    close = np.abs(b["e"] - a["e"]) <= 2e-5
+    assert np.mean(close) > 0.99
+    np.testing.assert_allclose(np.cumsum(b["e"]), np.cumsum(a["e"]), rtol=1e-5, atol=1e-4)
 
 
 def test_prusa_firmware_retraction(sliced):
