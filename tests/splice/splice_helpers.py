@@ -19,6 +19,23 @@ from loadpath.metrics import rectilinear
 from loadpath.plugin import settings as S
 from loadpath.toolpath import Path
 
+SLICED_CASES = {
+    "prusa-relE": ("prusa", "ohs", "mixed", {}),
+    "prusa-absE": (
+        "prusa",
+        "ohs",
+        "solid",
+        {"use_relative_e_distances": 0, "before_layer_gcode": '""', "layer_gcode": '""'},
+    ),
+    "prusa-fwretract": ("prusa", "ohs", "mixed", {"use_firmware_retraction": 1, "wipe": 0}),
+    "prusa-volumetricE": ("prusa", "ohs", "mixed", {"use_volumetric_e": 1}),
+    "prusa-two-objects": ("prusa", "two_objects", "mixed", {}),
+    "cura-absE": ("cura", "ohs", "mixed", {}),
+    "cura-relE": ("cura", "ohs", "solid", {"relative_extrusion": "true"}),
+    "cura-two-objects": ("cura", "two_objects", "mixed", {}),
+}
+"""Real files the splicer tests slice: name -> (slicer, part, settings, overrides)."""
+
 INFILL = (Role.SOLID_INFILL, Role.SPARSE_INFILL, Role.SKIN)
 
 

@@ -14,22 +14,10 @@ from loadpath import gcode
 from loadpath.gcode.blocks import EXTRUDE
 from loadpath.gcode.lineview import read_lines
 from loadpath.gcode.verify import check_output, check_splice, layer_features
-from splice_helpers import infill_blocks, rectilinear_fills, run_splice
+from splice_helpers import SLICED_CASES, infill_blocks, rectilinear_fills, run_splice
 
-CASES = {
-    "prusa-relE": ("prusa", "ohs", "mixed", {}),
-    "prusa-absE": (
-        "prusa",
-        "ohs",
-        "solid",
-        {"use_relative_e_distances": 0, "before_layer_gcode": '""', "layer_gcode": '""'},
-    ),
-    "prusa-fwretract": ("prusa", "ohs", "mixed", {"use_firmware_retraction": 1, "wipe": 0}),
-    "prusa-volumetricE": ("prusa", "ohs", "mixed", {"use_volumetric_e": 1}),
-    "prusa-two-objects": ("prusa", "two_objects", "mixed", {}),
-    "cura-absE": ("cura", "ohs", "mixed", {}),
-    "cura-relE": ("cura", "ohs", "solid", {"relative_extrusion": "true"}),
-}
+# every real case of the splice tests but the second Cura part
+CASES = {k: v for k, v in SLICED_CASES.items() if k != "cura-two-objects"}
 
 
 @pytest.fixture(scope="module", params=list(CASES), ids=list(CASES))

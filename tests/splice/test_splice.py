@@ -20,25 +20,11 @@ from loadpath.gcode.verify import layer_features
 from loadpath.plugin import settings as S
 from loadpath.toolpath import Path as ToolPath
 from shapely.geometry import LineString
-from splice_helpers import infill_blocks, own_paths_fill, rectilinear_fills, run_splice
+from splice_helpers import SLICED_CASES, infill_blocks, own_paths_fill, rectilinear_fills, run_splice
 
 CURRENT = Path(__file__).resolve().parents[1] / "data" / "current"
 
-CASES = {
-    "prusa-relE": ("prusa", "ohs", "mixed", {}),
-    "prusa-absE": (
-        "prusa",
-        "ohs",
-        "solid",
-        {"use_relative_e_distances": 0, "before_layer_gcode": '""', "layer_gcode": '""'},
-    ),
-    "prusa-fwretract": ("prusa", "ohs", "mixed", {"use_firmware_retraction": 1, "wipe": 0}),
-    "prusa-volumetricE": ("prusa", "ohs", "mixed", {"use_volumetric_e": 1}),
-    "prusa-two-objects": ("prusa", "two_objects", "mixed", {}),
-    "cura-absE": ("cura", "ohs", "mixed", {}),
-    "cura-relE": ("cura", "ohs", "solid", {"relative_extrusion": "true"}),
-    "cura-two-objects": ("cura", "two_objects", "mixed", {}),
-}
+CASES = SLICED_CASES
 
 
 @pytest.fixture(scope="module", params=list(CASES), ids=list(CASES))
