@@ -314,20 +314,22 @@ def run(
     # poorer one (stiffness benchmark, share of the model's ceiling gain: bracket 0.67 -> 0.83,
     # specimen 0.79 -> 0.83).  The swarm's spacing pulls the copy part of the way back onto the
     # first one's paths (specimen: median 0.23 pitch apart instead of 0.5).
-    phased: dict[int, int] = {}
-    if options.stagger and options.engine == "swarm":
-        phased = {k: len(jobs) + n for n, k in enumerate(k for k, j in enumerate(jobs) if len(j.units) > 1)}
+    phased = (
+        [k for k, j in enumerate(jobs) if len(j.units) > 1]
+        if options.stagger and options.engine == "swarm"
+        else []
+    )
+    copies = [
+        Job(jobs[k].unit, jobs[k].principal, jobs[k].input, jobs[k].units, {"phase": 0.5}) for k in phased
+    ]
     results = run_jobs(
-        jobs
-        + [
-            Job(jobs[k].unit, jobs[k].principal, jobs[k].input, jobs[k].units, {"phase": 0.5}) for k in phased
-        ],
+        jobs + copies,
         options.engine,
         dict(options.engine_params),
         options.workers,
         lambda done, total: tell("paths", done, total),
     )
-    shifted = {k: results[i][0] for k, i in phased.items()}
+    shifted = {k: tp for k, (tp, _) in zip(phased, results[len(jobs) :], strict=True)}
     results = results[: len(jobs)]
     clock.lap("paths")
 
@@ -398,6 +400,7 @@ def _fills(
     job_results = []
     for ji, (job, (tp, secs)) in enumerate(zip(jobs, results, strict=True)):
         members = [units[i] for i in job.units]
+        by_engine = ji in shifted_paths and bool(shifted_paths[ji].paths)
         base = _simplified(tp.paths, plan)
         shifted = None
         flags = []
@@ -405,7 +408,7 @@ def _fills(
             use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
             if use_shift and shifted is None:
                 u0 = job.unit
-                if ji in shifted_paths and shifted_paths[ji].paths:
+                if by_engine:
                     shifted = _simplified(shifted_paths[ji].paths, plan)
                 else:
                     shifted = _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
@@ -425,7 +428,7 @@ def _fills(
                 secs,
                 flags,
                 shifted or (),
-                shifted is not None and ji in shifted_paths and bool(shifted_paths[ji].paths),
+                shifted is not None and by_engine,
             )
         )
     fills = []

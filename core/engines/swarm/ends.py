@@ -218,21 +218,21 @@ def extend_ends(
         # the new bead is the rectangle from the end to the candidate, its own width wide: a path
         # sample beside it must keep half of both widths from it (less the allowed overlap), one
         # ahead of it half the other width plus ``cap`` of its own from the candidate
-        rel = dp[cols] - end_pt[e_of]
-        u = np.sum(rel * end_dir[e_of], axis=1)
-        v = np.abs(rel[:, 0] * end_dir[e_of, 1] - rel[:, 1] * end_dir[e_of, 0])
-        s_c = s[rows % n_s]
-        hw = 0.5 * end_w[e_of]
-        dx = np.maximum(np.maximum(u - s_c, -u), 0.0)
-        dy = np.maximum(v - hw, 0.0)
-        to_rect = np.hypot(dx, dy)
-        inside = (dx == 0.0) & (dy == 0.0)
-        lateral_bad = inside | (to_rect < 0.5 * dw[cols] - (overlap or 0.0) * end_w[e_of])
         ahead_bad = d < np.maximum(clear, 0.5 * dw[cols] + cap * end_w[e_of])
         if overlap is None:  # centre-line clearance only
-            bad = ahead_bad & (~own | own_ok)
+            bad = ahead_bad
         else:
-            bad = np.where(u > s_c, ahead_bad, lateral_bad | (d < clear)) & (~own | own_ok)
+            rel = dp[cols] - end_pt[e_of]
+            u = np.sum(rel * end_dir[e_of], axis=1)
+            v = np.abs(rel[:, 0] * end_dir[e_of, 1] - rel[:, 1] * end_dir[e_of, 0])
+            s_c = s[rows % n_s]
+            dx = np.maximum(np.maximum(u - s_c, -u), 0.0)
+            dy = np.maximum(v - 0.5 * end_w[e_of], 0.0)
+            lateral_bad = ((dx == 0.0) & (dy == 0.0)) | (
+                np.hypot(dx, dy) < 0.5 * dw[cols] - overlap * end_w[e_of]
+            )
+            bad = np.where(u > s_c, ahead_bad, lateral_bad | (d < clear))
+        bad &= ~own | own_ok
         blocked = np.zeros(len(flat), dtype=bool)
         blocked[rows[bad]] = True
         ok &= ~blocked.reshape(len(end_pt), n_s)

@@ -130,9 +130,10 @@ def _sample_curve(line: shapely.LineString, pitch: float, phase: float = 0.0) ->
     """Points one pitch apart along a curve, centred on it and moved on by ``phase`` pitches, (n, 2)."""
     length = line.length
     n = int(np.floor(length / pitch + 1e-9)) + 1
+    # one extra candidate at each end: with a phase the first may move into the curve, the last
+    # off it (without, both lie outside it)
     s = 0.5 * (length - (n - 1) * pitch) + pitch * (np.arange(-1, n + 1) + phase % 1.0)
-    s = s[(s >= -1e-9) & (s <= length + 1e-9)] if phase % 1.0 else s[1:-1]
-    s = np.clip(s, 0.0, length)
+    s = np.clip(s[(s >= -1e-9) & (s <= length + 1e-9)], 0.0, length)
     return shapely.get_coordinates(shapely.line_interpolate_point(line, s))
 
 

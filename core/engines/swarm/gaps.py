@@ -225,12 +225,12 @@ def gap_fill(
         if not len(run_s):
             continue
         k = int(np.argmax(run_e - run_s))
-        a, b = samp[run_s[k]], samp[run_e[k]]
-        if np.hypot(*(b - a)) < min_length * pitch:
+        p0, p1 = samp[run_s[k]], samp[run_e[k]]
+        if np.hypot(*(p1 - p0)) < min_length * pitch:
             continue
-        out_p.append(np.stack([a, b]))
+        out_p.append(np.stack([p0, p1]))
         out_w.append(np.full(2, bw))
         laid.append(samp[run_s[k] : run_e[k] + 1])
         stats["gap_beads"] += 1
-        stats["gap_mm2"] += float(bw * np.hypot(*(b - a)))
+        stats["gap_mm2"] += float(bw * np.hypot(*(p1 - p0)))
     return out_p, out_w, stats

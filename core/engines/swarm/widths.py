@@ -51,7 +51,7 @@ def local_pitch(
     k: int = 12,
     only: list[np.ndarray] | None = None,
     sides: bool = False,
-) -> list[Floats] | tuple[list[Floats], list[Floats]]:
+) -> list[Floats] | tuple[list[Floats], list[Floats], list[Floats]]:
     """Flow width at every point of the layer's paths (mm).
 
     Parameters
@@ -154,7 +154,6 @@ def local_pitch(
         out = np.full(n_all, reach)
         left, right = np.minimum(left, reach), np.minimum(right, reach)
         out[sel] = 0.5 * (left + right)
-        lefts, rights = np.full(n_all, reach), np.full(n_all, reach)
         lefts[sel], rights[sel] = left, right
     out = np.clip(out, 0.25 * pitch, reach)
     cuts = np.cumsum(counts)[:-1]
