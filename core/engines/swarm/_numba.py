@@ -56,9 +56,12 @@ log = logging.getLogger("loadpath.engines.swarm")
 objmode = numba.objmode
 
 _HERE = Path(__file__).resolve().parent
-SOURCES = tuple(_HERE / f"{m}.py" for m in ("kernel_step", "kernel_geom", "kernel_qp", "chain"))
+SOURCES = tuple(
+    _HERE / f"{m}.py" for m in ("kernel_step", "kernel_geom", "kernel_qp", "kernel_widths", "chain")
+)
 """Files whose code or constants end up in the compiled kernels (``chain``: the box bounds; the
-OSQP fallback of :mod:`.qp` runs in object mode, looked up at run time)."""
+OSQP fallback of :mod:`.qp` runs in object mode, looked up at run time; ``kernel_widths``: the
+finishing widths, compiled by :func:`warm_up` through the engine's last steps)."""
 
 COMPILE_SECONDS = 60
 """About how long the first compile takes on one core of a CI machine (benchmarks/bench_swarm.py)."""
