@@ -188,42 +188,45 @@ def _dominant(field: StressField, pts: Points2) -> Floats | None:
 
 
 def _fill_seeds(
-    piece: Region, field: StressField, pitch: float, inset: float, phase: float = 0.0
-) -> tuple[Points2, Points2] | None:
-    """Seeds on a line across an uncovered piece, perpendicular to the stress at its deepest point.
+    pieces: list[Region], field: StressField, pitch: float, inset: float, phase: float = 0.0
+) -> list[tuple[Points2, Points2] | None]:
+    """Seeds on a line across each uncovered piece, perpendicular to the stress at its deepest point.
 
     ``inset`` (mm): seeds keep this far inside the piece (a little more than the domain margin).
+    The pieces of one round are done together (one field sample for all their deepest points).
+    None for a piece with no room for a seed.
     """
-    core = piece.buffer(-inset)
-    if core.is_empty:
-        return None
-    circle = shapely.maximum_inscribed_circle(piece, 0.05 * pitch)
-    c = np.asarray(circle.coords[0])
-    smp = field.sample(c[None, :])
-    if smp.valid[0]:
-        s = smp.direction[0]
-    else:
-        grid = shapely.get_coordinates(
-            shapely.points(
-                np.asarray(core.representative_point().coords)
-                + pitch * np.stack(np.meshgrid(np.arange(-5, 6), np.arange(-5, 6)), -1).reshape(-1, 2)
-            )
-        )
-        dom = _dominant(field, grid)
-        s = dom if dom is not None else np.array([1.0, 0.0])
-    n = np.array([-s[1], s[0]])
-    reach = float(np.hypot(*np.subtract(*np.reshape(piece.bounds, (2, 2))))) + pitch
-    line = shapely.LineString([c - reach * n, c + reach * n]).intersection(core)
-    parts = [g for g in shapely.get_parts(line) if g.geom_type == "LineString" and g.length > 0]
-    if not parts:
-        seeds = np.asarray(core.representative_point().coords)
-    else:
-        best = min(parts, key=lambda g: g.distance(shapely.Point(c)))
-        seeds = _sample_curve(best, pitch, phase)
-        if not len(seeds):
-            seeds = _sample_curve(best, pitch)
-    head = np.tile(s, (len(seeds), 1))
-    return _order_chain(seeds, head)
+    arr = np.array(pieces, dtype=object)
+    cores = shapely.buffer(arr, -inset)
+    circles = shapely.maximum_inscribed_circle(arr, 0.05 * pitch)
+    centres = shapely.get_coordinates(shapely.get_point(circles, 0))
+    smp = field.sample(centres)
+    out: list[tuple[Points2, Points2] | None] = []
+    for piece, core, c, ok, sd in zip(pieces, cores, centres, smp.valid, smp.direction, strict=True):
+        if core.is_empty:
+            out.append(None)
+            continue
+        if ok:
+            s = np.asarray(sd, dtype=float)
+        else:
+            grid = np.asarray(core.representative_point().coords) + pitch * np.stack(
+                np.meshgrid(np.arange(-5, 6), np.arange(-5, 6)), -1
+            ).reshape(-1, 2)
+            dom = _dominant(field, grid)
+            s = dom if dom is not None else np.array([1.0, 0.0])
+        n = np.array([-s[1], s[0]])
+        reach = float(np.hypot(*np.subtract(*np.reshape(piece.bounds, (2, 2))))) + pitch
+        line = shapely.LineString([c - reach * n, c + reach * n]).intersection(core)
+        parts = [g for g in shapely.get_parts(line) if g.geom_type == "LineString" and g.length > 0]
+        if not parts:
+            seeds = np.asarray(core.representative_point().coords)
+        else:
+            best = min(parts, key=lambda g: g.distance(shapely.Point(c)))
+            seeds = _sample_curve(best, pitch, phase)
+            if not len(seeds):
+                seeds = _sample_curve(best, pitch)
+        out.append(_order_chain(seeds, np.tile(s, (len(seeds), 1))))
+    return out
 
 
 def _subtract_beads(left: Region, lines: list[Points2], pitch: float) -> Region:
@@ -232,9 +235,10 @@ def _subtract_beads(left: Region, lines: list[Points2], pitch: float) -> Region:
         return left
     coords = np.concatenate(lines)
     idx = np.repeat(np.arange(len(lines)), [len(x) for x in lines])
-    beads = shapely.buffer(
-        shapely.multilinestrings(shapely.linestrings(coords, indices=idx)), 0.5 * pitch, quad_segs=4
-    )
+    # lines simplified within a fiftieth of a pitch first: the buffer's cost grows with the vertices
+    # (a swarm lays one every step), and the pieces left only decide where fill swarms start
+    lines = shapely.simplify(shapely.linestrings(coords, indices=idx), 0.02 * pitch, preserve_topology=False)
+    beads = shapely.buffer(shapely.multilinestrings(lines), 0.5 * pitch, quad_segs=4)
     return left.difference(beads)
 
 
@@ -248,6 +252,9 @@ def _pieces(left: Region, min_width: float) -> list[Region]:
     parts = shapely.get_parts(left)
     # a piece wide enough has at least the area of a disc of that width: test only those
     big = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= 0.5 * min_width * min_width)]
+    # ... and bounds at least that wide both ways (most slivers between beads fail this cheaply)
+    lo_hi = shapely.bounds(big)
+    big = big[np.min(lo_hi[:, 2:] - lo_hi[:, :2], axis=1) >= min_width]
     pieces = list(big[~shapely.is_empty(shapely.buffer(big, -0.5 * min_width))])
     pieces.sort(key=lambda g: (-round(g.area, 6), round(g.centroid.x, 6), round(g.centroid.y, 6)))
     return pieces
@@ -408,10 +415,11 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
             break
         rounds += 1
         progressed = False
-        for piece in pieces:
+        # seeds for every piece at once: a round's swarms stay in their own pieces
+        all_seeds = _fill_seeds(pieces, inp.field, pitch, (params.margin + 0.05) * pitch, phase)
+        for piece, seeds in zip(pieces, all_seeds, strict=True):
             if swarms >= max_swarms:
                 break
-            seeds = _fill_seeds(piece, inp.field, pitch, (params.margin + 0.05) * pitch, phase)
             if seeds is None:
                 given_up.append(piece)
                 continue
