@@ -57,7 +57,8 @@ objmode = numba.objmode
 
 _HERE = Path(__file__).resolve().parent
 SOURCES = tuple(
-    _HERE / f"{m}.py" for m in ("kernel_step", "kernel_geom", "kernel_qp", "kernel_widths", "chain")
+    _HERE / f"{m}.py"
+    for m in ("kernel_step", "kernel_geom", "kernel_qp", "kernel_widths", "kernel_ends", "chain")
 )
 """Files whose code or constants end up in the compiled kernels (``chain``: the box bounds; the
 OSQP fallback of :mod:`.qp` runs in object mode, looked up at run time; ``kernel_widths``: the

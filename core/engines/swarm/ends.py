@@ -30,8 +30,11 @@ while the followed stress keeps within ``max_turn`` degrees of its direction, an
 splicer would simplify them away anyway).  Two ends heading for each other (fronts meeting
 head-on) share the gap: where their extensions conflict, the longer one gives way, step by step.
 
-Everything is vectorized over the ends and their candidate points: candidate points every
-``step`` mm ahead of each end, distances from one k-d tree over the densified paths.
+Candidate points every ``step`` mm ahead of each end are tested against the region and the
+field in vectorized calls; then a compiled kernel (:func:`.kernel_ends.first_blocked`) walks each
+end's candidates in order against the densified paths near them (a cell grid) and stops at the
+first that fails, so the pairs past it are never examined (the same result as testing every pair:
+on the bench bracket 58 ms instead of 239 ms).
 """
 
 from __future__ import annotations
@@ -41,6 +44,8 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Points2, Region
+from loadpath.engines.swarm import kernel_ends as ke
+from loadpath.engines.swarm import kernel_widths as kw
 from scipy.spatial import cKDTree
 
 __all__ = ["extend_ends"]
@@ -167,7 +172,11 @@ def extend_ends(
     end_pid = np.concatenate([idx, idx])
     end_w = np.concatenate([[widths[i][0] for i in keep], [widths[i][-1] for i in keep]])
     is_tail = np.repeat([False, True], len(keep))
-    lengths = np.array([np.sum(np.hypot(*np.diff(paths[i], axis=0).T)) for i in keep])
+    kept = np.concatenate([paths[i] for i in keep])
+    step_len = np.hypot(*np.diff(kept, axis=0).T)
+    first = np.cumsum([0] + [len(paths[i]) for i in keep])[:-1]
+    step_len[first[1:] - 1] = 0.0  # the jump from one path to the next
+    lengths = np.add.reduceat(np.append(step_len, 0.0), first)
     end_arc = np.concatenate([np.zeros(len(keep)), lengths])
 
     # candidate points ahead of every end
@@ -210,34 +219,38 @@ def extend_ends(
         dp, did, dw, darc = _densify(
             sa[near], sb[near], swa[near], swb[near], spid[near], sarc[near], _SAMPLE * pitch
         )
-        pairs = ctree.sparse_distance_matrix(cKDTree(dp), r_max, output_type="ndarray")
-        rows, cols, d = live[pairs["i"]], pairs["j"], pairs["v"]
-        e_of = rows // n_s
-        own = did[cols] == end_pid[e_of]
-        own_ok = np.abs(darc[cols] - end_arc[e_of]) > own_far
-        # the new bead is the rectangle from the end to the candidate, its own width wide: a path
-        # sample beside it must keep half of both widths from it (less the allowed overlap), one
-        # ahead of it half the other width plus ``cap`` of its own from the candidate
-        ahead_bad = d < np.maximum(clear, 0.5 * dw[cols] + cap * end_w[e_of])
-        if overlap is None:  # centre-line clearance only
-            bad = ahead_bad
-        else:
-            rel = dp[cols] - end_pt[e_of]
-            u = np.sum(rel * end_dir[e_of], axis=1)
-            v = np.abs(rel[:, 0] * end_dir[e_of, 1] - rel[:, 1] * end_dir[e_of, 0])
-            s_c = s[rows % n_s]
-            dx = np.maximum(np.maximum(u - s_c, -u), 0.0)
-            dy = np.maximum(v - 0.5 * end_w[e_of], 0.0)
-            lateral_bad = ((dx == 0.0) & (dy == 0.0)) | (
-                np.hypot(dx, dy) < 0.5 * dw[cols] - overlap * end_w[e_of]
-            )
-            bad = np.where(u > s_c, ahead_bad, lateral_bad | (d < clear))
-        bad &= ~own | own_ok
-        blocked = np.zeros(len(flat), dtype=bool)
-        blocked[rows[bad]] = True
-        ok &= ~blocked.reshape(len(end_pt), n_s)
+        lo = np.minimum(dp.min(axis=0, initial=np.inf), flat[live].min(axis=0)) - r_max
+        hi = np.maximum(dp.max(axis=0, initial=-np.inf), flat[live].max(axis=0)) + r_max
+        nx, ny = (np.floor((hi - lo) / r_max).astype(np.int64) + 1).tolist()
+        start, items = kw.cell_lists(dp, np.zeros(0, dtype=np.int64), np.arange(len(dp)), lo, r_max, nx, ny)
+        first_bad = ke.first_blocked(
+            cand,
+            ok,
+            s,
+            end_pt,
+            end_dir,
+            end_w,
+            end_pid,
+            end_arc,
+            dp,
+            did,
+            dw,
+            darc,
+            lo,
+            float(r_max),
+            nx,
+            ny,
+            start,
+            items,
+            float(r_max),
+            float(clear),
+            float(cap),
+            np.nan if overlap is None else float(overlap),
+            float(own_far),
+        )
+    else:
+        first_bad = np.zeros(len(end_pt), dtype=np.int64)
     # extension: the candidates up to the first failing one
-    first_bad = np.where(ok.all(axis=1), n_s, np.argmin(ok, axis=1))
     length = np.where(first_bad > 0, s[np.maximum(first_bad - 1, 0)], 0.0)
 
     # ends heading for each other: the longer extension gives way until they keep the clearance
