@@ -252,9 +252,17 @@ def _pieces(left: Region, min_width: float) -> list[Region]:
     parts = shapely.get_parts(left)
     # a piece wide enough has at least the area of a disc of that width: test only those
     big = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= 0.5 * min_width * min_width)]
-    # ... and bounds at least that wide both ways (most slivers between beads fail this cheaply)
+    # ... and bounds at least that wide both ways, and its narrowest enclosing rectangle too (most
+    # slivers between beads fail one of these cheap tests before the buffer below)
     lo_hi = shapely.bounds(big)
     big = big[np.min(lo_hi[:, 2:] - lo_hi[:, :2], axis=1) >= min_width]
+    rect = shapely.minimum_rotated_rectangle(big)
+    is_poly = shapely.get_type_id(rect) == 3
+    side = np.zeros(len(big))
+    if np.any(is_poly):
+        c = shapely.get_coordinates(shapely.get_exterior_ring(rect[is_poly])).reshape(-1, 5, 2)
+        side[is_poly] = np.minimum(np.hypot(*(c[:, 1] - c[:, 0]).T), np.hypot(*(c[:, 2] - c[:, 1]).T))
+    big = big[side >= min_width]
     pieces = list(big[~shapely.is_empty(shapely.buffer(big, -0.5 * min_width))])
     pieces.sort(key=lambda g: (-round(g.area, 6), round(g.centroid.x, 6), round(g.centroid.y, 6)))
     return pieces
