@@ -15,39 +15,27 @@ covers more of the void and less outside it; its width is the void's area over t
 dropped if that is shorter than ``min_length`` pitches).
 
 Only the neighbourhood of path ends is searched (``window`` pitches around each end), and only
-the beads that can reach into it are drawn, as one ribbon per run of segments (:func:`_ribbons`),
-so the cost grows with the number of ends, not with the layer's size.  The voids are one polygon
-clipping (:func:`_voids`: the windows less the ribbons and less everything outside the region) by
-Clipper on integer coordinates of 2^-20 mm; GEOS needs one overlay per ribbon for the same union
-and was 5-10x slower here (specimen: 337 ribbons, 4,000 vertices).  The spacing rule measures
-exact point-to-segment distances (:func:`_segment_distance`) to the segments near each candidate.
+the beads that can reach into it are drawn (:func:`.voids.ribbons`; the voids themselves are one
+Clipper difference, :func:`.voids.find_voids`), so the cost grows with the number of ends, not
+with the layer's size.  The spacing rule measures exact point-to-segment distances
+(:func:`_near_distance`) to the segments near each candidate bead, all candidates at once.
 """
 
 from __future__ import annotations
 
-import gc
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 
 import numpy as np
-import pyclipper
 import shapely
 from loadpath._typing import Floats, Points2, Region
-from loadpath.engines.swarm.widths import _tangents
+from loadpath.engines.swarm.voids import find_voids, ribbons
 from scipy.spatial import cKDTree
 
 __all__ = ["gap_fill"]
 
-_SCALE = float(2**20)
-"""Clipper's integer units per mm: 1 nm, far below the 0.02-pitch circle tolerance; a 1 m layer
-stays within Clipper's fast 30-bit range."""
-
 _MARGIN = 0.01
 """Added to ``min_gap``, in pitches: a gap bead is checked every tenth of a pitch, and between two
 samples ``h = 0.05`` pitch away its distance to a path can dip by ``h² / (2 min_gap)`` = 0.0025."""
-
-_QUAD_SEGS = 8
-"""Segments per quarter circle of a window (a 32-gon inscribed in the window's circle)."""
 
 
 def _segment_distance(p: Points2, a: Points2, b: Points2) -> Floats:
@@ -97,11 +85,11 @@ def _near_distance(p: Points2, a: Points2, b: Points2, reach: float) -> Floats:
 
 
 def _near_points(q: Points2, centres: Points2, reach: float) -> np.ndarray:
-    """Indices of the points ``q`` within ``reach`` of one of ``centres`` (ascending).
+    """Return the indices of the points ``q`` in the grid cells around ``centres`` (ascending).
 
-    A grid of ``reach``-sized cells picks the candidates (a point within ``reach`` of a centre
-    lies in the 3 x 3 cells around the centre's cell), a k-d tree of the centres checks them:
-    10x cheaper than a tree of all points of a layer, when the centres are path ends.
+    Cells are ``reach`` wide and a centre's 3 x 3 cells are taken, so every point within
+    ``reach`` of a centre is returned (and some up to ``2 sqrt(2) reach`` away): a cheap superset,
+    without a tree of all the layer's points.
 
     Parameters
     ----------
@@ -121,172 +109,8 @@ def _near_points(q: Points2, centres: Points2, reach: float) -> np.ndarray:
         for dy in (-1, 0, 1):
             grid[ce[:, 0] + dx, ce[:, 1] + dy] = True
     cq = np.floor((q - o) / reach)
-    ok = np.all((cq >= 0) & (cq < shape), axis=1)
-    cand = np.flatnonzero(ok)
-    cand = cand[grid[cq[cand, 0].astype(np.int64), cq[cand, 1].astype(np.int64)]]
-    d, _ = cKDTree(centres).query(q[cand], distance_upper_bound=reach)
-    return cand[np.isfinite(d)]
-
-
-@contextmanager
-def _gc_paused() -> Iterator[None]:
-    """Pause Python's cyclic garbage collector while Clipper's integer lists are made and used.
-
-    The windows and ribbons become ~15,000 short-lived lists (Clipper takes nested sequences); a
-    collection they trigger scans the engine's whole heap (up to 65 ms measured on the specimen,
-    against 2 ms for making the lists).  They hold no cycles and are freed on return.
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
-
-
-def _area2(ring: Points2) -> float:
-    """Twice the signed area of a ring (positive counter-clockwise), mm² (or Clipper units²)."""
-    x, y = ring[:, 0], ring[:, 1]
-    return float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-
-
-def _ints(ring: Points2, o: np.ndarray, ccw: bool | None = None) -> list:
-    """Return a ring as a Clipper path (integer units of :data:`_SCALE` from ``o``).
-
-    ``ccw`` True or False orients it counter-clockwise or clockwise; None keeps its orientation.
-    """
-    q = ring if ccw is None or (_area2(ring) >= 0) == ccw else ring[::-1]
-    return np.round((q - o) * _SCALE).astype(np.int64).tolist()
-
-
-def _ribbons(pts: Points2, w: Floats, starts: np.ndarray, seg: np.ndarray) -> tuple[Points2, np.ndarray]:
-    """Rings of the beads along the segments ``seg``: one ribbon per run of consecutive segments.
-
-    A ribbon is the centre line offset by half the flow width on either side (mitred joints, square
-    ends).  A ribbon that crosses itself (a bend tighter than half the width) is replaced by its
-    valid pieces (``shapely.make_valid``), as the chunks of the earlier version were.
-
-    Parameters
-    ----------
-    pts : (n, 2) float, mm
-        All paths' points, path after path (path ``i`` starts at ``starts[i]``).
-    w : (n,) float, mm
-        Flow width at every point.
-    starts : (p,) int, sorted
-    seg : (s,) int, sorted
-        Segments ``pts[seg] -> pts[seg + 1]`` to draw (never from the last point of a path).
-
-    Returns
-    -------
-    coords : (m, 2) float, mm
-        The rings one after another, without closing points: counter-clockwise around covered
-        area (a clockwise ring is a hole in the ribbon before it).
-    offsets : (r + 1,) int
-        Ring ``i`` is ``coords[offsets[i]:offsets[i + 1]]``.
-    """
-    if not len(seg):
-        return np.zeros((0, 2)), np.zeros(1, dtype=np.int64)
-    cut = np.flatnonzero(np.diff(seg) != 1) + 1
-    lo = seg[np.r_[0, cut]]
-    nv = seg[np.r_[cut - 1, len(seg) - 1]] + 2 - lo  # vertices per run
-    run = np.repeat(np.arange(len(lo)), nv)
-    k = np.arange(nv.sum()) - np.repeat(np.cumsum(nv) - nv, nv)  # vertex index within its run
-    vid = lo[run] + k
-    # central-difference tangents (one-sided at path ends), of the drawn vertices only
-    path_of = np.searchsorted(starts, vid, side="right") - 1
-    last = np.append(starts[1:], len(pts)) - 1
-    tan = pts[np.where(vid == last[path_of], vid, vid + 1)] - pts[np.where(vid == starts[path_of], vid, vid - 1)]
-    norm = np.hypot(tan[:, 0], tan[:, 1])
-    off = (0.5 * w[vid] / np.where(norm > 0, norm, 1.0))[:, None] * np.stack([-tan[:, 1], tan[:, 0]], axis=1)
-    # right side forward, left side back: counter-clockwise unless the ribbon crosses itself
-    offsets = np.r_[0, np.cumsum(2 * nv)]
-    coords = np.empty((2 * len(vid), 2))
-    coords[offsets[run] + k] = pts[vid] - off
-    coords[offsets[run] + 2 * nv[run] - 1 - k] = pts[vid] + off
-    polys = shapely.polygons(shapely.linearrings(coords, indices=np.repeat(np.arange(len(nv)), 2 * nv)))
-    bad = np.flatnonzero(~shapely.is_valid(polys))
-    if not len(bad):
-        return coords, offsets
-    keep = np.ones(len(coords), dtype=bool)
-    keep[np.concatenate([np.arange(offsets[i], offsets[i + 1]) for i in bad])] = False
-    rings = [coords[keep]]
-    sizes = np.delete(2 * nv, bad).tolist()
-    for g in shapely.get_parts(shapely.make_valid(polys[bad])):
-        if shapely.get_type_id(g) == 3:  # polygons (the collapsed bits are lines)
-            g = shapely.orient_polygons(g)
-            for r in [g.exterior, *g.interiors]:
-                rings.append(np.asarray(r.coords)[:-1])
-                sizes.append(len(rings[-1]))
-    return np.concatenate(rings), np.r_[0, np.cumsum(sizes)]
-
-
-def _voids(ends: Points2, radius: float, region: Region, ribbons: tuple[Points2, np.ndarray], min_area: float) -> list:
-    """The windows around the path ends less the ribbons and less everything outside the region.
-
-    One Clipper difference: subject the windows (non-zero fill), clip the ribbons and the frame
-    around the windows less the region (covered where the winding number is positive).
-
-    Parameters
-    ----------
-    ends : (e, 2) float, mm
-    radius : float, mm
-        Window radius (a 32-gon inscribed in the circle, the same as ``shapely.buffer`` draws).
-    region : Polygon or MultiPolygon, mm
-    ribbons : ((m, 2) float, (r + 1,) int)
-        Ribbon rings (mm) and their offsets (:func:`_ribbons`), oriented.
-    min_area : float, mm²
-        Voids of smaller area are dropped.
-
-    Returns
-    -------
-    list of Polygon, mm
-        The voids of at least ``min_area``, in Clipper's (deterministic) output order.
-    """
-    disc = shapely.get_coordinates(shapely.buffer(shapely.Point(0.0, 0.0), radius, quad_segs=_QUAD_SEGS))[:-1]
-    if _area2(disc) < 0:
-        disc = disc[::-1]
-    o = ends.min(axis=0) - radius
-    lo, hi = o - radius, ends.max(axis=0) + 2.0 * radius
-    frame = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
-    coords, offsets = ribbons
-    with _gc_paused():
-        c = pyclipper.Pyclipper()
-        c.AddPaths(
-            np.round((ends[:, None, :] + disc[None] - o) * _SCALE).astype(np.int64).tolist(),
-            pyclipper.PT_SUBJECT,
-            True,
-        )
-        # winding 1 outside the region inside a frame around the windows, 0 inside the region
-        clip = [_ints(frame, o, True)]
-        for poly in shapely.get_parts(region):
-            clip.append(_ints(np.asarray(poly.exterior.coords)[:-1], o, False))
-            clip += [_ints(np.asarray(h.coords)[:-1], o, True) for h in poly.interiors]
-        flat = np.round((coords - o) * _SCALE).astype(np.int64).tolist()
-        clip += [flat[i:j] for i, j in zip(offsets[:-1].tolist(), offsets[1:].tolist(), strict=True)]
-        c.AddPaths(clip, pyclipper.PT_CLIP, True)
-        del clip, flat
-        tree = c.Execute2(pyclipper.CT_DIFFERENCE, pyclipper.PFT_NONZERO, pyclipper.PFT_POSITIVE)
-        out = []
-        stack = list(tree.Childs)[::-1]
-        while stack:
-            node = stack.pop()
-            holes = node.Childs
-            area = abs(pyclipper.Area(node.Contour)) - sum(abs(pyclipper.Area(h.Contour)) for h in holes)
-            if area >= min_area * _SCALE**2:
-                shell = np.asarray(node.Contour) / _SCALE + o
-                out.append(shapely.Polygon(shell, [np.asarray(h.Contour) / _SCALE + o for h in holes]))
-            for h in holes[::-1]:
-                stack.extend(list(h.Childs)[::-1])
-        del tree, stack
-    # Clipper may return a ring that touches itself at a vertex where GEOS returns two polygons
-    pieces = np.array(out, dtype=object)
-    bad = ~shapely.is_valid(pieces)
-    if bad.any():
-        parts = shapely.get_parts(shapely.make_valid(pieces[bad]))
-        parts = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= min_area)]
-        pieces = np.concatenate([pieces[~bad], parts])
-    return list(pieces)
+    cand = np.flatnonzero(np.all((cq >= 0) & (cq < shape), axis=1))
+    return cand[grid[cq[cand, 0].astype(np.int64), cq[cand, 1].astype(np.int64)]]
 
 
 def _lines_in(pieces: np.ndarray, c: Points2, d: Points2, reach: Floats) -> np.ndarray:
@@ -372,21 +196,25 @@ def gap_fill(
     first = last - counts + 1
     is_last = np.zeros(len(pts), dtype=bool)
     is_last[last] = True
-    seg = np.flatnonzero(~is_last)
-    a, b = pts[seg], pts[seg + 1]
-    mid = 0.5 * (a + b)
-    half_len = 0.5 * np.hypot(*(b - a).T)
-    half_w = 0.5 * np.maximum(w[seg], w[seg + 1])
     need = (min_gap + _MARGIN) * pitch
     radius = window * pitch
+    end_pts = np.concatenate([pts[first], pts[last]])
     # the segments that can matter: a ribbon point lies within half its width of its segment, a
     # gap bead within the windows (``radius`` of an end) and tested ``need`` around it
-    end_pts = np.concatenate([pts[first], pts[last]])
-    reach = radius + float(np.max(half_len, initial=0.0)) + max(float(np.max(half_w, initial=0.0)), need)
-    near = _near_points(mid, end_pts, reach)
-    d_end, _ = cKDTree(end_pts).query(mid[near])
-    drawn = near[d_end <= radius + half_len[near] + half_w[near]]
-    pieces = _voids(end_pts, radius, region, _ribbons(pts, w, first, seg[drawn]), min_area * pitch**2)
+    seg_len = np.hypot(*np.diff(pts, axis=0).T)
+    seg_len[last[:-1]] = 0.0  # from one path's last point to the next path's first
+    half_max = 0.5 * float(np.max(seg_len, initial=0.0))
+    reach = radius + half_max + max(0.5 * float(np.max(w)), need)
+    cand = _near_points(pts, end_pts, reach + half_max)  # the segments' first points
+    cand = cand[~is_last[cand]]
+    a, b = pts[cand], pts[cand + 1]
+    mid = 0.5 * (a + b)
+    half_len = 0.5 * seg_len[cand]
+    half_w = 0.5 * np.maximum(w[cand], w[cand + 1])
+    d_end, _ = cKDTree(end_pts).query(mid)
+    near = d_end <= reach
+    drawn = cand[d_end <= radius + half_len + half_w]
+    pieces = find_voids(end_pts, radius, region, ribbons(pts, w, first, drawn), min_area * pitch**2)
     if not pieces:
         return [], [], stats
     circles = shapely.maximum_inscribed_circle(np.array(pieces, dtype=object), 0.02 * pitch)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
-from loadpath.engines.swarm.gaps import _near_distance, _ribbons, _segment_distance, _voids
+from loadpath.engines.swarm.gaps import _near_distance, _segment_distance
+from loadpath.engines.swarm.voids import find_voids, ribbons
 from shapely.geometry import Point, box
 
 
@@ -43,8 +44,13 @@ def test_voids_match_the_geos_overlay_of_windows_ribbons_and_region():
     pitch = 0.4
     region = box(0, 0, 10, 4).difference(Point(5.0, 2.0).buffer(0.7)).union(box(11, 0, 13, 4))
     ys = pitch * (0.5 + np.arange(10))
-    left = [np.column_stack([np.linspace(0.2, 4.1 + 0.1 * (i % 3), 12), np.full(12, y)]) for i, y in enumerate(ys)]
-    right = [np.column_stack([np.linspace(5.9 - 0.07 * (i % 4), 9.8, 12), np.full(12, y)]) for i, y in enumerate(ys)]
+    left = [
+        np.column_stack([np.linspace(0.2, 4.1 + 0.1 * (i % 3), 12), np.full(12, y)]) for i, y in enumerate(ys)
+    ]
+    right = [
+        np.column_stack([np.linspace(5.9 - 0.07 * (i % 4), 9.8, 12), np.full(12, y)])
+        for i, y in enumerate(ys)
+    ]
     paths = left + right
     paths += [np.column_stack([np.full(9, 12.0), np.linspace(0.3, 3.7, 9)])]
     counts = np.array([len(q) for q in paths])
@@ -55,10 +61,9 @@ def test_voids_match_the_geos_overlay_of_windows_ribbons_and_region():
     seg = np.setdiff1d(np.arange(len(pts)), last)
     ends = np.concatenate([pts[starts], pts[last]])
     radius, min_area = 2.0 * pitch, 0.5 * pitch**2
-    got = _voids(ends, radius, region, _ribbons(pts, w, starts, seg), min_area)
-    beads = shapely.union_all(
-        [shapely.buffer(shapely.LineString(q), 0.5 * pitch, cap_style="flat", join_style="mitre") for q in paths]
-    )
+    got = find_voids(ends, radius, region, ribbons(pts, w, starts, seg), min_area)
+    lines = np.array([shapely.LineString(q) for q in paths], dtype=object)
+    beads = shapely.union_all(shapely.buffer(lines, 0.5 * pitch, cap_style="flat", join_style="mitre"))
     windows = shapely.union_all(shapely.buffer(shapely.points(ends), radius, quad_segs=8))
     ref = [g for g in shapely.get_parts(windows.intersection(region).difference(beads)) if g.area >= min_area]
     assert len(got) == len(ref) >= 3
