@@ -84,33 +84,37 @@ def _near_distance(p: Points2, a: Points2, b: Points2, reach: float) -> Floats:
     return d
 
 
-def _near_points(q: Points2, centres: Points2, reach: float) -> np.ndarray:
+def _near_points(q: Points2, centres: Points2, reach: float, split: int = 3) -> np.ndarray:
     """Return the indices of the points ``q`` in the grid cells around ``centres`` (ascending).
 
-    Cells are ``reach`` wide and a centre's 3 x 3 cells are taken, so every point within
-    ``reach`` of a centre is returned (and some up to ``2 sqrt(2) reach`` away): a cheap superset,
-    without a tree of all the layer's points.
+    Cells are ``reach / split`` wide and the ``2 split + 1`` cells square around a centre's cell
+    are taken, so every point within ``reach`` of a centre is returned (and some up to
+    ``(1 + 1 / split) sqrt(2) reach`` away): a cheap superset, without a tree of the layer's points.
 
     Parameters
     ----------
     q : (n, 2) float, mm
     centres : (e, 2) float, mm
     reach : float, mm
+    split : int
+        Cells per ``reach``.
 
     Returns
     -------
     (k,) int
     """
-    o = centres.min(axis=0) - reach
-    ce = np.floor((centres - o) / reach).astype(np.int64)
-    shape = ce.max(axis=0) + 2
+    size = reach / split
+    o = centres.min(axis=0) - reach - size
+    ce = np.floor((centres - o) / size).astype(np.int64)
+    shape = ce.max(axis=0) + split + 1
     grid = np.zeros(shape, dtype=bool)
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
+    for dx in range(-split, split + 1):
+        for dy in range(-split, split + 1):
             grid[ce[:, 0] + dx, ce[:, 1] + dy] = True
-    cq = np.floor((q - o) / reach)
-    cand = np.flatnonzero(np.all((cq >= 0) & (cq < shape), axis=1))
-    return cand[grid[cq[cand, 0].astype(np.int64), cq[cand, 1].astype(np.int64)]]
+    # points off the grid land in its border cells, which no centre marks (or in marked ones: a
+    # superset is fine)
+    cq = np.clip(((q - o) / size).astype(np.int64), 0, shape - 1)
+    return np.flatnonzero(grid[cq[:, 0], cq[:, 1]])
 
 
 def _lines_in(pieces: np.ndarray, c: Points2, d: Points2, reach: Floats) -> np.ndarray:
