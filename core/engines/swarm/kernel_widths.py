@@ -14,7 +14,8 @@ can reach and the exact test decides:
   (vertex, segment) pairs whose distance can have changed since the last round.
 
 The grids are built on the points as laid; the centring moves each point by at most ``max |move|``
-along its normal, so its searches widen their boxes by that much.
+along its normal, so its searches widen their boxes by that much.  :func:`tangents` gives both
+the paths' unit tangents; :func:`cell_lists` is also used by :mod:`.ends`.
 """
 
 from __future__ import annotations
@@ -266,7 +267,7 @@ def normal_hits(
     return left, right
 
 
-@njit_inline
+@njit
 def _point_segment(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
     """Return the distance from ``p`` to the segment ``a b`` (mm)."""
     ex, ey = bx - ax, by - ay
@@ -277,7 +278,7 @@ def _point_segment(px: float, py: float, ax: float, ay: float, bx: float, by: fl
     return np.hypot(px - (ax + t * ex), py - (ay + t * ey))
 
 
-@njit_inline
+@njit
 def _mark(w: int, move: np.ndarray, mark: np.ndarray, back: np.ndarray, nback: int, stamp: int) -> int:
     """Add point ``w`` to ``back[:nback]`` if it moved and is not there yet; returns the new count."""
     if move[w] != 0.0 and mark[w] != stamp:
@@ -287,7 +288,7 @@ def _mark(w: int, move: np.ndarray, mark: np.ndarray, back: np.ndarray, nback: i
     return nback
 
 
-@njit_inline
+@njit
 def _check_pair(
     v: int,
     k: int,
@@ -314,7 +315,7 @@ def _check_pair(
     return _mark(s + 1, move, mark, back, nback, stamp)
 
 
-@njit_inline
+@njit
 def _pairs_of_point(
     v: int,
     q: np.ndarray,
@@ -338,11 +339,13 @@ def _pairs_of_point(
         for c in range(ci * ny + j0, ci * ny + j1 + 1):
             for m in range(start[c], start[c + 1]):
                 if items[m] < ns:
-                    nback = _check_pair(v, items[m], q, seg, pid, move, min_gap, mark, back, nback, stamp)
+                    nback = _check_pair(
+                        v, np.int64(items[m]), q, seg, pid, move, min_gap, mark, back, nback, stamp
+                    )
     return nback
 
 
-@njit_inline
+@njit
 def _pairs_of_segment(
     k: int,
     q: np.ndarray,
@@ -444,36 +447,47 @@ def settle_moves(
     n = pts.shape[0]
     ns = seg.shape[0]
     grid = (origin, cell, nx, ny, start, items)
-    move = move.copy()
-    radius = min_gap + np.max(np.abs(move)) if n else min_gap
-    seg_of = np.full(n, -1, dtype=np.int64)  # the segment starting at each point
+    seg_of = np.empty(n, dtype=np.int64)  # the segment starting at each point, -1: none
+    seg_of[:] = -1
     for k in range(ns):
         seg_of[seg[k]] = k
+    mv = np.empty(n)
     q = np.empty((n, 2))
     mark = np.zeros(n, dtype=np.int64)  # round stamp: put back in this round
     seen = np.zeros(ns, dtype=np.int64)  # round stamp: segment searched in this round
     back = np.empty(n, dtype=np.int64)
-    active = np.flatnonzero(move != 0.0)
+    active = np.empty(n, dtype=np.int64)
+    n_active = 0
+    radius = min_gap
+    for i in range(n):
+        mv[i] = move[i]
+        if move[i] != 0.0:
+            active[n_active] = i
+            n_active += 1
+            radius = max(radius, min_gap + abs(move[i]))
     for rnd in range(1, rounds + 1):
-        if active.shape[0] == 0:
-            return move, rnd - 1
+        if n_active == 0:
+            return mv, rnd - 1
         for i in range(n):
-            q[i, 0] = pts[i, 0] + move[i] * nrm[i, 0]
-            q[i, 1] = pts[i, 1] + move[i] * nrm[i, 1]
+            q[i, 0] = pts[i, 0] + mv[i] * nrm[i, 0]
+            q[i, 1] = pts[i, 1] + mv[i] * nrm[i, 1]
         nback = 0
-        for v in active:
-            nback = _pairs_of_point(v, q, seg, pid, move, min_gap, radius, grid, mark, back, nback, rnd)
-        for v in active:
-            for s in (v - 1, v):
+        for a in range(n_active):
+            v = active[a]
+            nback = _pairs_of_point(v, q, seg, pid, mv, min_gap, radius, grid, mark, back, nback, rnd)
+        for a in range(n_active):
+            v = active[a]
+            for s in range(v - 1, v + 1):
                 if s >= 0 and seg_of[s] >= 0 and seen[seg_of[s]] != rnd:
                     seen[seg_of[s]] = rnd
                     nback = _pairs_of_segment(
-                        seg_of[s], q, seg, lone, pid, move, min_gap, radius, grid, mark, back, nback, rnd
+                        seg_of[s], q, seg, lone, pid, mv, min_gap, radius, grid, mark, back, nback, rnd
                     )
         if nback == 0:
-            return move, rnd
+            return mv, rnd
         for m in range(nback):
-            move[back[m]] = 0.0
-        active = back[:nback].copy()
-    move[:] = 0.0
-    return move, rounds + 1
+            mv[back[m]] = 0.0
+            active[m] = back[m]
+        n_active = nback
+    mv[:] = 0.0
+    return mv, rounds + 1
