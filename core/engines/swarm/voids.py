@@ -155,6 +155,16 @@ def find_voids(
     if _area2(disc) < 0:
         disc = disc[::-1]
     ends = np.unique(ends, axis=0)
+    # Clipper sweeps a horizontal line upward, and its cost grows with the edges the line meets:
+    # where the ends stand side by side along x (a seam across the sweep), the layer is turned by
+    # a quarter (exact: a swap and a sign) so that they line up along the sweep (bracket: 2x faster)
+    turn = False
+    if len(ends) > 1:
+        _, j = cKDTree(ends).query(ends, k=2)
+        step = np.abs(ends[j[:, 1]] - ends)
+        turn = bool(np.median(step[:, 0]) > np.median(step[:, 1]))
+    fwd = (lambda xy: np.stack([xy[..., 1], -xy[..., 0]], axis=-1)) if turn else (lambda xy: xy)
+    ends = fwd(ends)
     o = ends.min(axis=0) - radius
     lo, hi = o - radius, ends.max(axis=0) + 2.0 * radius
     frame = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
@@ -164,7 +174,6 @@ def find_voids(
     verts = ends[:, None, :] + disc[None]
     drop = np.zeros(verts.shape[:2], dtype=bool)
     if len(ends) > 1:
-        _, j = cKDTree(ends).query(ends, k=2)
         gap = verts - ends[j[:, 1]][:, None, :]
         inside = np.hypot(gap[..., 0], gap[..., 1]) < radius * np.cos(np.pi / len(disc)) * (1.0 - 1e-9)
         drop = inside & np.roll(inside, 1, axis=1) & np.roll(inside, -1, axis=1)
@@ -177,9 +186,9 @@ def find_voids(
         # winding 1 outside the region inside a frame around the windows, 0 inside the region
         clip = [_ints(frame, o, True)]
         for poly in shapely.get_parts(region):
-            clip.append(_ints(np.asarray(poly.exterior.coords)[:-1], o, False))
-            clip += [_ints(np.asarray(h.coords)[:-1], o, True) for h in poly.interiors]
-        flat = np.round((coords - o) * _SCALE).astype(np.int64).tolist()
+            clip.append(_ints(fwd(np.asarray(poly.exterior.coords)[:-1]), o, False))
+            clip += [_ints(fwd(np.asarray(h.coords)[:-1]), o, True) for h in poly.interiors]
+        flat = np.round((fwd(coords) - o) * _SCALE).astype(np.int64).tolist()
         clip += [flat[i:j] for i, j in zip(offsets[:-1].tolist(), offsets[1:].tolist(), strict=True)]
         c.AddPaths(clip, pyclipper.PT_CLIP, True)
         del clip, flat
@@ -191,8 +200,10 @@ def find_voids(
             holes = node.Childs
             area = abs(pyclipper.Area(node.Contour)) - sum(abs(pyclipper.Area(h.Contour)) for h in holes)
             if area >= min_area * _SCALE**2:
-                shell = np.asarray(node.Contour) / _SCALE + o
-                out.append(shapely.Polygon(shell, [np.asarray(h.Contour) / _SCALE + o for h in holes]))
+                rings = [np.asarray(r.Contour) / _SCALE + o for r in [node, *holes]]
+                if turn:  # back: (u, v) -> (-v, u)
+                    rings = [np.stack([-r[:, 1], r[:, 0]], axis=1) for r in rings]
+                out.append(shapely.Polygon(rings[0], rings[1:]))
             for h in holes[::-1]:
                 stack.extend(list(h.Childs)[::-1])
         del tree, stack
