@@ -258,9 +258,14 @@ def gap_fill(
         ok = np.flatnonzero(np.nan_to_num(length, nan=0.0) >= min_length * pitch)
         has, ln, length = has[ok], ln[ok], length[ok]
         w_k = np.clip(area[has] / length, min_width * pitch, cap * pitch)
-        bead = shapely.buffer(ln, 0.5 * w_k, cap_style="flat")
+        # the bead: the line's rectangle (a straight line buffered with flat caps)
+        xy, li = shapely.get_coordinates(ln, return_index=True)
+        at = np.searchsorted(li, np.arange(len(ln)))
+        p0, p1 = xy[at], xy[np.r_[at[1:], len(xy)] - 1]
+        side = (0.5 * w_k / length)[:, None] * np.stack([p0[:, 1] - p1[:, 1], p1[:, 0] - p0[:, 0]], axis=1)
+        bead = shapely.polygons(np.stack([p0 + side, p0 - side, p1 - side, p1 + side], axis=1))
         inside = shapely.area(shapely.intersection(bead, arr[has]))
-        lines[k, has], bw[k, has], score[k, has] = ln, w_k, inside - (shapely.area(bead) - inside)
+        lines[k, has], bw[k, has], score[k, has] = ln, w_k, inside - (w_k * length - inside)
     pick = (score[1] > score[0]).astype(np.int64)  # the stress direction unless the axis is better
     best_line, best_w = lines[pick, np.arange(n)], bw[pick, np.arange(n)]
     good = score[pick, np.arange(n)] > 0
