@@ -257,6 +257,8 @@ def gap_fill(
         length = shapely.length(ln)
         ok = np.flatnonzero(np.nan_to_num(length, nan=0.0) >= min_length * pitch)
         has, ln, length = has[ok], ln[ok], length[ok]
+        if not len(has):
+            continue
         w_k = np.clip(area[has] / length, min_width * pitch, cap * pitch)
         # the bead: the line's rectangle (a straight line buffered with flat caps)
         xy, li = shapely.get_coordinates(ln, return_index=True)
@@ -269,6 +271,8 @@ def gap_fill(
     pick = (score[1] > score[0]).astype(np.int64)  # the stress direction unless the axis is better
     best_line, best_w = lines[pick, np.arange(n)], bw[pick, np.arange(n)]
     good = score[pick, np.arange(n)] > 0
+    if not good.any():
+        return [], [], stats
     # samples every ``step`` along each best line, and their exact distance to the other paths
     xy, li = shapely.get_coordinates(best_line[good], return_index=True)
     ends_of = np.searchsorted(li, np.arange(int(good.sum())))
