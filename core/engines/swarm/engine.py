@@ -229,9 +229,21 @@ def _fill_seeds(
     return out
 
 
-def _subtract_beads(left: Region, lines: list[Points2], pitch: float) -> Region:
-    """Subtract beads of the nominal pitch along ``lines`` from ``left``."""
-    if not lines:
+def _subtract_beads(left: np.ndarray, lines: list[Points2], pitch: float) -> np.ndarray:
+    """Subtract beads of the nominal pitch along ``lines`` from the uncovered parts ``left``.
+
+    Parameters
+    ----------
+    left : (k,) object array of Polygon, mm
+    lines : list of (n_i, 2) float, mm
+    pitch : float, mm
+
+    Returns
+    -------
+    (k',) object array of Polygon, mm
+        The parts the beads miss, unchanged, then what is left of those they reach.
+    """
+    if not lines or not len(left):
         return left
     coords = np.concatenate(lines)
     idx = np.repeat(np.arange(len(lines)), [len(x) for x in lines])
@@ -239,31 +251,55 @@ def _subtract_beads(left: Region, lines: list[Points2], pitch: float) -> Region:
     # (a swarm lays one every step), and the pieces left only decide where fill swarms start
     lines = shapely.simplify(shapely.linestrings(coords, indices=idx), 0.02 * pitch, preserve_topology=False)
     beads = shapely.buffer(shapely.multilinestrings(lines), 0.5 * pitch, quad_segs=4)
-    return left.difference(beads)
+    # a fill round's paths lie in its pieces: only the parts they reach are cut (the slivers
+    # elsewhere, hundreds on a layer, are kept as they are)
+    hit = shapely.STRtree(left).query(beads, predicate="intersects")
+    keep = np.ones(len(left), dtype=bool)
+    keep[hit] = False
+    cut = shapely.get_parts(shapely.difference(left[np.sort(hit)], beads))
+    cut = cut[(shapely.get_type_id(cut) == 3) & ~shapely.is_empty(cut)]
+    return np.concatenate([left[keep], cut])
 
 
-def _pieces(left: Region, min_width: float) -> list[Region]:
+def _key(parts: np.ndarray) -> list[tuple]:
+    """Identify parts by vertex count, area and bounds (a part left uncut keeps all three)."""
+    nv = shapely.get_num_coordinates(parts)
+    ar = np.round(shapely.area(parts), 12)
+    bd = np.round(shapely.bounds(parts), 12)
+    return [(int(n), float(a), *map(float, b)) for n, a, b in zip(nv, ar, bd, strict=True)]
+
+
+def _pieces(left: np.ndarray, min_width: float, known: dict | None = None) -> list[Region]:
     """Pieces of the uncovered area at least ``min_width`` wide (mm), largest first.
 
     A path in the middle of a gap of width ``w`` between nominal beads is ``(w + pitch) / 2`` from
     the paths on either side, so any gap keeps the half-pitch rule; ``min_width`` only has to leave
-    room for a moving agent inside the swarm's margin.
+    room for a moving agent inside the swarm's margin.  ``known`` keeps the verdicts of earlier
+    rounds (parts no round cut are not tested again).
     """
-    parts = shapely.get_parts(left)
+    parts = left
     # a piece wide enough has at least the area of a disc of that width: test only those
     big = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) >= 0.5 * min_width * min_width)]
     # ... and bounds at least that wide both ways, and its narrowest enclosing rectangle too (most
     # slivers between beads fail one of these cheap tests before the buffer below)
     lo_hi = shapely.bounds(big)
     big = big[np.min(lo_hi[:, 2:] - lo_hi[:, :2], axis=1) >= min_width]
-    rect = shapely.minimum_rotated_rectangle(big)
-    is_poly = shapely.get_type_id(rect) == 3
-    side = np.zeros(len(big))
-    if np.any(is_poly):
-        c = shapely.get_coordinates(shapely.get_exterior_ring(rect[is_poly])).reshape(-1, 5, 2)
-        side[is_poly] = np.minimum(np.hypot(*(c[:, 1] - c[:, 0]).T), np.hypot(*(c[:, 2] - c[:, 1]).T))
-    big = big[side >= min_width]
-    pieces = list(big[~shapely.is_empty(shapely.buffer(big, -0.5 * min_width))])
+    known = {} if known is None else known
+    keys = _key(big)
+    new = np.array([k not in known for k in keys], dtype=bool)
+    if np.any(new):
+        test = big[new]
+        rect = shapely.minimum_rotated_rectangle(test)
+        is_poly = shapely.get_type_id(rect) == 3
+        side = np.zeros(len(test))
+        if np.any(is_poly):
+            c = shapely.get_coordinates(shapely.get_exterior_ring(rect[is_poly])).reshape(-1, 5, 2)
+            side[is_poly] = np.minimum(np.hypot(*(c[:, 1] - c[:, 0]).T), np.hypot(*(c[:, 2] - c[:, 1]).T))
+        wide = side >= min_width
+        wide[wide] = ~shapely.is_empty(shapely.buffer(test[wide], -0.5 * min_width))
+        for k, v in zip((k for k, n in zip(keys, new, strict=True) if n), wide, strict=True):
+            known[k] = bool(v)
+    pieces = [g for g, k in zip(big, keys, strict=True) if known[k]]
     pieces.sort(key=lambda g: (-round(g.area, 6), round(g.centroid.x, 6), round(g.centroid.y, 6)))
     return pieces
 
@@ -409,12 +445,13 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     rounds = 0
     area = float(region.area)
     given_up: list[Region] = []
-    left, counted = region, 0
+    left, counted = shapely.get_parts(region), 0
+    known: dict = {}
     while fill and swarms < max_swarms:
         # only the paths laid since the last round are subtracted from what was left
         left = _subtract_beads(left, rec.lines(min_pid=counted), pitch)
         counted = next_pid
-        pieces = _pieces(left, fill_min_width * pitch)
+        pieces = _pieces(left, fill_min_width * pitch, known)
         if given_up:
             pieces = [p for p in pieces if not any(p.equals_exact(g, 1e-9) for g in given_up)]
         covered = 1.0 - sum(p.area for p in pieces) / area
