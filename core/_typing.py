@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Union
-
 import numpy as np
 import numpy.typing as npt
 from shapely.geometry import MultiPolygon, Polygon
@@ -17,4 +15,4 @@ Vectors2 = npt.NDArray[np.float64]        # (n, 2)
 Stress2 = npt.NDArray[np.float64]         # (n, 3): [sxx, syy, sxy]
 Stress3 = npt.NDArray[np.float64]         # (n, 6): [sxx, syy, szz, syz, sxz, sxy]
 Cells = npt.NDArray[np.int64]             # (m, k)
-Region = Union[Polygon, MultiPolygon]
+Region = Polygon | MultiPolygon

@@ -78,8 +78,11 @@ class UnsupportedFlavorError(LoadpathError):
 
 
 class LoadCaseError(LoadpathError):
-    """The load case is invalid: bad TOML, unknown keys, non-physical values, empty selectors,
-    or supports that leave a body free to move."""
+    """The load case is invalid.
+
+    Bad TOML, unknown keys, non-physical values, empty selectors, or supports that leave a body
+    free to move.
+    """
 
 
 class GeometryError(LoadpathError):
@@ -103,8 +106,10 @@ class ToolMissingError(LoadpathError):
 
 
 class SpliceError(LoadpathError):
-    """The spliced G-code failed the check that runs before writing (a bug to report; the input is
-    left untouched)."""
+    """The spliced G-code failed the check that runs before writing.
+
+    A bug to report; the input is left untouched.
+    """
 
 
 class LoadpathWarning(UserWarning):

@@ -33,7 +33,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-
 from loadpath._typing import Bools, Floats, Points2, Region, Stress2, Vectors2
 from loadpath.errors import SettingsError
 from loadpath.tolerances import TOL
@@ -201,7 +200,7 @@ class StressField(ABC):
         )
 
     def with_principal(self, which: str) -> StressField:
-        """A copy of this field that follows another principal stress (``PRINCIPALS``)."""
+        """Return a copy of this field that follows another principal stress (``PRINCIPALS``)."""
         other = copy.copy(self)
         other.principal = _check_principal(which)
         return other

@@ -11,11 +11,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from shapely.geometry.base import BaseGeometry
-
 from loadpath._typing import Floats, Points2, Region
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
+from shapely.geometry.base import BaseGeometry
 
 __all__ = ["EngineInput", "Path", "Toolpaths"]
 

@@ -27,7 +27,7 @@ COMMANDS = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every available subcommand."""
+    """Build the argument parser with every available subcommand."""
     parser = argparse.ArgumentParser(
         prog="loadpath", description="Stress-aligned infill for PrusaSlicer and Cura G-code."
     )

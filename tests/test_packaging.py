@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import configparser
 
-from setuptools import find_packages
-
 from conftest import REPO
+from setuptools import find_packages
 
 
 def _declared() -> tuple[list[str], dict[str, str]]:

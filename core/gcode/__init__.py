@@ -142,16 +142,19 @@ def read_container(path: str | os.PathLike, *, strict: bool = True):
 
 
 def _read_bytes(path: str | os.PathLike) -> bytes:
-    """The file's bytes; a missing or unreadable file is a one-line :class:`GCodeParseError`."""
+    """Return the file's bytes; a missing or unreadable file is a one-line :class:`GCodeParseError`."""
+    where = os.fspath(path)
     try:
         with open(path, "rb") as fh:
             return fh.read()
     except FileNotFoundError:
-        raise GCodeParseError(f"{os.fspath(path)} does not exist; check the path of the G-code file") from None
+        raise GCodeParseError(f"{where} does not exist; check the path of the G-code file") from None
     except IsADirectoryError:
-        raise GCodeParseError(f"{os.fspath(path)} is a folder, not a G-code file; give the path of a .gcode file") from None
+        raise GCodeParseError(
+            f"{where} is a folder, not a G-code file; give the path of a .gcode file"
+        ) from None
     except OSError as exc:
-        raise GCodeParseError(f"cannot read {os.fspath(path)} ({exc.strerror}); check its permissions") from None
+        raise GCodeParseError(f"cannot read {where} ({exc.strerror}); check its permissions") from None
 
 
 def _block_type(name: str):

@@ -64,8 +64,10 @@ def test_pictures_and_load_case(repo_root, tmp_path, capsys):
     assert ("support 'clamp' (side = \"x_min\", within = 10.0): fix x/y/z; picked boundary length 56.000 mm"
             in out)
     # the end face (36 mm) and 1 mm of each long side
-    assert ("load 'pull' (side = \"x_max\", within = 1.0): force (1000, 0, 0) N; picked boundary length 38.000 mm"
-            in out)
+    assert (
+        "load 'pull' (side = \"x_max\", within = 1.0): force (1000, 0, 0) N; "
+        "picked boundary length 38.000 mm" in out
+    )
     assert "lines in x 199.000..200.000, y 87.000..123.000" in out
     names = sorted(p.name for p in tmp_path.iterdir())
     # three distinct layers (bottom, internal solid, top), the selections, one 2D stress field
