@@ -335,7 +335,9 @@ def table1(args, tag, region, field, load):
     print(
         f"K = 5 last run (wall): raster {st['time_raster_s'] * 1e3:.0f} ms, "
         f"first swarm {st['time_first_swarm_s'] * 1e3:.0f} ms,"
-        f" fill {st['time_fill_s'] * 1e3:.0f} ms; {st['steps']} steps, {st['qp_solves']} banded QP solves"
+        f" fill swarms {st['time_fill_s'] * 1e3:.0f} ms, widths {st.get('time_widths_s', 0) * 1e3:.0f} ms,"
+        f" ends {st.get('time_ends_s', 0) * 1e3:.0f} ms, gap beads {st.get('time_gaps_s', 0) * 1e3:.0f} ms"
+        f" (total {st['time_s'] * 1e3:.0f} ms); {st['steps']} steps, {st['qp_solves']} banded QP solves"
         f" ({st.get('qp_exact', 0)} exact, {st['qp_solves'] - st.get('qp_exact', 0)} OSQP fallbacks),"
         f" {st.get('kills', 0)} kills, {st.get('spawns', 0)} spawns, {st.get('swarms', 0)} swarms"
     )
