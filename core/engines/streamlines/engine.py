@@ -58,7 +58,8 @@ def generate(inp: EngineInput, mode: str = "default", **options: Any) -> Toolpat
     **options
         Any :class:`~loadpath.engines.streamlines.params.StreamlineParams` field, ``nozzle``,
         ``width_range``, ``flow_width`` (see :func:`~.params.resolve_params`), and ``seeds``
-        ((n, 2) mm, e.g. the FE element centroids; faithful mode).
+        ((n, 2) mm, e.g. the FE element centroids; faithful mode).  ``phase`` (pitches, default
+        mode) moves the boundary seeds on along the boundary: 0.5 lays paths between those of 0.
 
     Returns
     -------
@@ -171,7 +172,7 @@ def _default(
     # jump line are started too
     zone = grid.undefined_zone()
     ends = region.difference(zone.buffer(0.5 * grid.spacing)) if not zone.is_empty else region
-    seeds, entry = boundary_seeds(ends, grid, params.pitch, params.boundary_seed_gap)
+    seeds, entry = boundary_seeds(ends, grid, params.pitch, params.boundary_seed_gap, params.phase)
     # Entry seeds are traced freely and the whole streamlines kept; exit seeds (mostly the other
     # ends of the same trajectories) are then traced against what was kept, so their duplicates
     # are rejected at the seed instead of being traced in full and thrown away.

@@ -82,6 +82,11 @@ class StreamlineParams:
         Default mode: carry every path end on to the next bead or the region's edge
         (:func:`loadpath.engines.swarm.ends.extend_ends`), so ends stopped by the spacing check
         leave no void in front of them.
+    phase : float, pitches
+        Default mode: the boundary seeds, one pitch apart, move on along the boundary by this many
+        pitches (:func:`~loadpath.engines.streamlines.seeding.boundary_seeds`); 0.5 lays a layer
+        whose paths run between those of phase 0 (the pipeline's staggered copy of a run of
+        identical layers).  Faithful mode has no boundary seeds and takes only 0.
     """
 
     mode: str
@@ -107,6 +112,7 @@ class StreamlineParams:
     G_p: float = -0.05
     principal: str | None = None
     extend_ends: bool = True
+    phase: float = 0.0
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -128,6 +134,13 @@ class StreamlineParams:
             raise SettingsError(f"streamlines max_turn_deg = {self.max_turn_deg!r} must be in (0, 180]")
         if self.min_length < 0 or self.max_length < 0:
             raise SettingsError("streamlines min_length and max_length must be >= 0 mm")
+        if not (isinstance(self.phase, (int, float)) and math.isfinite(self.phase)):
+            raise SettingsError(f"streamlines phase = {self.phase!r} must be a finite number of pitches")
+        if self.mode == "faithful" and self.phase != 0:
+            raise SettingsError(
+                f"streamlines phase = {self.phase!r} is a default-mode option (its boundary seeds); "
+                "faithful mode takes phase = 0"
+            )
         if self.mode == "faithful" and not self.w + self.G_p > 0:
             raise SettingsError(
                 f"w + G_p = {self.w + self.G_p:g} mm must be positive (the thesis's filament spacing)"

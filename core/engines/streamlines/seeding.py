@@ -91,9 +91,14 @@ def sample_ring(ring: Points2, ds: float) -> tuple[Points2, Points2, Floats]:
 
 
 def boundary_seeds(
-    region: Region, grid: DirectionGrid, pitch: float, max_gap: float
+    region: Region, grid: DirectionGrid, pitch: float, max_gap: float, phase: float = 0.0
 ) -> tuple[Points2, Bools]:
     """Seeds on the boundary offset inwards by half a pitch, one pitch apart across the field.
+
+    With ``phase`` every seed moves on along the curve by that many pitches (counted across the
+    field, as the spacing is): phase 0.5 starts each streamline between two of phase 0, which is
+    how a staggered copy of a layer is laid.  The seed phase 0 puts on each corner of the curve
+    moves on with the others.
 
     Most trajectories cross the boundary twice, so they get two seeds.  To trace each once, the
     seeds are split by an orientation of the field: with ``u`` the field's dominant direction and
@@ -109,6 +114,8 @@ def boundary_seeds(
     pitch : float, mm
     max_gap : float, mm
         Largest distance between consecutive seeds along the offset curve.
+    phase : float, pitches
+        Shift of the seeds along the curve (only its fractional part counts).
 
     Returns
     -------
@@ -120,6 +127,7 @@ def boundary_seeds(
     inner = region.buffer(-0.5 * pitch, join_style="mitre", mitre_limit=2.0)
     out, flags = [], []
     ds = 0.25 * pitch
+    shift = float(phase) % 1.0
     u = grid.dominant()
     for ring in rings(inner):
         pts, tan, _ = sample_ring(ring, ds)
@@ -138,8 +146,11 @@ def boundary_seeds(
         starts = np.flatnonzero(np.concatenate([[True], run[1:] != run[:-1]]))
         base[run[starts]] = count[starts] - density[starts] * ds
         local = count - base[run] - density * ds  # 0 at the first sample of each run
-        marks = np.floor(local + 1e-9)
+        marks = np.floor(local - shift + 1e-9)
         first = np.concatenate([[True], (np.diff(marks) > 0) | (run[1:] != run[:-1])])
+        if shift:
+            # a run's first sample (local 0) lies before the run's first shifted seed at local = shift
+            first &= marks >= 0
         sel = first & ok
         p, t, dd = pts[sel], tan[sel], d[sel]
         nrm = np.stack([-t[:, 1], t[:, 0]], axis=1)

@@ -163,3 +163,33 @@ def test_bad_options_and_regions():
     bow_tie = Polygon([(0, 0), (10, 10), (10, 0), (0, 10)])
     with pytest.raises(GeometryError, match="buffer"):
         generate(EngineInput(region=bow_tie, field=field, pitch=PITCH))
+
+
+@pytest.mark.parametrize("angle", [0.0, 30.0])
+def test_phase_half_lays_paths_between_those_of_phase_zero(angle):
+    """The staggered copy of a layer: seeds half a pitch on give paths between the first layer's."""
+    region = box(0, 0, 20, 8)
+    inp = _inp(region, uniform(angle))
+    a, b = generate(inp), generate(inp, phase=0.5)
+    pts = shapely.points(M.resample(b, PITCH)[0])
+    lines = np.array([shapely.LineString(p.points) for p in a.paths], dtype=object)
+    d = shapely.distance(pts, lines[shapely.STRtree(lines).nearest(pts)]) / PITCH
+    # straight field: half a pitch off nearly everywhere (phase 0 would give 0)
+    assert np.median(d) > 0.4 and np.percentile(d, 25) > 0.3, np.percentile(d, [10, 25, 50])
+    # and a whole layer again: same spacing rules, nearly the same coverage
+    assert exact_min_spacing(b.paths) >= resolve_params("default", PITCH).min_spacing - 1e-6
+    assert M.coverage(b, region).coverage > M.coverage(a, region).coverage - 0.03
+
+
+def test_phase_on_a_curved_field_keeps_the_layer_whole():
+    region, field = open_hole()
+    inp = EngineInput(region=region, field=field, pitch=PITCH)
+    a, b = generate(inp), generate(inp, phase=0.5)
+    assert M.crossings(b) == 0
+    assert M.coverage(b, region).coverage >= 0.95
+    pts = shapely.points(M.resample(b, PITCH)[0])
+    lines = np.array([shapely.LineString(p.points) for p in a.paths], dtype=object)
+    d = shapely.distance(pts, lines[shapely.STRtree(lines).nearest(pts)])
+    assert np.median(d) > 0.3 * PITCH
+    with pytest.raises(SettingsError, match="phase"):
+        generate(inp, mode="faithful", phase=0.5)
