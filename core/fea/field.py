@@ -143,6 +143,16 @@ class FEStressField(StressField):
         return out
 
     @property
+    def coefficients(self) -> np.ndarray:
+        """Each triangle's interpolant as a polynomial in its barycentric ``(l1, l2)``, (m, k, 3) MPa.
+
+        Monomials ``[1, l1, l2]`` (k = 3) or ``[1, l1, l2, l1², l1 l2, l2²]`` (k = 6), per
+        component ``[sxx, syy, sxy]``; ``l1, l2`` are the coordinates along the edges from corner 0
+        to corners 1 and 2 (:attr:`corners`).
+        """
+        return self._coef
+
+    @property
     def n_triangles(self) -> int:
         """Number of triangles the field interpolates on."""
         return len(self.corners)

@@ -31,6 +31,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from loadpath.errors import ToolMissingError
 
 try:
@@ -58,7 +59,15 @@ objmode = numba.objmode
 _HERE = Path(__file__).resolve().parent
 SOURCES = tuple(
     _HERE / f"{m}.py"
-    for m in ("kernel_step", "kernel_geom", "kernel_qp", "kernel_widths", "kernel_ends", "chain")
+    for m in (
+        "kernel_step",
+        "kernel_geom",
+        "kernel_qp",
+        "kernel_widths",
+        "kernel_ends",
+        "kernel_raster",
+        "chain",
+    )
 )
 """Files whose code or constants end up in the compiled kernels (``chain``: the box bounds; the
 OSQP fallback of :mod:`.qp` runs in object mode, looked up at run time; ``kernel_widths``: the
@@ -156,4 +165,10 @@ def warm_up() -> float:
     generate(
         EngineInput(region=region, field=field, pitch=0.4, load_entry=LineString([(6, 0), (6, 3)])), K=5.0
     )
+    # the raster of a finite-element field has its own kernel (the tiny layer above is analytic)
+    from loadpath.engines.swarm.raster import FieldRaster
+    from loadpath.fea.field import FEStressField
+
+    tri = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]])
+    FieldRaster(FEStressField(tri, np.ones((2, 6, 3)), scale=1.0), (0.0, 0.0, 1.0, 1.0), 0.25)
     return time.perf_counter() - t0

@@ -130,3 +130,24 @@ def test_bearing_load_real_field_targets(bracket):
     region, _, _, tp = bracket
     cov = M.coverage(tp, region)
     assert cov.coverage >= 0.98 and cov.overlap <= 0.02, cov
+
+
+def test_raster_of_a_finite_element_field_is_the_field_at_its_nodes(specimen, bracket):
+    # the raster scans the triangles onto the grid (compiled); it must hold what asking the field
+    # node by node gives: the same nodes inside the mesh, the same tensor there
+    from loadpath.engines.swarm import kernel_raster as kr
+    from loadpath.engines.swarm.raster import FieldRaster
+
+    for region, field in ((specimen[0], specimen[2]), (bracket[0], bracket[2])):
+        r = FieldRaster(field, region.bounds, 0.5 * PITCH)
+        gx = r.origin[0] + r.cell * np.arange(r.nx)
+        gy = r.origin[1] + r.cell * np.arange(r.ny)
+        nodes = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
+        want = np.asarray(field.tensor(nodes))
+        got = kr.scan_triangles(field.corners, field.coefficients, r.origin, r.cell, r.nx, r.ny, 1e-9)
+        inside = np.isfinite(want[:, 0])
+        assert np.array_equal(np.isfinite(got[:, 0]), inside)
+        assert 0.5 < inside.mean() < 1.0  # the grid overhangs the part and its hole
+        np.testing.assert_allclose(got[inside], want[inside], rtol=0, atol=1e-9 * field.scale)
+        # the raster fills the nodes outside from the nearest inside one, and keeps the inside ones
+        np.testing.assert_allclose(r.tensor[inside], want[inside], rtol=0, atol=1e-9 * field.scale)
