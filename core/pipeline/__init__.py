@@ -18,8 +18,9 @@ Stages (each timed in :attr:`PipelineResult.times`):
     one analysis per body (:func:`loadpath.fea.analyze`);
 ``paths``
     one engine run per distinct unit (:mod:`loadpath.pipeline.paths`), in worker processes, reused on
-    identical layers; every other one of those prints a staggered copy (the swarm lays it itself from
-    seeds half a pitch on; other engines' paths are shifted sideways by half a pitch);
+    identical layers; every other one of those prints a staggered copy (the engine lays it itself
+    from seeds half a pitch on, :func:`~loadpath.pipeline.paths.lays_phase`: the swarm and the
+    streamlines' default mode; otherwise the paths are shifted sideways by half a pitch);
 ``splice``
     the new paths written into the slicer's G-code (:func:`loadpath.gcode.splice.splice`);
 ``check``
@@ -45,7 +46,7 @@ from loadpath.gcode import Program, parse
 from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
 from loadpath.gcode.verify import SpliceCheck, check_output
-from loadpath.pipeline.paths import Job, assign, clip_to, plan_jobs, run_jobs, stagger
+from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger
 from loadpath.pipeline.units import (
     Unit,
     passthrough_reason,
@@ -121,8 +122,9 @@ class JobResult:
     shifted : tuple of Path
         The staggered copy as printed (simplified); empty when no unit printed one.
     shifted_by_engine : bool
-        Whether the engine laid the staggered copy itself (the swarm, from seeds half a pitch on)
-        rather than the paths being shifted sideways (:func:`loadpath.pipeline.paths.stagger`).
+        Whether the engine laid the staggered copy itself (the swarm or the streamlines' default
+        mode, from seeds half a pitch on: :func:`loadpath.pipeline.paths.lays_phase`) rather than
+        the paths being shifted sideways (:func:`loadpath.pipeline.paths.stagger`).
     """
 
     job: Job
@@ -309,14 +311,17 @@ def run(
         return options.principal
 
     jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])
-    # the swarm lays the staggered copy of a run of identical layers itself, from seeds half a
-    # pitch on: a whole layer again, where shifting the paths sideways and clipping them left a
-    # poorer one (stiffness benchmark, share of the model's ceiling gain: bracket 0.67 -> 0.83,
-    # specimen 0.79 -> 0.83).  The swarm's spacing pulls the copy part of the way back onto the
-    # first one's paths (specimen: median 0.23 pitch apart instead of 0.5).
+    # the engine lays the staggered copy of a run of identical layers itself, from seeds half a
+    # pitch on (option ``phase``): a whole layer again, where shifting the paths sideways and
+    # clipping them left a poorer one (stiffness benchmark, share of the model's ceiling gain:
+    # swarm, bracket 0.67 -> 0.83, specimen 0.79 -> 0.83; streamlines' default mode, bracket
+    # 0.63 -> 0.83, specimen 0.77 -> 0.78).  The swarm's spacing pulls the copy part of the way
+    # back onto the first one's paths (specimen: median 0.23 pitch apart instead of 0.5); the
+    # streamlines' copy is a median 0.47 pitch off on the specimen, 0.29 on the bracket (curved
+    # field, gap-filling pieces).  Which engines do this: lays_phase.
     phased = (
         [k for k, j in enumerate(jobs) if len(j.units) > 1]
-        if options.stagger and options.engine == "swarm"
+        if options.stagger and lays_phase(options.engine, options.engine_params)
         else []
     )
     copies = [

@@ -6,9 +6,11 @@ is the same within ``TOL.region_compare_mm`` (:func:`loadpath.geometry.group_reg
 stress field: always for a 2D analysis (one field for the whole body), and for a 3D analysis only
 when the two layers' principal directions agree (:func:`fields_agree`).
 
-Every other layer that reuses paths gets them **staggered**: shifted sideways by half the local
-pitch (:func:`stagger`), so the seams between beads do not stack up layer on layer, and clipped to
-the region.
+Every other layer that reuses paths gets them **staggered**, so the seams between beads do not
+stack up layer on layer: an engine that takes a seed ``phase`` (:func:`lays_phase`: the swarm, the
+streamlines' default mode) lays that copy itself in a second run from seeds half a pitch on; other
+engines' paths are shifted sideways by half the local pitch and clipped to the region
+(:func:`stagger`).
 
 Engine runs go to worker processes (``fork``: the stress fields and regions are inherited, only the
 paths come back) when there are several and ``jobs > 1``; results are collected by index, so the
@@ -20,7 +22,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -34,7 +36,17 @@ from loadpath.geometry import group_regions
 from loadpath.pipeline.units import Unit
 from loadpath.toolpath import EngineInput, Path, Toolpaths
 
-__all__ = ["Job", "plan_jobs", "run_jobs", "stagger", "assign", "clip_to", "fields_agree", "default_workers"]
+__all__ = [
+    "Job",
+    "plan_jobs",
+    "run_jobs",
+    "lays_phase",
+    "stagger",
+    "assign",
+    "clip_to",
+    "fields_agree",
+    "default_workers",
+]
 
 
 @dataclass
@@ -50,8 +62,8 @@ class Job:
     units : list of int
         Indices of the units that use these paths (the first is the representative).
     params : dict
-        Engine parameters of this run on top of the shared ones (e.g. the swarm's ``phase`` for
-        the staggered copy of a run of identical layers).
+        Engine parameters of this run on top of the shared ones (e.g. ``phase`` for the staggered
+        copy of a run of identical layers, :func:`lays_phase`).
     """
 
     unit: Unit
@@ -216,6 +228,19 @@ def run_jobs(
 
 
 # ---------------------------------------------------------------------------------------------- reuse
+
+
+def lays_phase(engine: str, params: Mapping[str, Any]) -> bool:
+    """Whether the engine, run with these parameters, lays a staggered copy itself (option ``phase``).
+
+    The swarm and the streamline engine's default mode take ``phase = 0.5``: their seeds, one pitch
+    apart, move on by half a pitch, so the copy is a whole layer whose paths run between the first
+    one's.  Faithful streamlines (lattice or element-centroid seeds) have no such seeds; their copy
+    is the paths shifted sideways (:func:`stagger`).
+    """
+    if engine == "swarm":
+        return True
+    return engine == "streamlines" and params.get("mode", "default") == "default"
 
 
 def _dominant_normal(paths: Sequence[Path]) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import shapely
 from loadpath import gcode, geometry
 from loadpath.pipeline.units import select_units, slicer_overlap, with_overlap
@@ -61,8 +62,10 @@ def test_overlap_reaches_the_output(sliced, tmp_path):
         assert np.all(shapely.distance(u.region, shapely.points(pts[outside])) <= u.overlap + 1e-6)
 
 
-def test_staggered_layers_are_laid_by_the_swarm_itself(sliced, tmp_path):
-    """Identical layers alternate between the swarm's paths and its own copy from seeds half a pitch on.
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["swarm", "streamlines"])
+def test_staggered_layers_are_laid_by_the_engine_itself(sliced, tmp_path, engine):
+    """Identical layers alternate between the engine's paths and its own copy from seeds half a pitch on.
 
     Real PrusaSlicer 2.5 specimen, solid infill.
     """
@@ -70,7 +73,7 @@ def test_staggered_layers_are_laid_by_the_swarm_itself(sliced, tmp_path):
     from pipeline_helpers import run, write_case
 
     case = write_case(tmp_path)
-    _, result, _ = run(sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode", engine="swarm")
+    _, result, _ = run(sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode", engine=engine)
     assert result.pipeline.check.problems == []
     multi = [j for j in result.pipeline.jobs if len(j.units) > 1]
     assert multi
@@ -80,9 +83,19 @@ def test_staggered_layers_are_laid_by_the_swarm_itself(sliced, tmp_path):
         # a whole layer again: it covers the region as well as the first copy does
         base, shifted = coverage(j.paths, u.fill_region).coverage, coverage(j.shifted, u.fill_region).coverage
         assert shifted > 0.97 and shifted > base - 0.01
-        # and its paths do not lie on the first copy's: they start half a pitch on, and the swarm's
-        # spacing pulls them part of the way back over 150 mm (median 0.23 pitch off on this part)
+        # and its paths do not lie on the first copy's: they start half a pitch on; the swarm's
+        # spacing pulls them part of the way back over 150 mm (median 0.23 pitch off on this part),
+        # the streamlines' stay about half a pitch off
         pts = shapely.points(resample(j.shifted, u.pitch)[0])
         lines = np.array([shapely.LineString(p.points) for p in j.paths.paths], dtype=object)
         d = shapely.distance(pts, lines[shapely.STRtree(lines).nearest(pts)])
         assert 0.15 * u.pitch < np.median(d) < 0.65 * u.pitch
+
+
+def test_only_engines_with_boundary_or_load_seeds_lay_their_own_copy():
+    from loadpath.pipeline.paths import lays_phase
+
+    assert lays_phase("swarm", {"K": 5.0})
+    assert lays_phase("streamlines", {}) and lays_phase("streamlines", {"mode": "default"})
+    # faithful streamlines seed a lattice (or the element centroids): no phase, the paths are shifted
+    assert not lays_phase("streamlines", {"mode": "faithful"})
