@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/bench_stiffness.py [OUT_DIR] [--quick] [--repeats 3] [--paths run|direct]
+                                         [--case specimen|bracket] [--engine swarm|streamlines]
 
 (``./dev bench`` passes the same arguments to every benchmark; unknown ones are ignored.)
 
@@ -380,6 +381,8 @@ def run_case(name, spec, work: Path, out: Path, args) -> dict:
     ]
     if args.quick:
         engines_run = [engines_run[1], engines_run[3], engines_run[5]]
+    if args.engine:
+        engines_run = [e for e in engines_run if e[1] in args.engine]
     for label, engine, K, extra in engines_run:
         tag = "-novm" if extra else ""
         dst = work / f"{name}-{engine}{'' if K is None else f'-K{K:g}'}{tag}.gcode"
@@ -562,6 +565,12 @@ def main(argv=None) -> int:
         help="loadpath's output from `loadpath run` (default) or the engines' paths put in directly",
     )
     ap.add_argument("--case", choices=tuple(CASES), action="append", help="run only this case (repeatable)")
+    ap.add_argument(
+        "--engine",
+        choices=("swarm", "streamlines"),
+        action="append",
+        help="run only this engine's loadpath rows (repeatable; the slicer's designs always run)",
+    )
     args, _ = ap.parse_known_args(argv)
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_stiffness_"))
     out.mkdir(parents=True, exist_ok=True)
