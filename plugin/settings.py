@@ -193,7 +193,7 @@ SCHEMA: tuple[Field, ...] = (
         "bool",
         True,
         "",
-        "layers that reuse the paths of an identical layer are shifted by half a pitch every other layer",
+        "every other layer of a run of identical layers lies half a pitch over (laid again by the engine)",
     ),
     # ---------------------------------------------------------------- run
     Field(

@@ -398,7 +398,8 @@ def _fills(
     """Paths of every job onto the blocks of every unit that uses them.
 
     ``shifted_paths`` (job index -> paths): the engine's own staggered copy of a job; other jobs'
-    staggered copies are their paths shifted by half a pitch (:func:`stagger`).
+    staggered copies (engines that cannot lay one) are their paths shifted by half a pitch
+    (:func:`stagger`).
     """
     shifted_paths = shifted_paths or {}
     per_block: dict[int, dict[str, Any]] = {}
