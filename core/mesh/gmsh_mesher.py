@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
 import threading
 import time
 from collections.abc import Iterator, Sequence
@@ -50,10 +51,11 @@ def _session(name: str) -> Iterator[Any]:
     with _LOCK:
         gmsh.initialize(["-noenv"], readConfigFiles=False, interruptible=False)
         try:
+            gmsh.logger.start()  # kept for the error message when no elements come out
             opt = gmsh.option.setNumber
             for key, value in (
                 ("General.Terminal", 0),
-                ("General.Verbosity", 1),
+                ("General.Verbosity", 4),  # into gmsh.logger only (Terminal 0), for error messages
                 ("General.NumThreads", 1),
                 ("Mesh.MaxNumThreads1D", 1),
                 ("Mesh.MaxNumThreads2D", 1),
@@ -77,6 +79,7 @@ def _session(name: str) -> Iterator[Any]:
         except Exception as exc:
             raise MeshingError(f"gmsh failed to mesh the {name}: {exc}; try another mesh size") from exc
         finally:
+            gmsh.logger.stop()
             gmsh.finalize()
 
 
@@ -172,6 +175,7 @@ def mesh_2d(
     t0 = time.perf_counter()
     polys = prepare_rings(outline, sz, split_at)
     groups = refine_groups([outline, *refine_outlines], sz, [*refine_at, *embed])
+    _check_inside(outline, embed, 1e-3 * sz.h_min)
     x0, y0, x1, y1 = outline.bounds
     with _session("part outline") as gmsh:
         geo = gmsh.model.geo
@@ -219,6 +223,27 @@ def mesh_2d(
     )
 
 
+def _check_inside(outline: Region, embed: Sequence[BaseGeometry], tol: float) -> None:
+    """Raise :class:`MeshingError` when an embedded line runs outside the outline (by more than ``tol`` mm).
+
+    gmsh cannot mesh a surface with an embedded line crossing its boundary: it either gives up
+    (no elements) or keeps splitting edges forever, so this is checked first.
+    """
+    import shapely
+
+    parts = [p for g in embed for p in shapely.get_parts(g)]
+    if not parts:
+        return
+    outside = shapely.difference(np.asarray(parts, dtype=object), outline)
+    bad = np.flatnonzero(shapely.length(outside) > tol)
+    if len(bad):
+        where = shapely.get_coordinates(outside[bad[0]])[0]
+        raise MeshingError(
+            f"a line to embed in the mesh runs {float(shapely.length(outside[bad[0]])):.3g} mm outside the "
+            f"part outline near ({where[0]:.2f}, {where[1]:.2f}) mm; embedded lines must lie inside it"
+        )
+
+
 def _surface_of(polys: list[list[np.ndarray]], p: np.ndarray) -> int:
     """Index of the polygon (exterior ring) containing point ``p``."""
     from shapely import contains_xy
@@ -242,7 +267,11 @@ def _extract(gmsh: Any, dim: int, etype: int, k: int) -> tuple[np.ndarray, np.nd
         if t == etype
     ]
     if not conn or sum(len(c) for c in conn) == 0:
-        raise MeshingError("gmsh produced no elements; the geometry may be degenerate (check the outline)")
+        raise MeshingError(
+            f"gmsh produced no {'triangles' if dim == 2 else 'tetrahedra'}{_complaint(gmsh)}; the geometry "
+            "may be degenerate (outline or layer lines crossing or nearly touching there); "
+            "a different mesh size (or --pitch, which sets it) may mesh"
+        )
     lookup = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
     lookup[tags] = np.arange(len(tags))
     idx = lookup[np.concatenate(conn)]
@@ -250,6 +279,46 @@ def _extract(gmsh: Any, dim: int, etype: int, k: int) -> tuple[np.ndarray, np.nd
     remap = np.full(len(tags), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     return coords[used], remap[idx]
+
+
+_CURVES = re.compile(r"\(curves? ([0-9 ]+)\)|on curve ([0-9]+)")
+
+
+def _complaint(gmsh: Any) -> str:
+    """``" (<gmsh's last complaint>) near (x, y) mm"`` for an error message, or ``""``.
+
+    gmsh says why a surface lost its elements in its log: crossing 1D meshes ("There are 2
+    intersections in the 1D mesh (curves 88 334)", an Info) and edges it could not recover
+    (Warnings). The place is where the named curves (straight lines here) come closest.
+    """
+    from shapely import shortest_line
+    from shapely.geometry import LineString
+
+    try:
+        log = [m for m in gmsh.logger.get() if m.startswith(("Warning", "Error")) or "intersections" in m]
+    except Exception:  # pragma: no cover - logger not started
+        return ""
+    if not log:
+        return ""
+    named = [m for m in log if _CURVES.search(m)]
+    named = [m for m in named if "intersections" in m] or named
+    msg = (named or log)[-1].split(":", 1)[-1].strip().lstrip(":-( ")
+    if not named:
+        return f" ({msg})"
+    m = _CURVES.search(named[-1])
+    tags = [int(t) for t in (m.group(1) or m.group(2)).split()][:2]
+    try:
+        lines = [
+            LineString([gmsh.model.getValue(0, p, [])[:2] for _, p in gmsh.model.getBoundary([(1, t)])])
+            for t in tags
+        ]
+    except Exception:  # pragma: no cover - the curves are gone with the model
+        return f" ({msg})"
+    if len(lines) == 1:
+        where = lines[0].interpolate(0.5, normalized=True)
+    else:
+        where = shortest_line(*lines[:2]).centroid
+    return f" ({msg}) near ({where.x:.2f}, {where.y:.2f}) mm"
 
 
 def _orient_tri(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
