@@ -138,34 +138,55 @@ def _cut(
     return stack, rects
 
 
-def _inner_lines(
+def _arrangement(
     stack: Sequence[Slab],
     rects: Sequence[BaseGeometry],
     union: BaseGeometry,
     tol: float,
     grid: float | None = None,
-) -> list[LineString]:
-    """Outline and box edges strictly inside the union of the outlines, noded at their crossings.
+) -> tuple[BaseGeometry, list[LineString]]:
+    """Return the region to mesh and the outline and box edges inside it, noded at their crossings.
 
-    With ``grid``, noding is snap rounding on that grid (crossings become grid points too).
+    All lines (every slab's outline, the box rectangles) are noded together, and the region is the
+    union of the faces of that arrangement lying in ``union``, so its boundary is made of the very
+    segments the inner lines end on. With ``grid``, noding is snap rounding on that grid: a crossing
+    becomes a grid point, and every segment passing that grid cell bends through it. The union
+    computed on its own does not have those bends, so an inner line (e.g. a box edge) ending at a
+    snapped crossing would end up to ``grid / sqrt(2)`` outside the union or short of it, and gmsh
+    cannot mesh an embedded line crossing the outline (the real twisted tower sliced by PrusaSlicer
+    lost all its triangles that way). Taking the region from the arrangement keeps it consistent.
+
+    Returns
+    -------
+    region : Polygon or MultiPolygon
+        Within about a grid step of ``union``.
+    inner : list of LineString
+        Lines inside ``region`` (none within ``tol`` of its boundary), merged between junctions.
     """
-    edges = [s.outline.boundary for s in stack] + [
-        shapely.intersection(r.boundary, union, grid_size=grid) for r in rects
-    ]
+    edges = [s.outline.boundary for s in stack] + [r.boundary for r in rects]
     noded = shapely.unary_union(edges, grid_size=grid)
-    inner = shapely.difference(noded, union.boundary, grid_size=grid)
+    faces = np.asarray(shapely.get_parts(shapely.polygonize(shapely.get_parts(noded))))
+    if len(faces):
+        share = shapely.area(shapely.intersection(faces, union)) / np.maximum(shapely.area(faces), 1e-300)
+        faces = faces[share > 0.5]
+    if not len(faces):
+        return union, []
+    region = shapely.coverage_union_all(faces)
+    if not region.is_valid:  # pragma: no cover - polygonize faces form a coverage
+        region = shapely.make_valid(region)
+    inner = shapely.difference(noded, region.boundary)
     out = []
-    for g in getattr(inner, "geoms", [inner]):
+    for g in shapely.get_parts(inner):
         if g.geom_type != "LineString" or g.length <= tol:
             continue
         mid = g.interpolate(0.5, normalized=True)
-        if union.boundary.distance(mid) <= tol or not union.contains(mid):
+        if region.boundary.distance(mid) <= tol or not region.contains(mid):
             continue
         out.append(g)
     if len(out) < 2:
-        return out
+        return region, out
     merged = shapely.line_merge(shapely.MultiLineString(out))
-    return list(getattr(merged, "geoms", [merged]))
+    return region, list(shapely.get_parts(merged))
 
 
 def mesh_3d(
@@ -218,7 +239,7 @@ def mesh_3d(
         slabs = [Slab(s.z0, s.z1, shapely.set_precision(s.outline, grid)) for s in slabs]
     stack, rects = _cut(list(slabs), cut_boxes, tol)
     union = shapely.unary_union([s.outline for s in stack], grid_size=grid)
-    inner = _inner_lines(stack, rects, union, tol, grid)
+    union, inner = _arrangement(stack, rects, union, tol, grid)
     # every vertex of an inner line that lies on the outside boundary must be a boundary vertex too
     ends = np.array([c[:2] for ln in inner for c in ln.coords]).reshape(-1, 2)
     on_edge = (

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
+from loadpath.errors import MeshingError
 from loadpath.loadcase import Slab
 from loadpath.mesh import MeshSize, default_mesh_size, mesh_2d, mesh_3d
 from loadpath.mesh.data import MeshData
@@ -116,3 +117,37 @@ def test_3d_mesh_follows_selector_boxes():
     assert not np.any(straddle), "a boundary face crosses the box's plane"
     assert m.measures.sum() == pytest.approx(30 * 10 * 4, rel=1e-9)
     assert c.shape[1] == 3
+
+
+def test_3d_box_edge_crossing_a_slanted_outline_off_the_grid_meshes():
+    # the box edge x = 10 crosses the slanted top edge at y = 10.2; snap rounding on the 0.25 grid
+    # moves that crossing to (10, 10.25), 0.05 mm above the straight edge of the union. Embedded as
+    # it was, gmsh met a line crossing the outline (no elements, or no end); the PrusaSlicer-sliced
+    # twisted tower with a selector at x_max failed that way. The region now bends through it.
+    a = shapely.Polygon([(0, 0), (25, 0), (25, 10.5), (0, 10)])
+    b = box(2, 2, 20, 8)
+    cut = [(np.array([10.0, -100, -100]), np.array([100.0, 100, 100]))]
+    m = mesh_3d([Slab(0, 1, a), Slab(1, 2, b)], 1.0, cut_boxes=cut, grid=0.25, order=1)
+    assert np.all(m.measures > 0)
+    # the volume of the two prisms, up to the bend (a 0.625 mm^2 sliver of one grid step)
+    assert float(m.measures.sum()) == pytest.approx(a.area + b.area, abs=0.7)
+    # the mesh follows the box edge on both slabs: nodes on x = 10 from the bottom to the top edge
+    on = np.abs(m.points[:, 0] - 10.0) < 1e-9
+    assert on.sum() >= 10 and m.points[on, 1].max() == pytest.approx(10.25)
+
+
+def test_2d_mesh_refuses_an_embedded_line_leaving_the_outline():
+    line = shapely.LineString([(5, 5), (5, 10.05)])
+    with pytest.raises(MeshingError, match=r"0\.05 mm outside the part outline near \(5\.00, 10\.00\) mm"):
+        mesh_2d(box(0, 0, 10, 10), 1.0, embed=[line], order=1)
+
+
+def test_when_gmsh_gives_up_the_error_says_where(monkeypatch):
+    import loadpath.mesh.gmsh_mesher as gm
+
+    monkeypatch.setattr(gm, "_check_inside", lambda *a: None)  # let gmsh meet the crossing line
+    with pytest.raises(MeshingError) as err:
+        mesh_2d(box(0, 0, 10, 10), 1.0, embed=[shapely.LineString([(5, 5), (5, 10.05)])], order=1)
+    msg = str(err.value)
+    assert "gmsh produced no triangles" in msg and "intersections in the 1D mesh" in msg
+    assert "near (5.00, 10.00) mm" in msg and "\n" not in msg
