@@ -36,6 +36,27 @@ _TET10_FROM_GMSH = np.array([0, 1, 2, 3, 4, 5, 6, 7, 9, 8])  # gmsh edge order (
 _LOCK = threading.Lock()
 
 
+def _keep_sigpipe_ignored() -> None:
+    """Put SIGPIPE back to ignored after gmsh's first ``initialize`` reset it to the default.
+
+    Python ignores SIGPIPE (a write to a closed pipe or socket raises ``BrokenPipeError``); gmsh's
+    first ``initialize`` resets it in C behind Python's back, so afterwards such a write kills the
+    process: the local service when a client hangs up, the test run when a test's server does.
+    Restored through libc, because ``signal.signal`` only works in the main thread (the service
+    meshes in worker threads).  Nothing is done where Python itself does not ignore SIGPIPE.
+    """
+    import signal
+
+    if not hasattr(signal, "SIGPIPE") or signal.getsignal(signal.SIGPIPE) is not signal.SIG_IGN:
+        return
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.signal.restype = ctypes.c_void_p
+    libc.signal.argtypes = [ctypes.c_int, ctypes.c_void_p]
+    libc.signal(int(signal.SIGPIPE), 1)  # 1 == SIG_IGN
+
+
 def _gmsh() -> Any:
     try:
         import gmsh
@@ -50,6 +71,7 @@ def _session(name: str) -> Iterator[Any]:
     gmsh = _gmsh()
     with _LOCK:
         gmsh.initialize(["-noenv"], readConfigFiles=False, interruptible=False)
+        _keep_sigpipe_ignored()
         try:
             gmsh.logger.start()  # kept for the error message when no elements come out
             opt = gmsh.option.setNumber

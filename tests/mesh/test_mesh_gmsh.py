@@ -151,3 +151,41 @@ def test_when_gmsh_gives_up_the_error_says_where(monkeypatch):
     msg = str(err.value)
     assert "gmsh produced no triangles" in msg and "intersections in the 1D mesh" in msg
     assert "near (5.00, 10.00) mm" in msg and "\n" not in msg
+
+
+def test_meshing_leaves_a_write_to_a_closed_pipe_an_error_not_a_kill():
+    # gmsh's first initialize resets SIGPIPE to its default in C; afterwards a write to a pipe or
+    # socket whose reader is gone killed the whole process (the service when a client hung up, the
+    # test run during the service tests) instead of raising BrokenPipeError in Python
+    import subprocess
+    import sys
+
+    code = (
+        "import os\n"
+        "from loadpath.mesh import mesh_2d\n"
+        "from shapely.geometry import box\n"
+        "mesh_2d(box(0, 0, 4, 2), 1.0)\n"
+        "r, w = os.pipe()\n"
+        "os.close(r)\n"
+        "try:\n"
+        "    os.write(w, b'x')\n"
+        "except BrokenPipeError:\n"
+        "    print('raised')\n"
+    )
+    for where in ("main", "thread"):
+        src = (
+            code
+            if where == "main"
+            else (
+                "import threading\n"
+                "t = threading.Thread(target=lambda: __import__('loadpath.mesh').mesh.mesh_2d("
+                "__import__('shapely.geometry').geometry.box(0, 0, 4, 2), 1.0))\n"
+                "t.start(); t.join()\n" + code.replace("mesh_2d(box(0, 0, 4, 2), 1.0)\n", "")
+            )
+        )
+        out = subprocess.run([sys.executable, "-c", src], capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0 and out.stdout.strip() == "raised", (
+            where,
+            out.returncode,
+            out.stderr[-300:],
+        )
