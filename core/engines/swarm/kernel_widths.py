@@ -21,18 +21,10 @@ the paths' unit tangents; :func:`cell_lists` is also used by :mod:`.ends`.
 from __future__ import annotations
 
 import numpy as np
-from loadpath.engines.swarm._numba import njit, njit_inline
+from loadpath.engines.swarm import kernel_geom as kg
+from loadpath.engines.swarm._numba import njit
 
 __all__ = ["tangents", "cell_lists", "normal_hits", "settle_moves"]
-
-
-@njit_inline
-def _span(v0: float, v1: float, origin: float, cell: float, n: int) -> tuple[int, int]:
-    """Cells ``[i0, i1]`` covering ``[v0, v1]`` (widened by a hair, clipped to ``[0, n - 1]``)."""
-    pad = 1e-9 * cell  # the same hair as kernel_geom's cell lists: a point on a cell edge is in both cells
-    i0 = int(np.floor((min(v0, v1) - pad - origin) / cell))
-    i1 = int(np.floor((max(v0, v1) + pad - origin) / cell))
-    return max(i0, 0), min(i1, n - 1)
 
 
 @njit
@@ -69,40 +61,6 @@ _BOX_CELLS = 9
 """An item whose box covers at most this many cells is listed in all of them (the paths' segments,
 about a cell long: listing the box is several times faster than tracing the cells crossed, and
 lists about 5 % more); a longer one only in the cells it passes through."""
-
-
-@njit
-def _traced_cells(
-    ax: float,
-    ay: float,
-    bx: float,
-    by: float,
-    origin: np.ndarray,
-    cell: float,
-    nx: int,
-    ny: int,
-    out: np.ndarray,
-) -> int:
-    """Write the flat indices of the cells segment ``a b`` passes through (column by column) to ``out``.
-
-    ``out`` must hold ``2 (nx + ny) + 4`` indices (a column adds its rows plus at most two shared
-    with its neighbours).  Returns how many.
-    """
-    i0, i1 = _span(ax, bx, origin[0], cell, nx)
-    k = 0
-    for i in range(i0, i1 + 1):
-        if bx != ax:
-            x0 = max(min(ax, bx), origin[0] + i * cell)
-            x1 = min(max(ax, bx), origin[0] + (i + 1) * cell)
-            y0 = ay + (x0 - ax) * (by - ay) / (bx - ax)
-            y1 = ay + (x1 - ax) * (by - ay) / (bx - ax)
-        else:
-            y0, y1 = ay, by
-        r0, r1 = _span(y0, y1, origin[1], cell, ny)
-        for j in range(r0, r1 + 1):
-            out[k] = i * ny + j
-            k += 1
-    return k
 
 
 @njit
@@ -152,8 +110,8 @@ def cell_lists(
             a = seg[k] if k < ns else lone[k - ns]
             b = a + 1 if k < ns else a
             ax, ay, bx, by = pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1]
-            i0, i1 = _span(ax, bx, origin[0], cell, nx)
-            j0, j1 = _span(ay, by, origin[1], cell, ny)
+            i0, i1 = kg._cell_span(ax, bx, origin[0], cell, nx)
+            j0, j1 = kg._cell_span(ay, by, origin[1], cell, ny)
             if (i1 - i0 + 1) * (j1 - j0 + 1) <= _BOX_CELLS:
                 for i in range(i0, i1 + 1):
                     for j in range(j0, j1 + 1):
@@ -164,7 +122,7 @@ def cell_lists(
                         else:
                             start[c] += 1
             else:
-                for m in range(_traced_cells(ax, ay, bx, by, origin, cell, nx, ny, buf)):
+                for m in range(kg._segment_cells(ax, ay, bx, by, origin, cell, nx, ny, buf)):
                     c = buf[m]
                     if fill:
                         start[c] -= 1
@@ -221,6 +179,7 @@ def normal_hits(
     m = rows.shape[0]
     left = np.full(m, np.inf)
     right = np.full(m, np.inf)
+    buf = np.empty(2 * (nx + ny) + 4, dtype=np.int64)  # cells of one chord (kernel_geom._segment_cells)
     for r in range(m):
         i = rows[r]
         px, py = pts[i, 0], pts[i, 1]
@@ -231,37 +190,27 @@ def normal_hits(
         bx, by = px - reach * ty, py + reach * tx
         best_l = np.inf
         best_r = np.inf
-        c0, c1 = _span(ax, bx, origin[0], cell, nx)
-        for ci in range(c0, c1 + 1):
-            if bx != ax:
-                x0 = max(min(ax, bx), origin[0] + ci * cell)
-                x1 = min(max(ax, bx), origin[0] + (ci + 1) * cell)
-                y0 = ay + (x0 - ax) * (by - ay) / (bx - ax)
-                y1 = ay + (x1 - ax) * (by - ay) / (bx - ax)
-            else:
-                y0, y1 = ay, by
-            r0, r1 = _span(y0, y1, origin[1], cell, ny)
-            for cj in range(r0, r1 + 1):
-                c = ci * ny + cj
-                for k in range(start[c], start[c + 1]):
-                    s = seg[items[k]]
-                    if pid[s] == own:
-                        continue
-                    sax, say = pts[s, 0] - px, pts[s, 1] - py
-                    sbx, sby = pts[s + 1, 0] - px, pts[s + 1, 1] - py
-                    ua = sax * tx + say * ty
-                    ub = sbx * tx + sby * ty
-                    if not (ua * ub <= 0.0 and ua != ub):
-                        continue
-                    va = say * tx - sax * ty
-                    vb = sby * tx - sbx * ty
-                    v = va + (vb - va) * (ua / (ua - ub))
-                    if v > 0.0:
-                        if v <= reach and v < best_l:
-                            best_l = v
-                    elif v < 0.0:
-                        if -v <= reach and -v < best_r:
-                            best_r = -v
+        for mm in range(kg._segment_cells(ax, ay, bx, by, origin, cell, nx, ny, buf)):
+            c = buf[mm]
+            for k in range(start[c], start[c + 1]):
+                s = seg[items[k]]
+                if pid[s] == own:
+                    continue
+                sax, say = pts[s, 0] - px, pts[s, 1] - py
+                sbx, sby = pts[s + 1, 0] - px, pts[s + 1, 1] - py
+                ua = sax * tx + say * ty
+                ub = sbx * tx + sby * ty
+                if not (ua * ub <= 0.0 and ua != ub):
+                    continue
+                va = say * tx - sax * ty
+                vb = sby * tx - sbx * ty
+                v = va + (vb - va) * (ua / (ua - ub))
+                if v > 0.0:
+                    if v <= reach and v < best_l:
+                        best_l = v
+                elif v < 0.0:
+                    if -v <= reach and -v < best_r:
+                        best_r = -v
         left[r] = best_l
         right[r] = best_r
     return left, right
@@ -333,8 +282,8 @@ def _pairs_of_point(
     """Check point ``v`` against the segments listed in the cells within ``radius`` of it."""
     origin, cell, nx, ny, start, items = grid
     ns = seg.shape[0]
-    i0, i1 = _span(q[v, 0] - radius, q[v, 0] + radius, origin[0], cell, nx)
-    j0, j1 = _span(q[v, 1] - radius, q[v, 1] + radius, origin[1], cell, ny)
+    i0, i1 = kg._cell_span(q[v, 0] - radius, q[v, 0] + radius, origin[0], cell, nx)
+    j0, j1 = kg._cell_span(q[v, 1] - radius, q[v, 1] + radius, origin[1], cell, ny)
     for ci in range(i0, i1 + 1):
         for c in range(ci * ny + j0, ci * ny + j1 + 1):
             for m in range(start[c], start[c + 1]):
@@ -368,10 +317,10 @@ def _pairs_of_segment(
     origin, cell, nx, ny, start, items = grid
     ns = seg.shape[0]
     a = seg[k]
-    i0, i1 = _span(
+    i0, i1 = kg._cell_span(
         min(q[a, 0], q[a + 1, 0]) - radius, max(q[a, 0], q[a + 1, 0]) + radius, origin[0], cell, nx
     )
-    j0, j1 = _span(
+    j0, j1 = kg._cell_span(
         min(q[a, 1], q[a + 1, 1]) - radius, max(q[a, 1], q[a + 1, 1]) + radius, origin[1], cell, ny
     )
     for ci in range(i0, i1 + 1):
