@@ -90,6 +90,62 @@ def _densify(a: Points2, b: Points2, wa: Floats, wb: Floats, pid: np.ndarray, ar
     return q, pid[rep], wa[rep] + frac * (wb - wa)[rep], arc[rep] + frac * seg[rep]
 
 
+def _first_blocked(
+    cand: np.ndarray,
+    ok: np.ndarray,
+    s: Floats,
+    end_pt: Points2,
+    end_dir: Points2,
+    end_w: Floats,
+    end_pid: np.ndarray,
+    end_arc: Floats,
+    dp: Points2,
+    did: np.ndarray,
+    dw: Floats,
+    darc: Floats,
+    r_max: float,
+    clear: float,
+    cap: float,
+    overlap: float | None,
+    own_far: float,
+) -> np.ndarray:
+    """Index of the first failing candidate of each end, (e,) int (:func:`.kernel_ends.first_blocked`).
+
+    Puts the path samples ``dp`` in a grid of ``r_max`` cells over them and the candidates that
+    pass ``ok``, and runs the kernel; ``overlap`` None is the centre-line clearance only.
+    """
+    at = cand.reshape(-1, 2)[ok.ravel()]
+    lo = np.minimum(dp.min(axis=0, initial=np.inf), at.min(axis=0, initial=np.inf)) - r_max
+    hi = np.maximum(dp.max(axis=0, initial=-np.inf), at.max(axis=0, initial=-np.inf)) + r_max
+    nx, ny = (np.floor((hi - lo) / r_max).astype(np.int64) + 1).tolist()
+    start, items = kw.cell_lists(dp, np.zeros(0, dtype=np.int64), np.arange(len(dp)), lo, r_max, nx, ny)
+    return ke.first_blocked(
+        cand,
+        ok,
+        s,
+        end_pt,
+        end_dir,
+        end_w,
+        end_pid,
+        end_arc,
+        dp,
+        did,
+        dw,
+        darc,
+        lo,
+        float(r_max),
+        nx,
+        ny,
+        start,
+        items,
+        float(r_max),
+        float(clear),
+        float(cap),
+        np.nan if overlap is None else float(overlap),
+        float(own_far),
+    )
+
+
 def extend_ends(
     paths: Sequence[Points2],
     widths: Sequence[Floats],
@@ -219,11 +275,7 @@ def extend_ends(
         dp, did, dw, darc = _densify(
             sa[near], sb[near], swa[near], swb[near], spid[near], sarc[near], _SAMPLE * pitch
         )
-        lo = np.minimum(dp.min(axis=0, initial=np.inf), flat[live].min(axis=0)) - r_max
-        hi = np.maximum(dp.max(axis=0, initial=-np.inf), flat[live].max(axis=0)) + r_max
-        nx, ny = (np.floor((hi - lo) / r_max).astype(np.int64) + 1).tolist()
-        start, items = kw.cell_lists(dp, np.zeros(0, dtype=np.int64), np.arange(len(dp)), lo, r_max, nx, ny)
-        first_bad = ke.first_blocked(
+        first_bad = _first_blocked(
             cand,
             ok,
             s,
@@ -236,17 +288,11 @@ def extend_ends(
             did,
             dw,
             darc,
-            lo,
-            float(r_max),
-            nx,
-            ny,
-            start,
-            items,
-            float(r_max),
-            float(clear),
-            float(cap),
-            np.nan if overlap is None else float(overlap),
-            float(own_far),
+            r_max,
+            clear,
+            cap,
+            overlap,
+            own_far,
         )
     else:
         first_bad = np.zeros(len(end_pt), dtype=np.int64)

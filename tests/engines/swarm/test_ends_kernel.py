@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-from loadpath.engines.swarm import kernel_ends as ke
-from loadpath.engines.swarm import kernel_widths as kw
+from loadpath.engines.swarm.ends import _first_blocked
 
 
 def _reference(
@@ -74,12 +73,9 @@ def test_first_blocked_matches_every_pair_checked(overlap):
         darc = rng.uniform(0, 10, m)
         clear, cap, own_far = 0.5 * pitch, 0.25, 1.6
         r_max = max(clear, 0.3 + 0.5 * 0.6) + s[0]
-        lo = np.minimum(dp.min(axis=0, initial=np.inf), cand.reshape(-1, 2).min(axis=0)) - r_max
-        hi = np.maximum(dp.max(axis=0, initial=-np.inf), cand.reshape(-1, 2).max(axis=0)) + r_max
-        nx, ny = (np.floor((hi - lo) / r_max).astype(np.int64) + 1).tolist()
-        start, items = kw.cell_lists(dp, np.zeros(0, dtype=np.int64), np.arange(m), lo, r_max, nx, ny)
         args = (cand, ok, s, end_pt, end_dir, end_w, end_pid, end_arc, dp, did, dw, darc)
-        got = ke.first_blocked(*args, lo, r_max, nx, ny, start, items, r_max, clear, cap, overlap, own_far)
+        # the kernel through the engine's own call (its grid of the samples and candidates)
+        got = _first_blocked(*args, r_max, clear, cap, None if np.isnan(overlap) else overlap, own_far)
         want = _reference(*args, r_max, clear, cap, overlap, own_far)
         assert np.array_equal(got, want), trial
         seen.append(got)
