@@ -53,8 +53,6 @@ class FieldRaster:
         self.nx = int(np.ceil((x1 - x0) / self.cell)) + 3
         self.ny = int(np.ceil((y1 - y0) / self.cell)) + 3
         self.bounds = (x0, y0, x1, y1)
-        gx = self.origin[0] + self.cell * np.arange(self.nx)
-        gy = self.origin[1] + self.cell * np.arange(self.ny)
         if isinstance(field, FEStressField):
             # a finite-element field is scanned triangle by triangle onto the nodes (compiled): the
             # same values as locating every node in the mesh, 68 -> 20 ms on the specimen's layer
@@ -62,6 +60,8 @@ class FieldRaster:
                 field.corners, field.coefficients, self.origin, self.cell, self.nx, self.ny, 1e-9
             ).reshape(self.nx, self.ny, 3)
         else:
+            gx = self.origin[0] + self.cell * np.arange(self.nx)
+            gy = self.origin[1] + self.cell * np.arange(self.ny)
             pts = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
             t = np.asarray(field.tensor(pts), dtype=float).reshape(self.nx, self.ny, 3)
         ok = np.all(np.isfinite(t), axis=2)
