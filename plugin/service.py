@@ -223,6 +223,33 @@ class _Handler(BaseHTTPRequestHandler):
     def _error(self, exc: RequestError) -> None:
         self._send(exc.status, {"ok": False, "error": {"code": exc.code, "message": exc.message}})
 
+    def _discard_body(self) -> None:
+        """Read and drop a body the answer does not need, so the client can read that answer.
+
+        Closing a socket with unread data in it resets the connection: a client still sending
+        (a 413 for a large upload) gets a broken pipe instead of the error.  Bodies up to twice
+        the limit (at least 16 MB) are read away; a larger one closes the connection unread.
+        """
+        if self._body_read:
+            return
+        self._body_read = True
+        length = self.headers.get("Content-Length")
+        if length is None or not length.isdigit():
+            self.close_connection = True
+            return
+        left = int(length)
+        if left > max(2 * self.service.config.max_request_mb * 1e6, 16e6):
+            self.close_connection = True
+            return
+        try:
+            while left > 0:
+                chunk = self.rfile.read(min(left, 1 << 16))
+                if not chunk:
+                    break
+                left -= len(chunk)
+        except (OSError, TimeoutError):
+            self.close_connection = True
+
     def _check_origin(self) -> None:
         """Refuse requests addressed to another host name (DNS rebinding) or sent by a web page."""
         host = urlsplit("//" + (self.headers.get("Host") or "")).hostname
@@ -281,8 +308,10 @@ class _Handler(BaseHTTPRequestHandler):
     def do_POST(self) -> None:  # noqa: N802
         t0 = time.monotonic()
         svc = self.service
+        self._body_read = False
         if not svc.admit():
             self.close_connection = True
+            self._discard_body()
             self._error(
                 RequestError(
                     503,
@@ -303,6 +332,7 @@ class _Handler(BaseHTTPRequestHandler):
         finally:
             svc.release()
         try:
+            self._discard_body()  # a refused request's body (nothing once the body was read)
             self._send(status, payload)
         except OSError:
             self.close_connection = True
@@ -329,8 +359,10 @@ class _Handler(BaseHTTPRequestHandler):
                 f"the request has {int(length) / 1e6:.1f} MB, more than the "
                 f"{svc.config.max_request_mb:g} MB allowed (loadpath serve --max-mb)",
             )
+        body = self.rfile.read(int(length))
+        self._body_read = True
         try:
-            req = json.loads(self.rfile.read(int(length)))
+            req = json.loads(body)
         except (ValueError, UnicodeDecodeError) as exc:
             raise RequestError(400, "bad_request", f"the body is not valid JSON ({exc})") from None
         answer = svc.run(check_request(req), t0 + svc.config.timeout)

@@ -206,6 +206,20 @@ def test_requests_are_checked_with_clear_json_errors(tight, tmp_path):
     assert status == 200 and body["settings"]["engine"]["choices"] == ["swarm", "streamlines"]
 
 
+def test_an_upload_over_the_limit_gets_its_answer_not_a_broken_pipe(tight, tmp_path):
+    """The server reads away a refused body: a client still sending it used to get EPIPE/ECONNRESET."""
+    ok_case = write_case(tmp_path).read_text()
+    for size in (2_100_000, 12_000_000, 3_900_000):  # well past the socket buffers; within 2x + 16 MB
+        status, body = post(tight.url + "/v1/run", {"gcode": "x" * size, "loadcase": ok_case})
+        assert (status, body["error"]["code"]) == (413, "too_large")
+        assert "2 MB allowed" in body["error"]["message"]
+    # refused for another reason before the body was read: the answer still arrives
+    status, body = post(
+        tight.url + "/v1/run", {"gcode": "x" * 1_500_000}, headers={"Origin": "https://evil.example"}
+    )
+    assert (status, body["error"]["code"]) == (403, "forbidden")
+
+
 def test_loadpath_errors_are_422_with_loadpaths_message(tmp_path, prusa_ohs):
     svc = Service(ServiceConfig(port=0, cache_dir=tmp_path / "cache", timeout=120)).start()
     try:
