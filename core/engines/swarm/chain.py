@@ -39,11 +39,17 @@ from loadpath._typing import Bools, Floats, Points2
 from loadpath.engines.swarm import kernel_qp
 from loadpath.engines.swarm.banded import BandedQP
 
-__all__ = ["ChainProblem", "build_qp", "potentials", "positions", "MASS_FLOOR"]
+__all__ = ["ChainProblem", "build_qp", "potentials", "positions", "MASS_FLOOR", "WEIGHT_FLOOR"]
 
 MASS_FLOOR = 1e-3
 """Smallest virtual mass used in the QP, so the Hessian stays positive definite where the stress
 vanishes (there the aggregation term alone decides, as it should)."""
+
+WEIGHT_FLOOR = 1e-4
+"""Smallest environment weight ``K m`` of an agent in the QP.  With ``K = 0`` (spacing only) a
+chain that no boundary agent anchors can slide as a whole at no cost: the Hessian is singular, the
+exact solver cannot factor it and OSQP stops at its iteration limit.  The floor pins that slide to
+the ideal locations; it changes nothing for ``K >= 0.1`` (``0.1 MASS_FLOOR`` is already 1e-4)."""
 
 BOX_ALONG = 0.25
 BOX_ACROSS = 0.125

@@ -35,7 +35,7 @@ import numpy as np
 from loadpath.engines.swarm import kernel_geom as kg
 from loadpath.engines.swarm import qp as _qp
 from loadpath.engines.swarm._numba import announce_compile, njit, njit_inline, objmode
-from loadpath.engines.swarm.chain import BOUNDARY_SLIDE, BOX_ACROSS, BOX_ALONG, MASS_FLOOR
+from loadpath.engines.swarm.chain import BOUNDARY_SLIDE, BOX_ACROSS, BOX_ALONG, MASS_FLOOR, WEIGHT_FLOOR
 from loadpath.engines.swarm.kernel_qp import chain_positions, chain_potentials, chain_qp, solve_box_qp
 
 __all__ = ["StepParams", "COUNTERS", "run_swarm", "step"]
@@ -564,7 +564,7 @@ def _solve(tab: np.ndarray, blocks: np.ndarray, prm: StepParams, pitch: float, c
         e1[j, 0] = tab[j, _EX]
         e1[j, 1] = tab[j, _EY]
         if tab[j, _KIND] >= 0:
-            weight[j] = prm.K * max(tab[j, _MASS], MASS_FLOOR)
+            weight[j] = max(prm.K * max(tab[j, _MASS], MASS_FLOOR), WEIGHT_FLOOR)
             lo[2 * j], hi[2 * j] = -BOX_ALONG, BOX_ALONG
             lo[2 * j + 1], hi[2 * j + 1] = -BOX_ACROSS, BOX_ACROSS
         else:  # a boundary agent slides along the boundary tangent only
