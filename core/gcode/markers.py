@@ -161,6 +161,11 @@ def _skip_thumbnail_rows(idx: LineIndex, lines: Ints) -> Ints:
         return lines
     head = np.ndarray(shape=(len(idx.buf) - 11,), dtype="V11", buffer=idx.buf, strides=(1,))[idx.first[lines]]
     marks = np.flatnonzero(head == np.frombuffer(b"; thumbnail", dtype="V11")[0])
+    # only the begin / end lines themselves: config keys share the prefix (Bambu Studio's
+    # '; thumbnail_size = 50x50', OrcaSlicer's '; thumbnails = 140x110/PNG'), and counting them
+    # shifted the pairing so the rows skipped swallowed '; CONFIG_BLOCK_END' (few lines: a loop)
+    rows = [bytes(idx.buf[idx.first[lines[k]] : idx.ends[lines[k]]]) for k in marks.tolist()]
+    marks = marks[np.array([bool(_RE_THUMB.match(r)) for r in rows], dtype=bool)] if rows else marks
     if len(marks) == 0:
         return lines
     # markers alternate begin / end; rows lie between a begin and the next end (an unpaired last
