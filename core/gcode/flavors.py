@@ -115,6 +115,10 @@ _ROLE_NAMES: dict[str, Role] = {
     "Support transition": Role.SUPPORT,
     "Support interface": Role.SUPPORT_INTERFACE,
     "Prime tower": Role.WIPE_TOWER,
+    # Bambu Studio 2.x (``detect_floating_vertical_shell``): a closed loop just inside the inner wall,
+    # printed over sparse infill below the top shells (seen in a real Bambu Studio 02.03.01.51 file,
+    # layer 46 of a 10 mm cube); a wall, so the infill domain lies inside it
+    "Floating vertical shell": Role.PERIMETER,
     # Cura
     "WALL-INNER": Role.PERIMETER,
     "WALL-OUTER": Role.EXTERNAL_PERIMETER,
