@@ -1,0 +1,330 @@
+"""Published G-code from the slicers Debian cannot run (Bambu Studio, OrcaSlicer, SuperSlicer, Cura 5).
+
+Provenance, licences and the search behind this list: ``tests/data/published/README.md``.
+
+Two kinds of file are checked the same way (:data:`KNOWN`):
+
+- committed files (``tests/data/published/``), whose licence allows redistribution;
+- real files met in public repositories that carry no redistributable licence.  They are not
+  committed; the tests read them from the folder named by ``LOADPATH_PUBLISHED_GCODE`` (file names
+  as in :data:`KNOWN`, each checked by its SHA-256) and skip without it.  The README says where each
+  one comes from.
+
+What is checked, per file: the parse is lossless, the slicer and marker family are recognised,
+layers and their Z are found, the infill the default replace set selects (internal solid) is found
+on the expected layers with the pitch the slicer's configured line width gives, the embedded
+configuration is read, and ``run_job`` either splices (every kept line untouched,
+:func:`loadpath.gcode.verify.check_splice`), passes the file through with the "nothing to replace"
+warning, or fails with the one-line error expected for that file.
+
+The tests at the end pin the parser fixes these files showed, on a few lines shaped like them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+from loadpath import gcode, geometry
+from loadpath.errors import LoadpathError
+from loadpath.gcode import Role, role_of
+from loadpath.gcode.verify import check_splice
+from loadpath.plugin.job import JobRequest, run_job
+
+COMMITTED = Path(__file__).resolve().parents[1] / "data" / "published"
+EXTERNAL = os.environ.get("LOADPATH_PUBLISHED_GCODE", "")
+
+CASE = """version = 1
+[[supports]]
+name = "clamp"
+where = { side = "x_min", within = 3.0 }
+fix = ["x", "y", "z"]
+
+[[loads]]
+name = "pull"
+where = { side = "x_max", within = 3.0 }
+force = [500.0, 0.0, 0.0]
+"""
+
+
+@dataclass(frozen=True)
+class Published:
+    """A real file and what a user must get from it."""
+
+    name: str
+    sha256: str
+    committed: bool
+    slicer: str
+    version: str
+    family: str
+    n_layers: int
+    z_first: float
+    z_last: float
+    height: float  #: mm, every layer
+    replace_layers: tuple[int, ...]  #: 0-based layers where the default replace set finds blocks
+    config: dict[str, str]
+    objects: tuple[str, ...] = ()
+    outcome: str = "spliced"  #: "spliced", "nothing" (passed through) or an error's text
+    slow: bool = False
+    notes: dict[str, str] = field(default_factory=dict)
+
+
+KNOWN = (
+    Published(
+        name="bambustudio-02.04.00.70-a1mini-labels-arcs.gcode",
+        sha256="",  # committed: no check against a copy needed
+        committed=True,
+        slicer="BambuStudio",
+        version="02.04.00.70",
+        family="bambu",
+        n_layers=1,
+        z_first=0.2,
+        z_last=0.2,
+        height=0.2,
+        replace_layers=(),
+        config={
+            "nozzle_diameter": "0.4",
+            "internal_solid_infill_line_width": "0.42",
+            "sparse_infill_line_width": "0.45",
+            "sparse_infill_density": "15%",
+            "printer_model": "Bambu Lab A1 mini",
+        },
+        objects=("label id 215", "label id 171", "label id 193"),
+        # the repository's own tool zeroed the E of the wall's G1 lines: no perimeter carries filament
+        outcome="has infill but no perimeters",
+    ),
+    Published(
+        name="bambustudio-02.03.01.51-cube10.gcode",
+        sha256="1e66ef2a944619ee7a6596e28668dd0d19ab61d8d60fce0f1a04de967e88633c",
+        committed=False,
+        slicer="BambuStudio",
+        version="02.03.01.51",
+        family="bambu",
+        n_layers=50,
+        z_first=0.2,
+        z_last=10.0,
+        height=0.2,
+        replace_layers=(1, 2, 47, 48),
+        config={
+            "nozzle_diameter": "0.4",
+            "internal_solid_infill_line_width": "0.4",
+            "sparse_infill_density": "20%",
+            "layer_height": "0.2",
+        },
+    ),
+    Published(
+        name="bambustudio-01.09.07.52-square-ring.gcode",
+        sha256="cfca3614e053d94f921e64a22a993b91bbe27b4fbb78623ad31d77acbc1cc349",
+        committed=False,
+        slicer="BambuStudio",
+        version="01.09.07.52",
+        family="bambu",
+        n_layers=5,
+        z_first=0.2,
+        z_last=1.0,
+        height=0.2,
+        replace_layers=(),
+        config={"nozzle_diameter": "0.4", "sparse_infill_density": "20%"},
+        outcome="nothing",  # walls only
+    ),
+    Published(
+        name="cura-5.4.0-basic-test.gcode",
+        sha256="b2216d34f6b9cdcd5e242f78a390f58801b29e2b74ff5bc20b89a85c705ceff2",
+        committed=False,
+        slicer="Cura",
+        version="5.4.0",
+        family="cura",
+        n_layers=6,
+        z_first=0.2,
+        z_last=1.2,
+        height=0.2,
+        replace_layers=(),  # SKIN only on exposed layers (bottom / top), FILL between
+        config={},
+        objects=("basic test.3mf", "basic test.3mf(1)"),
+        outcome="nothing",
+    ),
+)
+
+
+def _path(pf: Published) -> Path:
+    if pf.committed:
+        return COMMITTED / pf.name
+    if not EXTERNAL:
+        pytest.skip(f"{pf.name} is not redistributable; set LOADPATH_PUBLISHED_GCODE to a folder holding it")
+    path = Path(EXTERNAL) / pf.name
+    if not path.is_file():
+        pytest.skip(f"{path} absent (see tests/data/published/README.md for its source)")
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    assert digest == pf.sha256, f"{path} is not the published file (sha256 {digest})"
+    return path
+
+
+PARAMS = [
+    pytest.param(pf, id=pf.name.rsplit(".", 1)[0], marks=[pytest.mark.slow] if pf.slow else [])
+    for pf in KNOWN
+]
+
+
+@pytest.mark.parametrize("pf", PARAMS)
+def test_parse_is_lossless_and_the_dialect_recognised(pf):
+    path = _path(pf)
+    raw = path.read_bytes()
+    program = gcode.read(path)
+    assert program.to_bytes() == raw
+    d = program.dialect
+    assert (d.slicer, d.version, d.family) == (pf.slicer, pf.version, pf.family)
+    assert program.objects == pf.objects
+    # every extrusion's feature name is one the role table knows
+    m = program.moves
+    body = m["extrude"] & (m["layer"] >= 0)
+    unknown = {program.features[f] for f in np.unique(m["feature"][body & (m["role"] == Role.OTHER)])}
+    assert not unknown, f"feature names without a role: {unknown}"
+
+
+@pytest.mark.parametrize("pf", PARAMS)
+def test_layers_and_their_z(pf):
+    program = gcode.read(_path(pf))
+    layers = program.layers
+    assert len(layers) == pf.n_layers
+    z = np.array([layer.z for layer in layers])
+    assert z[0] == pytest.approx(pf.z_first) and z[-1] == pytest.approx(pf.z_last)
+    assert (np.diff(z) > 0).all()
+    np.testing.assert_allclose([layer.height for layer in layers], pf.height, atol=1e-6)
+    # the extrusions of each layer sit at its Z
+    m = program.moves
+    ext = m[m["extrude"] & (m["layer"] >= 0) & ~m["lift"]]
+    np.testing.assert_allclose(ext["z1"], z[ext["layer"]], atol=1e-6)
+
+
+@pytest.mark.parametrize("pf", PARAMS)
+def test_embedded_config_is_read(pf):
+    program = gcode.read(_path(pf))
+    for key, value in pf.config.items():
+        assert program.config.get(key) == value, key
+
+
+@pytest.mark.parametrize("pf", [p for p in PARAMS if p.values[0].outcome != "has infill but no perimeters"])
+def test_default_replace_kinds_per_layer(pf):
+    """Internal solid infill (the default replace set) is found on the expected layers, at the pitch of
+    the slicer's configured line width (rounded-rectangle bead spacing ``w - h (1 - pi/4)``)."""
+    program = gcode.read(_path(pf))
+    geo = geometry.layer_geometry(program)
+    found: dict[int, list] = {}
+    for obj in geo.objects:
+        for layer in obj.layers:
+            for island in layer.islands:
+                blocks = island.replaced(list(geometry.DEFAULT_REPLACE))
+                if blocks:
+                    found.setdefault(layer.layer_index, []).extend(blocks)
+    assert tuple(sorted(found)) == pf.replace_layers
+    width = program.config.get("internal_solid_infill_line_width")
+    if found and width:
+        spacing = float(width) - pf.height * (1 - math.pi / 4)
+        pitches = [b.pitch for blocks in found.values() for b in blocks]
+        np.testing.assert_allclose(pitches, spacing, atol=0.01)
+
+
+@pytest.mark.parametrize("pf", PARAMS)
+def test_loadpath_run(pf, tmp_path):
+    """``run_job`` on the file, through the real pipeline (streamlines engine, one worker)."""
+    path = _path(pf)
+    raw = path.read_bytes()
+    src = tmp_path / pf.name
+    src.write_bytes(raw)
+    case = tmp_path / "case.toml"
+    case.write_text(CASE, encoding="utf-8")
+    out = tmp_path / "out.gcode"
+    request = JobRequest(src, case, output=out, cli={"engine": "streamlines", "jobs": 1})
+    if pf.outcome not in ("spliced", "nothing"):
+        with pytest.raises(LoadpathError) as info:
+            run_job(request)
+        message = str(info.value)
+        assert pf.outcome in message and "\n" not in message
+        assert src.read_bytes() == raw and not out.exists()
+        return
+    result = run_job(request)
+    assert result.error is None
+    assert src.read_bytes() == raw
+    if pf.outcome == "nothing":
+        assert not result.changed
+        assert any("nothing to replace" in w for w in result.warnings), result.warnings
+        return
+    assert result.changed and out.exists()
+    program = gcode.read(src)
+    output = gcode.read(out)
+    check = check_splice(program, output, result.pipeline.splice, volume_tol=0.03)
+    assert check.problems == [], check.problems[:3]
+    replaced_layers = {report.layer for report in result.pipeline.splice.blocks}
+    assert replaced_layers <= set(pf.replace_layers)
+    assert output.dialect == program.dialect and len(output.layers) == len(program.layers)
+
+
+# --------------------------------------------------------------------- fixes the real files showed
+
+_BAMBU_HEAD = """; HEADER_BLOCK_START
+; BambuStudio 02.03.01.51
+; total layer number: 1
+; HEADER_BLOCK_END
+
+; CONFIG_BLOCK_START
+; layer_height = 0.2
+{config_line}
+; wall_loops = 2
+; CONFIG_BLOCK_END
+
+; THUMBNAIL_BLOCK_START
+; thumbnail begin 50x50 8
+; iVBORw0K
+; thumbnail end
+; THUMBNAIL_BLOCK_END
+
+; EXECUTABLE_BLOCK_START
+M83
+; CHANGE_LAYER
+; Z_HEIGHT: 0.2
+; LAYER_HEIGHT: 0.2
+; FEATURE: Outer wall
+; LINE_WIDTH: 0.42
+G1 X10 Y10 F9000
+G1 X20 Y10 E1.0 F1800
+; EXECUTABLE_BLOCK_END
+
+"""
+
+
+@pytest.mark.parametrize(
+    "config_line",
+    ["; thumbnail_size = 50x50", "; thumbnails = 140x110/PNG"],
+    ids=["bambu-thumbnail_size", "orca-thumbnails"],
+)
+def test_a_config_key_named_like_a_thumbnail_does_not_hide_the_config_end(config_line):
+    """Bambu Studio writes ``; thumbnail_size = 50x50`` inside its config block, which comes before its
+    thumbnail block (every real Bambu Studio file with a thumbnail, 01.09 and 02.03).  Counting that
+    line as a thumbnail marker shifted the begin/end pairing, the skipped rows swallowed
+    ``; CONFIG_BLOCK_END`` and every such file was refused as truncated."""
+    text = _BAMBU_HEAD.format(config_line=config_line)
+    program = gcode.parse(text)  # strict: the structural checks run
+    assert program.to_bytes() == text.encode()
+    key, value = config_line[2:].split(" = ")
+    assert program.config == {"layer_height": "0.2", key: value, "wall_loops": "2"}
+    assert len(program.layers) == 1
+
+
+def test_a_truncated_bambu_file_is_still_refused():
+    """The fix must not hide a real truncation: the same file cut before its last line."""
+    text = _BAMBU_HEAD.format(config_line="; thumbnail_size = 50x50")
+    cut = text[: text.index("; EXECUTABLE_BLOCK_END")]
+    with pytest.raises(LoadpathError, match="EXECUTABLE_BLOCK_END.*truncated"):
+        gcode.parse(cut)
+
+
+def test_floating_vertical_shell_is_a_wall():
+    """Bambu Studio 2.x ``Floating vertical shell``: a closed loop just inside the inner wall over sparse
+    infill below the top shells (layer 46 of the 10 mm cube above).  As a wall it bounds the infill
+    domain; unknown (``Role.OTHER``) it was ignored, and replaced sparse infill would cross it."""
+    assert role_of("Floating vertical shell") == Role.PERIMETER
