@@ -155,6 +155,31 @@ def test_two_objects_each_on_its_own_and_object_limits(sliced, tmp_path):
             assert span_lines_kept(program, out, result, i)
 
 
+def test_sparse_infill_of_a_narrow_bar_is_replaced_on_every_layer(tmp_path, case):
+    """PrusaSlicer anchors every sparse line along the perimeters: on a 12 mm wide bar that is 19 %
+    more plastic than its lines' 2.035 mm spacing lays.  The new paths are laid at the slicer's
+    plastic per area, and a run whose paths come out longer than the flow correction can take back
+    is run again at a wider pitch (here the swarm's staggered copies, 24 % over), so no layer is
+    kept as sliced for want of volume (with the grip 10 mm long, two to three of six were)."""
+    from conftest import require_tool
+
+    require_tool("prusa-slicer")
+    stl = tmp_path / "bar.stl"
+    slicing.write_stl(trimesh.creation.box(extents=(100, 12, 2)), stl)
+    gpath = slicing.slice_prusa([stl], tmp_path / "bar.gcode", **slicing.PRUSA_MIXED)
+    long_grip = write_case(tmp_path, name="grip10.toml", within=10.0)
+    for lc, engine in ((long_grip, "swarm"), (long_grip, "streamlines"), (case, "swarm")):
+        program, result, out = run(gpath, lc, tmp_path / f"{engine}.gcode", replace="sparse", engine=engine)
+        kinds = _kinds(result)
+        sparse = {i for i, k in kinds.items() if k == "sparse"}
+        assert len(sparse) == 6 and replaced_blocks(result) == sparse, result.warnings
+        pitches = [u.pitch for j in result.pipeline.jobs for u in j.units]
+        assert len(pitches) == 6
+        assert max(pitches) < 0.9 * 2.035  # denser than the lines' spacing: the slicer's plastic per area
+        for r in result.pipeline.splice.blocks:
+            assert abs(r.volume_ratio - 1) < 0.03
+
+
 def test_several_extruders_infill_keeps_its_tool(tmp_path, test_stls, case):
     """PrusaSlicer multi-material from config: infill on extruder 2; new infill still runs on T1."""
     gpath = slicing.slice_prusa(
