@@ -15,7 +15,7 @@ from loadpath._typing import Ints
 from loadpath.gcode.config import parse_config_lines, parse_cura_settings
 from loadpath.gcode.lines import LineIndex
 from loadpath.gcode.marker_table import match_markers, merge_into
-from loadpath.gcode.words import NO_COMMAND, OTHER, M, Tokens
+from loadpath.gcode.words import NO_COMMAND, OTHER, G, M, Tokens
 
 __all__ = ["Markers", "read_markers", "resolve_m486"]
 
@@ -55,6 +55,7 @@ class Markers:
     m486_names: dict[int, str] = field(default_factory=dict)
     m486_current: int = -1
     m486_pending: list[tuple[int, int]] = field(default_factory=list)
+    bambu_codes: set[int] = field(default_factory=set)  # objects named by a Bambu 'unique label id'
 
     def feature_code(self, name: str) -> int:
         """Index of a feature name in :attr:`features` (appended when new)."""
@@ -152,7 +153,52 @@ def read_markers(data: bytes, idx: LineIndex, tok: Tokens) -> Markers:
     lines = _skip_thumbnail_rows(idx, lines)
     _python_pass(data, starts, ends, lines, mk, first_layer)
     merge_into(mk, table)
+    _merge_twin_labels(mk, tok)
     return mk
+
+
+_MOTION = np.array([G, G + 1, G + 2, G + 3])
+
+
+def _merge_twin_labels(mk: Markers, tok: Tokens) -> None:
+    """One object labelled twice is one object, under its readable name.
+
+    OrcaSlicer on a Bambu printer writes both label styles around each object, the second on the
+    next line (a real OrcaSlicer 2.3.1 file for a Bambu Lab P1S)::
+
+        ; printing object input id:0 copy 0
+        ; start printing object, unique label id: 8
+        M624 AQAAAAAAAAA=
+
+    Read as two objects, the extrusions belonged to ``label id 8`` and ``input id:0 copy 0`` owned
+    none.  A Bambu label that opens right after another object's label (only comments between)
+    everywhere in the file is merged into that one.
+    """
+    if not mk.bambu_codes or len(mk.object_lines) < 2:
+        return
+    lines = np.asarray(mk.object_lines, dtype=np.int64)
+    ids = np.asarray(mk.object_ids, dtype=np.int64)
+    twin: dict[int, int] = {}
+    for k in range(1, len(lines)):
+        b, p = int(ids[k]), int(ids[k - 1])
+        if b not in mk.bambu_codes:
+            continue
+        between = tok.cmd[lines[k - 1] + 1 : lines[k]]
+        moved = np.isin(between, _MOTION).any()  # an 'M204 S10000' may sit between, a move not
+        other = p if p >= 0 and p not in mk.bambu_codes and not moved else -1
+        if twin.setdefault(b, other) != other:
+            twin[b] = -1  # not the same partner every time: keep both
+    twin = {b: p for b, p in twin.items() if p >= 0}
+    if not twin:
+        return
+    kept = [c for c in range(len(mk.objects)) if c not in twin]
+    new = np.full(len(mk.objects) + 1, -1, dtype=np.int64)  # last slot: -1 (no object) stays -1
+    new[kept] = np.arange(len(kept))
+    for b, p in twin.items():
+        new[b] = new[p]
+    mk.object_ids = new[ids]
+    mk.objects = [mk.objects[c] for c in kept]
+    mk.bambu_codes = {int(new[c]) for c in mk.bambu_codes if c in kept}
 
 
 def _skip_thumbnail_rows(idx: LineIndex, lines: Ints) -> Ints:
@@ -333,7 +379,9 @@ def _bambu_object(raw: bytes, i: int, mk: Markers) -> None:
         return
     mk.object_lines.append(i)
     if m.group(1) == b"start":
-        mk.object_ids.append(mk.object_code("label id " + m.group(2).decode("ascii", "replace")))
+        code = mk.object_code("label id " + m.group(2).decode("ascii", "replace"))
+        mk.object_ids.append(code)
+        mk.bambu_codes.add(code)
     else:
         mk.object_ids.append(-1)
 
