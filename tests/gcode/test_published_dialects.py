@@ -78,7 +78,7 @@ class Published:
 KNOWN = (
     Published(
         name="bambustudio-02.04.00.70-a1mini-labels-arcs.gcode",
-        sha256="",  # committed: no check against a copy needed
+        sha256="",  # committed: no copy to check
         committed=True,
         slicer="BambuStudio",
         version="02.04.00.70",
@@ -98,6 +98,27 @@ KNOWN = (
         objects=("label id 215", "label id 171", "label id 193"),
         # the repository's own tool zeroed the E of the wall's G1 lines: no perimeter carries filament
         outcome="has infill but no perimeters",
+    ),
+    Published(  # OrcaSlicer on a Bambu printer: Bambu marker family, both object label styles
+        name="orcaslicer-2.3.1-bambu-p1s-cube20.gcode",
+        sha256="",
+        committed=True,
+        slicer="OrcaSlicer",
+        version="2.3.1",
+        family="bambu",
+        n_layers=100,
+        z_first=0.2,
+        z_last=20.0,
+        height=0.2,
+        replace_layers=(1, 2, 96, 97, 98),
+        config={
+            "nozzle_diameter": "0.4",
+            "internal_solid_infill_line_width": "0.42",
+            "sparse_infill_density": "15%",
+            "printer_model": "Bambu Lab P1S",
+        },
+        objects=("Object_1 id:0 copy 0",),
+        config_pitch=True,
     ),
     Published(
         name="bambustudio-02.03.01.51-cube10.gcode",
