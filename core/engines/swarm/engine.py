@@ -26,9 +26,11 @@ import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.swarm.boundary import Domain
+from loadpath.engines.swarm.caps import settle_ends
 from loadpath.engines.swarm.ends import extend_ends
 from loadpath.engines.swarm.gaps import gap_fill
 from loadpath.engines.swarm.grid import Occupancy
+from loadpath.engines.swarm.joins import join_ends
 from loadpath.engines.swarm.raster import raster_for
 from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, run
 from loadpath.engines.swarm.widths import centre_points, local_pitch
@@ -53,6 +55,8 @@ _ENGINE_OPTIONS = {
     "end_overlap",
     "gaps",
     "phase",
+    "settle",
+    "join",
 }
 
 
@@ -344,7 +348,14 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         a straight bead in each void left where path ends meet, :mod:`.gaps`), ``phase``
         (default 0: the seeds of every swarm, one pitch apart along their line, move on by this
         many pitches; 0.5 gives a layer whose paths run between those of phase 0, which the
-        pipeline prints on every other of a run of identical layers).
+        pipeline prints on every other of a run of identical layers), ``join`` (default True: ends
+        facing each other across a gap of up to two pitches become one path, :mod:`.joins`; on the
+        bench bracket 409 -> 343 paths, coverage 98.77 -> 98.81 %, overlap 3.86 -> 3.68 %),
+        ``settle`` (default None: off; a number ``b`` pulls back the ends whose round bead end lies
+        on another bead where that removes more overlap than ``b`` times the void it leaves,
+        :mod:`.caps`; with 10 the bench bracket's overlap falls to 2.82 % at 98.68 % coverage, but
+        the stiffness benchmark, whose beads end square, loses about 0.05 of its share of the
+        ceiling gain).
 
     Returns
     -------
@@ -366,6 +377,9 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     centre = float(opts.pop("centre", 0.25))  # type: ignore[arg-type]
     gaps = bool(opts.pop("gaps", True))
     phase = float(opts.pop("phase", 0.0))  # type: ignore[arg-type]
+    settle = opts.pop("settle", None)
+    join = bool(opts.pop("join", True))
+    settle = None if settle is None else float(settle)  # type: ignore[arg-type]
     end_overlap = opts.pop("end_overlap", 0.0)
     end_overlap = None if end_overlap is None else float(end_overlap)  # type: ignore[arg-type]
     if widths not in ("geometric", "swarm", "measured"):
@@ -520,6 +534,12 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         paths = [Path(points=q, pitch=w, kind=p.kind) for q, w, p in zip(pts, wid, paths, strict=True)]
         stats.update(st)
         stats["time_ends_s"] = time.perf_counter() - t_e
+    if join and paths:
+        t_j = time.perf_counter()
+        jp, jw, origin, st = join_ends([p.points for p in paths], [p.pitch for p in paths], region, pitch)
+        paths = [Path(points=q, pitch=w, kind=paths[o].kind) for q, w, o in zip(jp, jw, origin, strict=True)]
+        stats.update(st)
+        stats["time_joins_s"] = time.perf_counter() - t_j
     if gaps and paths:
         t_g = time.perf_counter()
         gp, gw, st = gap_fill(
@@ -528,6 +548,14 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         paths += [Path(points=q, pitch=w, kind="fill") for q, w in zip(gp, gw, strict=True)]
         stats.update(st)
         stats["time_gaps_s"] = time.perf_counter() - t_g
+    if settle is not None and paths:
+        t_s = time.perf_counter()
+        sp, sw, st = settle_ends(
+            [p.points for p in paths], [p.pitch for p in paths], region, pitch, balance=settle
+        )
+        paths = [Path(points=q, pitch=w, kind=p.kind) for q, w, p in zip(sp, sw, paths, strict=True)]
+        stats.update(st)
+        stats["time_settle_s"] = time.perf_counter() - t_s
     stats["time_s"] = time.perf_counter() - t0
     stats["K"] = params.K
     return Toolpaths(paths=tuple(paths), stats=stats)
