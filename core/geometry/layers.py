@@ -147,9 +147,9 @@ def _islands(m: np.ndarray, p_rows: Ints, i_rows: Ints, fw_all: Floats, bead_all
             lines.append(BlockLines(x0[r], y0[r], x1[r], y1[r], fw, est.pitch))
             total = float(program.blocks["length"][b]) if b >= 0 else float(np.sum(_len(m, r)))
             meta.append((b, r, fw, est, float(np.sum(_len(m, r))), total))
-        lines = [_with_pitch(bl, domain, len(lines) == 1) for bl in lines]
-        walls_k = as_region(shapely.difference(poly, domain)) if not domain.is_empty else poly
-        prints = footprints(lines, domain, walls_k)
+        lines = [_full_pitch(_with_pitch(bl, domain, len(lines) == 1), Role(int(m["role"][mt[1][0]])))
+                 for bl, mt in zip(lines, meta, strict=True)]
+        prints = footprints(lines, domain)
         regs = regions(domain, prints) if lines else []
         blocks = []
         for (b, r, fw, est, length, total), bl, fp, reg in zip(meta, lines, prints, regs, strict=True):
@@ -198,6 +198,26 @@ def _with_pitch(bl: BlockLines, domain: Region, alone: bool) -> BlockLines:
                 break
             r = 0.75 * pitch
     return BlockLines(bl.x0, bl.y0, bl.x1, bl.y1, bl.flow_width, float(max(pitch, bl.flow_width)))
+
+
+_FULL = frozenset({Role.SOLID_INFILL, Role.TOP_SOLID_INFILL, Role.BOTTOM_SOLID_INFILL, Role.SKIN,
+                   Role.BRIDGE_INFILL})
+"""Roles every slicer prints at 100 %: their lines stand about one flow width apart."""
+
+
+def _full_pitch(bl: BlockLines, role: Role) -> BlockLines:
+    """Give a block of a solid role (:data:`_FULL`) the flow width as pitch when its lines measure sparse.
+
+    Slicers print these roles at 100 %, so a measured spacing over :data:`~.regions.DENSE_PITCH` flow
+    widths is not a spacing between neighbouring lines: Bambu Studio and OrcaSlicer write a single
+    ring of internal solid infill along the walls around sparse infill (OrcaSlicer 2.3.1 P1S cube,
+    layer 95: one loop, whose two sides 18 mm apart measured as its pitch; Bambu Studio A1 hook,
+    layers 36-40).  Taken as sparse, the ring was closed over that pitch and covered the whole
+    domain, leaving the sparse blocks no region.
+    """
+    if role in _FULL and not bl.dense:
+        return BlockLines(bl.x0, bl.y0, bl.x1, bl.y1, bl.flow_width, bl.flow_width)
+    return bl
 
 
 def _classified(layers: list[LayerGeometry]) -> list[LayerGeometry]:

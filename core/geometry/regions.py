@@ -12,9 +12,13 @@ Footprints, in two passes:
    ``r = 0.55 * pitch``.  Their edges are accurate to a fraction of a bead.
 2. Sparse blocks cannot be closed that way: where their lines meet a boundary at a slant, the line
    ends stand ``pitch / sin(angle)`` apart along it.  A single sparse block takes what the dense
-   blocks leave of the domain.  Several sparse blocks in one island (rare) are each closed over their
-   own pitch, walls included (their last line can stand up to a pitch away from a wall):
-   ``closing(beads | walls, r) & domain``, minus the dense footprints.
+   blocks leave of the domain.  Several sparse blocks in one island share what the dense blocks
+   leave: each point of it goes to the block whose centre lines are nearest (a Voronoi split of
+   points sampled along the lines).  Bambu Studio and OrcaSlicer print one sparse fill in several
+   pieces (before and after a ring of solid infill, or a piece per corner), and a piece's notch in
+   another piece's lines is as wide as the piece: closing each piece over its own pitch, as this
+   module once did, let the large piece swallow the small one (layer 39 of the Bambu Studio A1
+   hook: the small piece's region came out empty).
 
 Every block is then checked: its centre lines must lie inside its region within
 ``TOL.region_check_rel`` flow widths (slicers run infill a little into the innermost perimeter).
@@ -30,7 +34,7 @@ from loadpath._typing import Floats, Region
 from loadpath.geometry.ops import EMPTY, as_region, bead_union, clean
 from loadpath.tolerances import TOL
 
-__all__ = ["BlockLines", "footprints", "regions", "outside_distance", "check_tolerance",
+__all__ = ["BlockLines", "footprints", "regions", "nearest_split", "outside_distance", "check_tolerance",
            "DENSE_PITCH"]
 
 DENSE_PITCH = 1.5
@@ -73,7 +77,7 @@ class BlockLines:
         return bead_union(self.x0, self.y0, self.x1, self.y1, half, grow=grow, bridge=2 * grow)
 
 
-def footprints(blocks: list[BlockLines], domain: Region, walls: Region) -> list[Region]:
+def footprints(blocks: list[BlockLines], domain: Region) -> list[Region]:
     """Footprint of every block of an island (see the module docstring).
 
     Parameters
@@ -81,8 +85,6 @@ def footprints(blocks: list[BlockLines], domain: Region, walls: Region) -> list[
     blocks : list of BlockLines
     domain : Polygon or MultiPolygon
         The island's infill domain.
-    walls : Polygon or MultiPolygon
-        The island's outline minus its domain (perimeters and what lies outside).
 
     Returns
     -------
@@ -101,18 +103,58 @@ def footprints(blocks: list[BlockLines], domain: Region, walls: Region) -> list[
             out[i] = as_region(shapely.intersection(closed, domain))
     dense = [out[j] for j, b in enumerate(blocks) if b.dense and not out[j].is_empty]
     sparse = [i for i, b in enumerate(blocks) if not b.dense]
-    if len(sparse) == 1:
-        rest = shapely.difference(domain, shapely.union_all(dense)) if dense else domain
-        out[sparse[0]] = clean(rest)
+    if not sparse:
         return out
-    for i in sparse:
-        b = blocks[i]
-        r = _CLOSE * b.pitch
-        grown = shapely.union(b.beads(grow=r), shapely.buffer(walls, r, quad_segs=4))
-        fp = shapely.intersection(as_region(shapely.buffer(grown, -r, quad_segs=4)), domain)
-        if dense:
-            fp = shapely.difference(fp, shapely.union_all(dense))
-        out[i] = as_region(fp)
+    rest = clean(shapely.difference(domain, shapely.union_all(dense))) if dense else domain
+    if len(sparse) == 1:
+        out[sparse[0]] = rest
+        return out
+    for i, part in zip(sparse, nearest_split(rest, [blocks[i] for i in sparse]), strict=True):
+        out[i] = part
+    return out
+
+
+def nearest_split(area: Region, blocks: list[BlockLines]) -> list[Region]:
+    """Split ``area`` among blocks: every point goes to the block whose centre lines are nearest.
+
+    The lines are sampled every flow width (at least every quarter of the smallest pitch), and the
+    Voronoi cells of the samples are merged per block; the split is exact to about a sample spacing.
+
+    Parameters
+    ----------
+    area : Polygon or MultiPolygon
+    blocks : list of BlockLines
+
+    Returns
+    -------
+    list of Polygon or MultiPolygon, one per block (they tile ``area``)
+    """
+    n = len(blocks)
+    if area.is_empty or n == 0:
+        return [EMPTY] * n
+    step = min(min(b.flow_width, 0.25 * b.pitch) for b in blocks)
+    x0 = np.concatenate([b.x0 for b in blocks])
+    y0 = np.concatenate([b.y0 for b in blocks])
+    x1 = np.concatenate([b.x1 for b in blocks])
+    y1 = np.concatenate([b.y1 for b in blocks])
+    owner = np.repeat(np.arange(n), [len(b.x0) for b in blocks])
+    k = np.ceil(np.hypot(x1 - x0, y1 - y0) / step).astype(np.int64) + 1  # samples per segment, ends included
+    seg = np.repeat(np.arange(len(k)), k)
+    t = (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)) / np.repeat(k - 1, k).clip(min=1)
+    pts = np.column_stack([x0[seg] + t * (x1[seg] - x0[seg]), y0[seg] + t * (y1[seg] - y0[seg])])
+    pts, first = np.unique(np.round(pts, 4), axis=0, return_index=True)  # GEOS merges equal points
+    who = owner[seg[first]]
+    if len(np.unique(who)) == 1:
+        return [area if i == who[0] else EMPTY for i in range(n)]
+    cells = shapely.voronoi_polygons(shapely.multipoints(pts), extend_to=area, ordered=True)
+    cells = shapely.get_parts(cells)
+    out = []
+    for i in range(n):
+        mine = cells[who == i]
+        if len(mine) == 0:
+            out.append(EMPTY)
+            continue
+        out.append(clean(shapely.intersection(shapely.coverage_union_all(mine), area)))
     return out
 
 
