@@ -41,6 +41,7 @@ DENSE_PITCH = 1.5
 """A block whose pitch is at most this many flow widths is dense (its beads nearly touch)."""
 
 _CLOSE = 0.55  # closing radius / pitch: neighbouring lines at one pitch merge, with a margin
+_GRID = 1e-5  # mm: snap-rounded union of Voronoi cells (exact unions fail on their near-degenerate edges)
 
 
 @dataclass(frozen=True)
@@ -148,13 +149,15 @@ def nearest_split(area: Region, blocks: list[BlockLines]) -> list[Region]:
         return [area if i == who[0] else EMPTY for i in range(n)]
     cells = shapely.voronoi_polygons(shapely.multipoints(pts), extend_to=area, ordered=True)
     cells = shapely.get_parts(cells)
+    bad = ~shapely.is_valid(cells)  # GEOS may return a cell with a bow-tie vertex (points nearly collinear)
+    cells[bad] = shapely.make_valid(cells[bad])
     out = []
     for i in range(n):
         mine = cells[who == i]
         if len(mine) == 0:
             out.append(EMPTY)
             continue
-        out.append(clean(shapely.intersection(shapely.coverage_union_all(mine), area)))
+        out.append(clean(shapely.intersection(shapely.union_all(mine, grid_size=_GRID), area)))
     return out
 
 
