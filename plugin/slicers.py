@@ -38,24 +38,32 @@ def _bool(value: Any) -> bool:
     raise SettingsError(f"{value!r} is not a yes/no value (use true or false)")
 
 
-_PRUSA_KEYS = {  # Settings field -> PrusaSlicer option (per-extruder options: first value)
-    "nozzle_diameter": "nozzle_diameter",
-    "filament_diameter": "filament_diameter",
-    "extrusion_multiplier": "extrusion_multiplier",
-    "volumetric_e": "use_volumetric_e",
-    "travel_speed": "travel_speed",
-    "travel_speed_z": "travel_speed_z",
-    "retract_length": "retract_length",
-    "retract_speed": "retract_speed",
-    "deretract_speed": "deretract_speed",
-    "retract_restart_extra": "retract_restart_extra",
-    "retract_lift": "retract_lift",
-    "retract_before_travel": "retract_before_travel",
-    "only_retract_when_crossing_perimeters": "only_retract_when_crossing_perimeters",
-    "wipe": "wipe",
-    "retract_before_wipe": "retract_before_wipe",
-    "use_firmware_retraction": "use_firmware_retraction",
+_PRUSA_KEYS = {  # Settings field -> PrusaSlicer option, then OrcaSlicer's / Bambu Studio's name for it
+    "nozzle_diameter": ("nozzle_diameter",),
+    "filament_diameter": ("filament_diameter",),
+    "volumetric_e": ("use_volumetric_e",),
+    "travel_speed": ("travel_speed",),
+    "travel_speed_z": ("travel_speed_z",),
+    "retract_length": ("retract_length", "retraction_length"),
+    "retract_speed": ("retract_speed", "retraction_speed"),
+    "deretract_speed": ("deretract_speed", "deretraction_speed"),  # both: 0 = the retraction speed
+    "retract_restart_extra": ("retract_restart_extra",),
+    "retract_lift": ("retract_lift", "z_hop"),  # Orca: every z_hop_types value lifts by z_hop
+    "retract_before_travel": ("retract_before_travel", "retraction_minimum_travel"),
+    # Orca / Bambu "reduce_infill_retraction": no retraction for a travel inside the infill area; the
+    # same test (RetractWhenCrossingPerimeters, inherited from PrusaSlicer) as PrusaSlicer's option
+    "only_retract_when_crossing_perimeters": (
+        "only_retract_when_crossing_perimeters",
+        "reduce_infill_retraction",
+    ),
+    "wipe": ("wipe",),
+    "retract_before_wipe": ("retract_before_wipe",),
+    "use_firmware_retraction": ("use_firmware_retraction",),
 }
+"""Settings field -> configuration keys, first present wins (per-extruder options: the tool's value).
+
+OrcaSlicer and Bambu Studio (``; CONFIG_BLOCK_START``) renamed some of PrusaSlicer's options and kept
+the others; the flow multiplier is :func:`_orca_flow` there."""
 
 
 def _first(value: str) -> str:
@@ -65,8 +73,11 @@ def _first(value: str) -> str:
 def from_prusa_config(config: Mapping[str, str], tool: int = 0) -> dict[str, Any]:
     """Machine values from a PrusaSlicer-family configuration (keys case-insensitive).
 
-    Per-extruder options (``"0.4,0.4"``) take the value of ``tool``.  The volumetric limit is the
-    smaller non-zero of ``max_volumetric_speed`` and ``filament_max_volumetric_speed``.
+    PrusaSlicer's and SuperSlicer's option names, and OrcaSlicer's / Bambu Studio's where they renamed
+    one (:data:`_PRUSA_KEYS`).  Per-extruder options (``"0.4,0.4"``) take the value of ``tool``.  The
+    volumetric limit is the smaller non-zero of ``max_volumetric_speed`` and
+    ``filament_max_volumetric_speed``.  The extrusion multiplier is PrusaSlicer's
+    ``extrusion_multiplier``, else OrcaSlicer's ``filament_flow_ratio`` times ``print_flow_ratio``.
     """
     cfg = {k.lower(): v for k, v in config.items()}
     out: dict[str, Any] = {}
@@ -77,10 +88,19 @@ def from_prusa_config(config: Mapping[str, str], tool: int = 0) -> dict[str, Any
         parts = [p.strip() for p in str(cfg[key]).split(",")]
         return parts[tool] if tool < len(parts) else parts[0]
 
-    for name, key in _PRUSA_KEYS.items():
-        v = pick(key)
-        if v is not None and v != "":
-            out[name] = v
+    for name, keys in _PRUSA_KEYS.items():
+        for key in keys:
+            v = pick(key)
+            if v is not None and v != "":
+                out[name] = v
+                break
+    flow = pick("extrusion_multiplier")
+    if flow not in (None, ""):
+        out["extrusion_multiplier"] = flow
+    else:
+        ratios = [pick("filament_flow_ratio"), pick("print_flow_ratio")]
+        if any(r not in (None, "") for r in ratios):
+            out["extrusion_multiplier"] = _orca_flow(*ratios)
     if "retract_before_wipe" in out:
         rbw = str(out["retract_before_wipe"])
         out["retract_before_wipe"] = float(rbw.rstrip("%")) / 100.0 if rbw.endswith("%") else float(rbw)
@@ -96,6 +116,22 @@ def from_prusa_config(config: Mapping[str, str], tool: int = 0) -> dict[str, Any
     if cfg:
         out["flow_model"] = "rounded"
     return out
+
+
+def _orca_flow(filament: str | None, process: str | None) -> float:
+    """Return OrcaSlicer's / Bambu Studio's flow multiplier.
+
+    The filament's ``filament_flow_ratio`` times the process's ``print_flow_ratio`` (each 1 when
+    absent): Orca scales every extrusion by both.  Its role ratios (``sparse_infill_flow_ratio``, ...,
+    used only with ``set_other_flow_ratios``) are not read.
+    """
+    try:
+        return float(filament or 1.0) * float(process or 1.0)
+    except ValueError as exc:
+        raise SettingsError(
+            f"flow ratio {filament!r} x {process!r} (filament_flow_ratio, print_flow_ratio) is not a number; "
+            "fix the slicer configuration"
+        ) from exc
 
 
 def from_slic3r_env(env: Mapping[str, str] | None = None) -> dict[str, str]:
