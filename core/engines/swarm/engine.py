@@ -57,6 +57,7 @@ _ENGINE_OPTIONS = {
     "phase",
     "settle",
     "join",
+    "hairpin",
 }
 
 
@@ -351,6 +352,11 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         pipeline prints on every other of a run of identical layers), ``join`` (default True: ends
         facing each other across a gap of up to two pitches become one path, :mod:`.joins`; on the
         bench bracket 409 -> 343 paths, coverage 98.77 -> 98.81 %, overlap 3.86 -> 3.68 %),
+        ``hairpin`` (default None: off; a number ``c`` also joins neighbours that end side by side
+        by a hairpin whose bridge keeps ``c`` pitches from other paths; with 0.5 the bench
+        bracket has 263 paths, 98.91 % coverage, 3.37 % overlap, the specimen 0.19 % overlap, but
+        the stiffness benchmark's share falls from 0.82 to 0.79: the bridge's square-ended bead
+        lies half on the bead the two ends stop at),
         ``settle`` (default None: off; a number ``b`` pulls back the ends whose round bead end lies
         on another bead where that removes more overlap than ``b`` times the void it leaves,
         :mod:`.caps`; with 10 the bench bracket's overlap falls to 2.82 % at 98.68 % coverage, but
@@ -379,6 +385,8 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     phase = float(opts.pop("phase", 0.0))  # type: ignore[arg-type]
     settle = opts.pop("settle", None)
     join = bool(opts.pop("join", True))
+    hairpin = opts.pop("hairpin", None)
+    hairpin = None if hairpin is None else float(hairpin)  # type: ignore[arg-type]
     settle = None if settle is None else float(settle)  # type: ignore[arg-type]
     end_overlap = opts.pop("end_overlap", 0.0)
     end_overlap = None if end_overlap is None else float(end_overlap)  # type: ignore[arg-type]
@@ -536,7 +544,9 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         stats["time_ends_s"] = time.perf_counter() - t_e
     if join and paths:
         t_j = time.perf_counter()
-        jp, jw, origin, st = join_ends([p.points for p in paths], [p.pitch for p in paths], region, pitch)
+        jp, jw, origin, st = join_ends(
+            [p.points for p in paths], [p.pitch for p in paths], region, pitch, hairpin=hairpin
+        )
         paths = [Path(points=q, pitch=w, kind=paths[o].kind) for q, w, o in zip(jp, jw, origin, strict=True)]
         stats.update(st)
         stats["time_joins_s"] = time.perf_counter() - t_j

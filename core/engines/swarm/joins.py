@@ -69,6 +69,7 @@ def join_ends(
     max_turn: float = 50.0,
     clearance: float = 0.65,
     step: float = 0.1,
+    hairpin: float | None = None,
 ) -> tuple[list[Points2], list[Floats], list[int], dict]:
     """Join the facing ends of different paths (module docstring).
 
@@ -89,6 +90,12 @@ def join_ends(
         small test bracket 6.61 against 6.43 %).
     step : float
         Spacing of the samples along a bridge that are checked, in pitches.
+    hairpin : float, optional
+        Also join neighbours that end side by side heading the same way (directions within 30
+        degrees, bridge within 30 degrees of square to them, at most 1.5 of their mean width
+        apart) by a hairpin whose bridge keeps this many pitches from other paths (the engines'
+        0.5 suits it: the bridge runs along the bead the two ends stop at).  ``None``: no
+        hairpins.
 
     Returns
     -------
@@ -119,6 +126,8 @@ def join_ends(
     e_pid = np.concatenate([idx, idx])
     e_tail = np.repeat([False, True], len(idx))
     live = e_len > 0
+    wid = np.concatenate(widths)
+    e_w = np.concatenate([wid[fi], wid[la]])[live]
     e_pt, e_dir, e_pid, e_tail = e_pt[live], e_dir[live] / e_len[live, None], e_pid[live], e_tail[live]
     pairs = cKDTree(e_pt).query_pairs(max_gap * pitch, output_type="ndarray")
     if not len(pairs):
@@ -128,27 +137,38 @@ def join_ends(
     gap = np.hypot(*v.T)
     u = v / np.maximum(gap, 1e-12)[:, None]
     cos_t = np.cos(np.radians(max_turn))
-    ok = (
-        (e_pid[a] != e_pid[b])
-        & (gap > 0)
-        & (np.sum(e_dir[a] * u, axis=1) >= cos_t)
-        & (np.sum(-e_dir[b] * u, axis=1) >= cos_t)
-    )
-    a, b, gap = a[ok], b[ok], gap[ok]
+    facing = (np.sum(e_dir[a] * u, axis=1) >= cos_t) & (np.sum(-e_dir[b] * u, axis=1) >= cos_t)
+    c_need = np.full(len(a), clearance)
+    if hairpin is not None:
+        # neighbours ending side by side, heading the same way: a hairpin across their ends
+        pin = (
+            (np.sum(e_dir[a] * e_dir[b], axis=1) >= np.cos(np.radians(30.0)))
+            & (np.abs(np.sum(e_dir[a] * u, axis=1)) <= np.sin(np.radians(30.0)))
+            & (gap <= 1.5 * 0.5 * (e_w[a] + e_w[b]))
+            & ~facing
+        )
+        c_need = np.where(pin, hairpin, c_need)
+        facing = facing | pin
+    ok = (e_pid[a] != e_pid[b]) & (gap > 0) & facing
+    a, b, gap, c_need = a[ok], b[ok], gap[ok], c_need[ok]
     if not len(a):
         return paths, widths, list(range(n)), stats
+    q0, q1 = e_pt[a], e_pt[b]
     # the bridges inside the region
-    bridges = shapely.linestrings(np.stack([e_pt[a], e_pt[b]], axis=1))
+    bridges = shapely.linestrings(np.stack([q0, q1], axis=1))
     shapely.prepare(region)
     ok = shapely.covers(region, bridges)
-    a, b, gap = a[ok], b[ok], gap[ok]
+    a, b, gap, c_need, q0, q1 = a[ok], b[ok], gap[ok], c_need[ok], q0[ok], q1[ok]
+    if not len(a):
+        return paths, widths, list(range(n)), stats
     # samples along each bridge (ends excluded) and their distance to the other paths' segments
-    need = (clearance + _MARGIN) * pitch
+    need_k = (c_need + _MARGIN) * pitch
+    need = float(need_k.max()) if len(need_k) else 0.0
     ns = np.maximum(2, np.ceil(gap / (step * pitch)).astype(np.int64))
     inner = ns - 1
     which = np.repeat(np.arange(len(a)), inner)
     frac = (np.arange(len(which)) - np.repeat(np.cumsum(inner) - inner, inner) + 1) / np.repeat(ns, inner)
-    samp = e_pt[a][which] + frac[:, None] * (e_pt[b] - e_pt[a])[which]
+    samp = q0[which] + frac[:, None] * (q1 - q0)[which]
     seg_ok = np.ones(len(pts) - 1, dtype=bool)
     seg_ok[last[:-1]] = False
     si = np.flatnonzero(seg_ok)
@@ -156,7 +176,7 @@ def join_ends(
     # only the segments near a bridge, cut into pieces of at most half a pitch (a small search
     # radius whatever the longest segment)
     seg_len = np.hypot(*(sb - sa).T)
-    mid_b = 0.5 * (e_pt[a] + e_pt[b])
+    mid_b = 0.5 * (q0 + q1)
     near = _near(0.5 * (sa + sb), mid_b, need + 0.5 * float(gap.max()) + 0.5 * float(seg_len.max()))
     sa, sb, spid, seg_len = sa[near], sb[near], spid[near], seg_len[near]
     n_cut = np.maximum(1, np.ceil(seg_len / (0.5 * pitch)).astype(np.int64))
@@ -171,10 +191,10 @@ def join_ends(
     ip, js = near["i"].astype(np.int64), near["j"].astype(np.int64)
     mine = (spid[js] == e_pid[a][which[ip]]) | (spid[js] == e_pid[b][which[ip]])
     ip, js = ip[~mine], js[~mine]
-    close = _segment_distance(samp[ip], sa[js], sb[js]) < need
+    close = _segment_distance(samp[ip], sa[js], sb[js]) < need_k[which[ip]]
     blocked = np.zeros(len(a), dtype=bool)
     blocked[which[ip[close]]] = True
-    a, b, gap = a[~blocked], b[~blocked], gap[~blocked]
+    a, b, gap, need_k, q0, q1 = (x[~blocked] for x in (a, b, gap, need_k, q0, q1))
 
     # nearest pairs first, each end once, no loops, bridges clear of each other
     order = np.lexsort((b, a, gap))
@@ -190,14 +210,14 @@ def join_ends(
         ra, rb = _root(parent, pa), _root(parent, pb)
         if ra == rb:
             continue
-        p0, p1 = e_pt[ea], e_pt[eb]
+        p0, p1 = q0[k], q1[k]
         if laid:
             s = p0 + np.linspace(0.0, 1.0, 11)[:, None] * (p1 - p0)
             la = np.array([x[0] for x in laid])
             lb = np.array([x[1] for x in laid])
             m = len(laid)
             d = _segment_distance(np.repeat(s, m, axis=0), np.tile(la, (len(s), 1)), np.tile(lb, (len(s), 1)))
-            if np.min(d) < need:
+            if np.min(d) < need_k[k]:
                 continue
         used[ea] = used[eb] = True
         parent[ra] = rb

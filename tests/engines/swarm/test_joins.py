@@ -72,3 +72,27 @@ def test_joined_paths_never_close_a_loop():
     bottom = np.array([[5.2, 7.0], [8.0, 7.0], [8.0, 5.0], [5.2, 5.0]])
     p, _, _, st = join_ends([top, bottom], [np.full(4, P)] * 2, region, P)
     assert st["joins"] == 1 and len(p) == 1 and len(p[0]) == 8
+
+
+def test_hairpins_join_neighbours_ending_side_by_side_only_when_asked():
+    region = box(0, 0, 10, 3)
+    # two neighbours a pitch apart ending at x = 5 (starting apart), and a third path across their
+    # ends
+    pair = [
+        _line(0.1, 5.0, 1.0),
+        _line(2.0, 5.0, 1.0 + P),
+        np.array([[5.0 + 0.55 * P, 0.2], [5.0 + 0.55 * P, 2.8]]),
+    ]
+    widths = [np.full(6, P), np.full(6, P), np.full(2, P)]
+    p, _, _, st = join_ends(pair, widths, region, P)
+    assert st["joins"] == 0
+    before = M.coverage(_tp(pair, widths), region)
+    p, w, origin, st = join_ends(pair, widths, region, P, hairpin=0.5)
+    assert st["joins"] == 1 and len(p) == 2 and origin == [0, 2]
+    np.testing.assert_array_equal(p[0], np.vstack([pair[0], pair[1][::-1]]))
+    # the hairpin covers the notch between the two round ends; nothing crosses, spacing kept
+    assert M.coverage(_tp(p, w), region).coverage > before.coverage
+    assert M.crossings(_tp(p, w)) == 0 and M.spacing(_tp(p, w), P).min >= 0.5
+    # the bridge would come closer than asked to the path across the ends
+    p, _, _, st = join_ends(pair, widths, region, P, hairpin=0.9)
+    assert st["joins"] == 0
