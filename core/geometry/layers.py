@@ -201,8 +201,9 @@ def _with_pitch(bl: BlockLines, domain: Region, alone: bool) -> BlockLines:
 
 
 _FULL = frozenset({Role.SOLID_INFILL, Role.TOP_SOLID_INFILL, Role.BOTTOM_SOLID_INFILL, Role.SKIN,
-                   Role.BRIDGE_INFILL})
-"""Roles every slicer prints at 100 %: their lines stand about one flow width apart."""
+                   Role.BRIDGE_INFILL, Role.GAP_FILL})
+"""Roles every slicer prints at 100 %: their lines stand about one flow width apart (gap fill fills
+the gap it is in; its few scattered lines measured as sparse took the area the sparse blocks fill)."""
 
 
 def _full_pitch(bl: BlockLines, role: Role) -> BlockLines:
@@ -243,12 +244,17 @@ def _classified(layers: list[LayerGeometry]) -> list[LayerGeometry]:
 
 
 def _check(layers: list[LayerGeometry], program: Program) -> None:
-    """Every block's centre lines lie inside its region (within the stated tolerance)."""
+    """Every replaceable block's centre lines lie inside its region (within the stated tolerance).
+
+    Blocks of the kinds always kept (gap fill, bridges, ironing, ...) are not checked: nothing fills
+    their region (the replace region leaves out their footprint, made from their own beads), and gap
+    fill between two perimeters (OrcaSlicer, Bambu Studio) lies outside the infill domain by design.
+    """
     for g in layers:
         for isl in g.islands:
             for b in isl.blocks:
                 tol = check_tolerance(b.flow_width)
-                if b.outside > tol:
+                if b.replaceable and b.outside > tol:
                     line = int(program.blocks["start"][b.block_index]) + 1 if b.block_index >= 0 else 0
                     raise GeometryError(
                         f"layer {g.layer_index + 1} (z = {g.z:g} mm), object {g.object!r}: the {b.feature!r} "
