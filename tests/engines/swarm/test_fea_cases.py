@@ -108,6 +108,23 @@ def test_specimen_real_field(specimen):
     assert ours.beta > best.beta
 
 
+def test_k_zero_lays_an_evenly_spaced_layer_on_the_specimen(specimen):
+    """K = 0 (spacing only), a value the settings accept: a fill swarm that no boundary agent
+    anchors could slide as a whole at no cost, the QP was singular and OSQP stopped at its iteration
+    limit (a SolverError blaming the field); the environment weight's floor
+    (:data:`loadpath.engines.swarm.chain.WEIGHT_FLOOR`) pins it."""
+    region, rb, field = specimen
+    inp = EngineInput(region=region, field=field, pitch=PITCH, load_entry=load_entry(rb, 1.0))
+    tp = generate(inp, K=0.0)
+    assert tp.stats["qp_solves"] == tp.stats["qp_exact"] + tp.stats.get("qp_osqp_solved", 0)
+    cov = M.coverage(tp, region)
+    assert cov.coverage >= 0.98 and cov.overlap <= 0.02, cov
+    assert M.crossings(tp) == 0
+    # spacing only: at least as even as the default K = 5
+    even = M.spacing(tp, PITCH, definition="next").variance
+    assert even <= M.spacing(generate(inp, K=5.0), PITCH, definition="next").variance
+
+
 def test_bearing_load_real_field(bracket):
     region, _, field, tp = bracket
     assert M.crossings(tp) == 0
