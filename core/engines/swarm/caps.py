@@ -25,7 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Points2, Region
-from loadpath.engines.swarm.gaps import _near_points, _segment_distance
+from loadpath.engines.swarm.gaps import near_points, segment_distance
 from scipy.spatial import cKDTree
 
 __all__ = ["settle_ends"]
@@ -114,7 +114,7 @@ def settle_ends(
 
     # only the segments that can reach the samples around an end are looked at
     far = float(2.0 * max_back * r.max() + r.max() + 0.5 * wid.max()) + 0.25 * pitch
-    near = _near_points(0.5 * (sa + sb), e_pt, far + 0.5 * float(seg_len.max()))
+    near = near_points(0.5 * (sa + sb), e_pt, far + 0.5 * float(seg_len.max()))
     sa, sb, srad, spid, s_head, s_tail, seg_len = (
         x[near] for x in (sa, sb, srad, spid, s_head, s_tail, seg_len)
     )
@@ -145,7 +145,7 @@ def settle_ends(
     hit = np.zeros(len(je), dtype=bool)
     for c, s in ((1.0, 0.0), (0.5, 0.866), (0.5, -0.866)):
         probe = e_pt[je] + 0.6 * r[je, None] * (-c * back[je] + s * side)
-        hit |= _segment_distance(probe, ca[jc], cb[jc]) < c_rad[jc]
+        hit |= segment_distance(probe, ca[jc], cb[jc]) < c_rad[jc]
     busy = np.unique(je[hit])
     e_path, e_tail, e_pt, back, r, room = (x[busy] for x in (e_path, e_tail, e_pt, back, r, room))
     # samples around each end in its frame: u along the path (back is negative), v across

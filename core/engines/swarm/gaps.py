@@ -31,14 +31,14 @@ from loadpath._typing import Floats, Points2, Region
 from loadpath.engines.swarm.voids import find_voids, ribbons
 from scipy.spatial import cKDTree
 
-__all__ = ["gap_fill"]
+__all__ = ["gap_fill", "segment_distance", "near_points"]
 
 _MARGIN = 0.01
 """Added to ``min_gap``, in pitches: a gap bead is checked every tenth of a pitch, and between two
 samples ``h = 0.05`` pitch away its distance to a path can dip by ``h² / (2 min_gap)`` = 0.0025."""
 
 
-def _segment_distance(p: Points2, a: Points2, b: Points2) -> Floats:
+def segment_distance(p: Points2, a: Points2, b: Points2) -> Floats:
     """Exact distance from each point ``p[i]`` to its segment ``a[i] -> b[i]``.
 
     Parameters
@@ -80,11 +80,11 @@ def _near_distance(p: Points2, a: Points2, b: Points2, reach: float) -> Floats:
         return d
     pairs = cKDTree(p).sparse_distance_matrix(cKDTree(0.5 * (a + b)), reach, output_type="ndarray")
     ip, js = pairs["i"].astype(np.int64), pairs["j"].astype(np.int64)
-    np.minimum.at(d, ip, _segment_distance(p[ip], a[js], b[js]))
+    np.minimum.at(d, ip, segment_distance(p[ip], a[js], b[js]))
     return d
 
 
-def _near_points(q: Points2, centres: Points2, reach: float, split: int = 3) -> np.ndarray:
+def near_points(q: Points2, centres: Points2, reach: float, split: int = 3) -> np.ndarray:
     """Return the indices of the points ``q`` in the grid cells around ``centres`` (ascending).
 
     Cells are ``reach / split`` wide and the ``2 split + 1`` cells square around a centre's cell
@@ -209,7 +209,7 @@ def gap_fill(
     seg_len[last[:-1]] = 0.0  # from one path's last point to the next path's first
     half_max = 0.5 * float(np.max(seg_len, initial=0.0))
     reach = radius + half_max + max(0.5 * float(np.max(w)), need)
-    cand = _near_points(pts, end_pts, reach + half_max)  # the segments' first points
+    cand = near_points(pts, end_pts, reach + half_max)  # the segments' first points
     cand = cand[~is_last[cand]]
     a, b = pts[cand], pts[cand + 1]
     mid = 0.5 * (a + b)
@@ -299,7 +299,7 @@ def gap_fill(
         if out_p:
             laid = np.array(out_p)  # (l, 2, 2)
             m, nl = len(samp), len(laid)
-            d_laid = _segment_distance(
+            d_laid = segment_distance(
                 np.repeat(samp, nl, axis=0), np.tile(laid[:, 0], (m, 1)), np.tile(laid[:, 1], (m, 1))
             )
             dmin = np.minimum(dmin, d_laid.reshape(m, nl).min(axis=1))

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Points2, Region
-from loadpath.engines.swarm.gaps import _segment_distance
+from loadpath.engines.swarm.gaps import segment_distance
 from scipy.spatial import cKDTree
 
 __all__ = ["join_ends"]
@@ -191,7 +191,7 @@ def join_ends(
     ip, js = near["i"].astype(np.int64), near["j"].astype(np.int64)
     mine = (spid[js] == e_pid[a][which[ip]]) | (spid[js] == e_pid[b][which[ip]])
     ip, js = ip[~mine], js[~mine]
-    close = _segment_distance(samp[ip], sa[js], sb[js]) < need_k[which[ip]]
+    close = segment_distance(samp[ip], sa[js], sb[js]) < need_k[which[ip]]
     blocked = np.zeros(len(a), dtype=bool)
     blocked[which[ip[close]]] = True
     a, b, gap, need_k, q0, q1 = (x[~blocked] for x in (a, b, gap, need_k, q0, q1))
@@ -216,7 +216,7 @@ def join_ends(
             la = np.array([x[0] for x in laid])
             lb = np.array([x[1] for x in laid])
             m = len(laid)
-            d = _segment_distance(np.repeat(s, m, axis=0), np.tile(la, (len(s), 1)), np.tile(lb, (len(s), 1)))
+            d = segment_distance(np.repeat(s, m, axis=0), np.tile(la, (len(s), 1)), np.tile(lb, (len(s), 1)))
             if np.min(d) < need_k[k]:
                 continue
         used[ea] = used[eb] = True

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from loadpath.engines.swarm.gaps import _near_distance, _segment_distance
+from loadpath.engines.swarm.gaps import _near_distance, segment_distance
 from loadpath.engines.swarm.voids import find_voids, ribbons
 from shapely.geometry import Point, box
 
@@ -22,7 +22,7 @@ def test_segment_distance_matches_shapely_on_random_segments():
     a, b = _random_segments(rng, 2000)
     p = rng.uniform(-1.0, 11.0, (2000, 2))
     ref = shapely.distance(shapely.points(p), shapely.linestrings(np.stack([a, b], axis=1)))
-    np.testing.assert_allclose(_segment_distance(p, a, b), ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(segment_distance(p, a, b), ref, rtol=0, atol=1e-12)
 
 
 def test_near_distance_is_exact_below_the_reach_less_half_the_longest_segment():
