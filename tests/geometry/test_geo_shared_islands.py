@@ -65,6 +65,17 @@ def test_every_block_of_the_file_is_reliable(orca_p1s):
     assert layers == set(range(1, 99)) - {95}  # layer 96 (index 95) is a bridge: always kept
 
 
+def test_crosshatch_sparse_pitch_is_its_line_spacing(orca_p1s):
+    """OrcaSlicer's crosshatch (15 %, 0.45 mm) prints staircases of short steps: the spacing of
+    steps that do not run alongside each other (0.1-1.2 mm) is no line spacing.  A pitch finer than
+    the block's plastic per area (area / length) would lay far more plastic than the slicer."""
+    _, geo = orca_p1s
+    sparse = [b for lg in geo.objects[0].layers for b in lg.blocks if b.kind == "sparse" and b.length > 100]
+    assert len(sparse) > 80
+    ratio = np.array([b.pitch / (b.region.area / b.length) for b in sparse])
+    assert ratio.min() > 0.7, ratio.min()
+
+
 def _zigzag(x0, x1, y0, y1, pitch):
     """Sparse lines parallel to y, ``pitch`` apart, joined at their ends (a rectilinear piece)."""
     xs = np.arange(x0, x1 + 1e-9, pitch)

@@ -145,6 +145,19 @@ def test_pitch_of_a_grid_and_of_curves():
     assert not est.found
 
 
+def test_pitch_of_staircases_counts_only_lines_alongside():
+    # OrcaSlicer's crosshatch: parallel steps 0.7 mm apart across their direction but 2 mm apart along
+    # it; two such staircases 3 mm apart are the fill's neighbouring lines
+    i = np.arange(10)
+    x0 = np.r_[4.0 * i, 4.0 * i]
+    x1 = x0 + 2.0
+    y0 = np.r_[0.7 * i, 0.7 * i + 3.0]
+    est = estimate_pitch(x0, y0, x1, y0, 0.4)
+    assert est.pitch == pytest.approx(3.0)
+    # a single staircase has no neighbouring lines
+    assert not estimate_pitch(x0[:10], y0[:10], x1[:10], y0[:10], 0.4).found
+
+
 def test_group_regions_tolerance():
     a = box(0, 0, 150, 36).difference(shapely.Point(75, 18).buffer(3))
     nudged = shapely.affinity.translate(a, 0.001, 0.0)  # G-code rounding
