@@ -110,7 +110,7 @@ KNOWN = (
         z_first=0.2,
         z_last=20.0,
         height=0.2,
-        replace_layers=(1, 2, 96, 97, 98),
+        replace_layers=(1, 2, 94, 96, 97, 98),  # 95 (0-based 94): a one-bead ring of internal solid infill
         config={
             "nozzle_diameter": "0.4",
             "internal_solid_infill_line_width": "0.42",
