@@ -49,18 +49,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))
 import slicing  # noqa: E402
+from cases import GRIP_PULL  # noqa: E402
 
 LOADPATH = str(Path(sys.executable).with_name("loadpath"))
-CASE = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 10.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 10.0 }
-force = [1000.0, 0.0, 0.0]
-"""
+CASE = GRIP_PULL
 STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "write")
 
 

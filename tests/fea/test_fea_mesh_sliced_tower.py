@@ -10,30 +10,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from cases import GRIP_PULL
 from loadpath import gcode, geometry
 from loadpath.fea import build_mesh
 from loadpath.fea.analysis import covered_body
 from loadpath.loadcase import parse, resolve
 from loadpath.mesh import DEFAULT_MAX_TETS
 
-CASE = """
-version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 10.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 10.0 }
-force = [1000.0, 0.0, 0.0]
-"""
-
 
 @pytest.mark.slow  # about 7 s: slicing (cached per session), layer geometry, four budget attempts
 def test_sliced_tower_with_side_selectors_gets_its_3d_mesh(sliced):
     path = sliced("prusa", "tower", "example")
     geo = geometry.layer_geometry(gcode.read(path), check=False)
-    (rb,) = resolve(parse(CASE, "case.toml"), geo.bodies())
+    (rb,) = resolve(parse(GRIP_PULL, "case.toml"), geo.bodies())
     assert rb.analysis == "3d" and len(rb.layers.slabs) >= 100
     mesh = build_mesh(rb, pitch=0.45)
     st = mesh.stats

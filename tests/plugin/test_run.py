@@ -8,20 +8,12 @@ import shutil
 from pathlib import Path
 
 import pytest
+from cases import GRIP_PULL
 from loadpath import gcode
 from loadpath.plugin.cli import main
 
 REPO = Path(__file__).resolve().parents[2]
-CASE = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 10.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 10.0 }
-force = [1000.0, 0.0, 0.0]
-"""
+CASE = GRIP_PULL
 
 
 @pytest.fixture()

@@ -6,20 +6,12 @@ import argparse
 import json
 
 import pytest
+from cases import GRIP_PULL
 from loadpath import gcode, loadcase
 from loadpath.errors import SettingsError
 from loadpath.plugin import settings as S
 
-CASE = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 10.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 10.0 }
-force = [1000.0, 0.0, 0.0]
-[toolpath]
+CASE = GRIP_PULL + """[toolpath]
 engine = "streamlines"
 pitch = 0.5
 K = 9.0

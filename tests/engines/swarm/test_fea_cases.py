@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
+from cases import END_PULL
 from loadpath import metrics as M
 from loadpath.engines.swarm import generate
 from loadpath.engines.swarm.entry import load_entry
@@ -19,20 +20,9 @@ from shapely.geometry import Point, Polygon, box
 
 PITCH = 0.4
 
-# the paper's specimen: clamped at one end, pulled through the other end face (a pull spread over
-# 10 mm of the long sides as well, as GRIP below does, shears the grip zone and turns the
-# max-|sigma| direction across the specimen there)
-SPECIMEN = """
-version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 10.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 0.5 }
-force = [1000.0, 0.0, 0.0]
-"""
+# the paper's specimen: clamped at one end, pulled through the other end face (GRIP below spreads
+# the pull over 10 mm of the long sides as well)
+SPECIMEN = END_PULL
 
 BRACKET = """
 version = 1
