@@ -333,6 +333,7 @@ def run(
         dict(options.engine_params),
         options.workers,
         lambda done, total: tell("paths", done, total),
+        length_retry=splice_options.plan.max_correction,
     )
     shifted = {k: tp for k, (tp, _) in zip(phased, results[len(jobs) :], strict=True)}
     results = results[: len(jobs)]

@@ -13,9 +13,10 @@ engines' paths are shifted sideways by half the local pitch and clipped to the r
 (:func:`stagger`).
 
 Sparse infill keeps the slicer's bead width, so its plastic is its length: a run whose paths
-alone are longer than the slicer's extrusion by more than :data:`LENGTH_RETRY` (a narrow region,
-where one path more is a fifth of the layer) is run once more at the pitch that scales its length
-onto the slicer's, and the closer of the two is kept (:func:`_run_one`).  A run that is too short
+alone are longer than the slicer's extrusion by more than the splicer's flow correction can take
+back (``max_correction``; in a narrow region one path more is a fifth of the layer) is run once
+more at the pitch that scales its length onto the slicer's, and the closer of the two is kept
+(:func:`_run_one`).  A run that is too short
 is left alone: the printed links between path ends add length the paths do not show (on Cura's
 4 mm sparse pitch, links up to 8 mm long make up a short run).
 
@@ -54,7 +55,6 @@ __all__ = [
     "fields_agree",
     "default_workers",
     "length_target",
-    "LENGTH_RETRY",
 ]
 
 
@@ -163,12 +163,7 @@ def plan_jobs(
 
 # ---------------------------------------------------------------------------------------------- running
 
-_WORK: list[tuple[str, EngineInput, dict[str, Any], float | None]] = []
-
-LENGTH_RETRY = 0.15
-"""Relative excess of a fixed-width run's path length over the slicer's extrusion that runs it
-again: the splicer's flow correction takes back 15 % at most (its check allows 3 % more), and the
-printed links only add to the paths."""
+_WORK: list[tuple[str, EngineInput, dict[str, Any], float | None, float]] = []
 
 _PITCH_STEP = (0.6, 1.6)  # bounds of the second run's pitch, as a factor of the first's
 
@@ -183,15 +178,15 @@ def length_target(job: Job) -> float | None:
 
 
 def _run_one(i: int) -> tuple[Toolpaths, float]:
-    engine, inp, params, target = _WORK[i]
+    engine, inp, params, target, retry = _WORK[i]
     t0 = time.perf_counter()
     tp = generate(engine, inp, **params)
     if target:
-        got = sum(p.length for p in tp.paths)
-        if got > target * (1.0 + LENGTH_RETRY):
+        got = tp.total_length
+        if got > target * (1.0 + retry):
             pitch = inp.pitch * float(np.clip(got / target, *_PITCH_STEP))
             again = generate(engine, replace(inp, pitch=pitch), **params)
-            got2 = sum(p.length for p in again.paths)
+            got2 = again.total_length
             if abs(got2 / target - 1.0) < abs(got / target - 1.0):
                 again.stats["pitch_matched_to_length"] = pitch
                 tp = again
@@ -213,6 +208,7 @@ def run_jobs(
     params: dict[str, Any],
     workers: int = 1,
     progress: Callable[[int, int], None] | None = None,
+    length_retry: float = 0.15,
 ) -> list[tuple[Toolpaths, float]]:
     """Run every job's engine; ``(paths, seconds)`` per job, in job order.
 
@@ -226,9 +222,13 @@ def run_jobs(
         Processes; 1 runs in this process.
     progress : callable, optional
         ``progress(done, total)`` after each job.
+    length_retry : float
+        A fixed-width job whose paths are longer than :func:`length_target` by more than this share
+        is run again at the matching pitch: the splicer's ``max_correction`` (its flow correction
+        takes back that much at most, the printed links only add length).
     """
     global _WORK
-    _WORK = [(engine, j.input, {**params, **j.params}, length_target(j)) for j in jobs]
+    _WORK = [(engine, j.input, {**params, **j.params}, length_target(j), length_retry) for j in jobs]
     n = len(jobs)
     out: list[tuple[Toolpaths, float] | None] = [None] * n
     try:
