@@ -50,6 +50,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))
 import slicing  # noqa: E402
 from cases import GRIP_PULL  # noqa: E402
+from loadpath import engines  # noqa: E402
 
 LOADPATH = str(Path(sys.executable).with_name("loadpath"))
 CASE = GRIP_PULL
@@ -134,7 +135,7 @@ def main(argv=None) -> int:
     ap.add_argument("out", type=Path, nargs="?", default=None, help="folder for bench_pipeline.json")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="specimen and the 100-layer specimen only")
-    ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
+    ap.add_argument("--engine", default="swarm", choices=engines.NAMES)
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds before a run is given up")
     ap.add_argument("--tall", action="store_true", help="also the 1000-layer specimen (about 5 minutes)")
     args, _ = ap.parse_known_args(argv)

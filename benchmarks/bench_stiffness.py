@@ -567,7 +567,7 @@ def main(argv=None) -> int:
     ap.add_argument("--case", choices=tuple(CASES), action="append", help="run only this case (repeatable)")
     ap.add_argument(
         "--engine",
-        choices=("swarm", "streamlines"),
+        choices=engines.NAMES,
         action="append",
         help="run only this engine's loadpath rows (repeatable; the slicer's designs always run)",
     )

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from loadpath import engines
 from loadpath.errors import LoadpathError, SettingsError
 from loadpath.plugin import settings as settings_mod
 
@@ -247,7 +248,7 @@ def _run(
         if d is not None:
             s = s.with_values({"filament_diameter": d}, "inferred from the G-code")
             result.settings = s
-    params = {"K": s.K} if s.engine == "swarm" else {}
+    params = {name: getattr(s, name) for name in engines.get(s.engine).settings}
     opts = pipeline.PipelineOptions(
         engine=s.engine,
         engine_params=params,

@@ -34,6 +34,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from loadpath import engines
 from loadpath.errors import SettingsError
 from loadpath.plugin.slicers import (
     from_cura_settings,
@@ -62,7 +63,7 @@ __all__ = [
     "splice_options",
 ]
 
-ENGINES = ("swarm", "streamlines")
+ENGINES = engines.NAMES  # the registry's live list of names (loadpath.engines.registry)
 PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
 REPLACE_KINDS = ("solid", "sparse", "top", "bottom")
 
@@ -106,7 +107,7 @@ class Field:
 
 SCHEMA: tuple[Field, ...] = (
     # ---------------------------------------------------------------- toolpath (the user's choice)
-    Field("engine", "str", "swarm", "", "path engine", ENGINES, cli="--engine", toolpath=True),
+    Field("engine", "str", engines.DEFAULT, "", "path engine", ENGINES, cli="--engine", toolpath=True),
     Field(
         "pitch",
         "optional_float",
@@ -353,7 +354,7 @@ class Settings:
     ``"inferred from the G-code"``, ``"load case"`` or ``"command line"``.
     """
 
-    engine: str = "swarm"
+    engine: str = engines.DEFAULT
     pitch: float | None = None
     K: float = 5.0  # noqa: N815 (the paper's symbol)
     principal: str = "max_abs"
@@ -598,8 +599,8 @@ def cura_setting_definitions(groups: Sequence[str] = ("toolpath",)) -> dict[str,
 
 def splice_options(s: Settings):
     """Build the splicer's options (:class:`loadpath.splice.SpliceOptions`) for these settings."""
-    from loadpath.splice.flow import FlowModel
     from loadpath.splice import Motion, PlanOptions, Retraction, SpliceOptions
+    from loadpath.splice.flow import FlowModel
 
     flow = FlowModel(s.flow_model, s.filament_diameter, s.extrusion_multiplier, s.volumetric_e)
     retraction = Retraction(

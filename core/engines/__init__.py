@@ -1,41 +1,23 @@
-"""Path engines: ``swarm`` (the swarm paper) and ``streamlines`` (the thesis).
+"""Path engines: ``swarm`` (the swarm paper) and ``streamlines`` (the thesis), and what they share.
 
-Each engine module exposes ``generate(inp: EngineInput, **params) -> Toolpaths``.
-:func:`generate` picks one by name, importing it only when used.
+Each engine module exposes ``generate(inp: EngineInput, **options) -> Toolpaths``; the registry
+(:mod:`.registry`) names them and tells the pipeline how to run each.  :func:`generate` picks one by
+name, importing it only when used.  :mod:`.finish` holds the finishing stages both engines run
+(path ends, bead widths) and the compiled kernels under them; no engine imports another.
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from loadpath.engines.registry import (
+    DEFAULT,
+    NAMES,
+    Engine,
+    Machine,
+    generate,
+    get,
+    register,
+    unregister,
+    warm_up,
+)
 
-from loadpath.errors import SettingsError
-from loadpath.toolpath import EngineInput, Toolpaths
-
-__all__ = ["ENGINES", "generate"]
-
-ENGINES = {
-    "swarm": "loadpath.engines.swarm",
-    "streamlines": "loadpath.engines.streamlines",
-}
-
-
-def generate(engine: str, inp: EngineInput, **params: Any) -> Toolpaths:
-    """Run the named engine on one region.
-
-    Parameters
-    ----------
-    engine : {"swarm", "streamlines"}
-    inp : EngineInput
-    **params
-        Engine parameters (``K`` for the swarm, ...).
-
-    Returns
-    -------
-    Toolpaths
-    """
-    if engine not in ENGINES:
-        raise SettingsError(f"engine = {engine!r} is unknown; use one of {', '.join(ENGINES)}")
-    module = importlib.import_module(ENGINES[engine])
-    result: Toolpaths = module.generate(inp, **params)
-    return result
+__all__ = ["NAMES", "DEFAULT", "Engine", "Machine", "generate", "get", "register", "unregister", "warm_up"]

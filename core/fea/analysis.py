@@ -16,13 +16,13 @@ from typing import Any
 
 import numpy as np
 import shapely
+from loadpath.body import cover_slabs
 from loadpath.errors import LoadCaseError
 from loadpath.fea.boundary import Facets, check_rigid, facets_of, load_vector, pick, support_dofs
 from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice
 from loadpath.fea.material import elasticity_matrix
 from loadpath.fea.solver import FEAResult, Problem, solve
 from loadpath.field import principal_stresses
-from loadpath.body import cover_slabs
 from loadpath.loadcase.resolve import ResolvedBody, resolve_body
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.sizing import DEFAULT_MAX_TETS, MeshSize, default_mesh_size

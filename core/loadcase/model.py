@@ -211,7 +211,7 @@ class ToolpathOptions:
     Attributes
     ----------
     engine : str or None
-        ``"swarm"`` or ``"streamlines"``.
+        A registered engine (:data:`loadpath.engines.NAMES`: ``"swarm"``, ``"streamlines"``).
     pitch : float or None, mm
     K : float or None
         Swarm: weight of stress alignment against even spacing.

@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from loadpath import engines
 from loadpath.errors import LoadCaseError
 from loadpath.loadcase.model import (
     AXES,
@@ -42,7 +43,6 @@ _MATERIAL_KEYS = ("youngs_modulus", "poissons_ratio")
 _SUPPORT_KEYS = ("name", "where", "fix")
 _LOAD_KEYS = ("name", "where", "force", "pressure")
 _TOOLPATH_KEYS = ("engine", "pitch", "K", "principal", "replace")
-_ENGINES = ("swarm", "streamlines")
 _PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
 _REPLACE = ("solid", "sparse", "top", "bottom")
 
@@ -339,7 +339,7 @@ def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
         return ToolpathOptions()
     t = c.table(value, "toolpath")
     c.keys(t, _TOOLPATH_KEYS, "[toolpath]")
-    engine = c.string(t["engine"], "toolpath.engine", _ENGINES) if "engine" in t else None
+    engine = c.string(t["engine"], "toolpath.engine", engines.NAMES) if "engine" in t else None
     pitch = None
     if "pitch" in t:
         pitch = c.number(t["pitch"], "toolpath.pitch", "mm")

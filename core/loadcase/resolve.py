@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from loadpath.errors import LoadCaseError
 from loadpath.body import Body, merge_slabs
+from loadpath.errors import LoadCaseError
 from loadpath.loadcase.model import HoleSelector, Load, LoadCase, Support
 from loadpath.loadcase.select import Selection, nearest_hole, select
 from shapely.geometry.base import BaseGeometry

@@ -28,8 +28,8 @@ from collections.abc import Sequence
 
 import numpy as np
 import shapely
-from loadpath.errors import MeshingError
 from loadpath.body import Slab
+from loadpath.errors import MeshingError
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.gmsh_mesher import mesh_2d, orient_tets
 from loadpath.mesh.sizing import MeshSize

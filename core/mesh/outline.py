@@ -15,8 +15,8 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from loadpath._typing import Points2
-from loadpath.errors import MeshingError
 from loadpath.body import polygons_of
+from loadpath.errors import MeshingError
 from loadpath.mesh.sizing import MeshSize, reentrant_corners
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry

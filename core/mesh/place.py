@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import shapely
 from loadpath._typing import Region
-from loadpath.errors import GeometryError, MeshingError, ToolMissingError
 from loadpath.body import outline_difference
+from loadpath.errors import GeometryError, MeshingError, ToolMissingError
 from shapely.geometry import Polygon
 
 __all__ = ["place_stl", "footprint"]

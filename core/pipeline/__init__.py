@@ -41,11 +41,10 @@ from typing import Any
 
 import numpy as np
 import shapely
+from loadpath import engines
+from loadpath.engines import Machine
 from loadpath.errors import SpliceError
 from loadpath.gcode import Program, parse
-from loadpath.splice.plan import PlanOptions, simplify
-from loadpath.splice import BlockFill, SpliceOptions, SpliceResult, splice
-from loadpath.splice.verify import SpliceCheck, check_output
 from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger
 from loadpath.pipeline.units import (
     Unit,
@@ -55,6 +54,9 @@ from loadpath.pipeline.units import (
     unreliable_blocks,
     with_overlap,
 )
+from loadpath.splice import BlockFill, SpliceOptions, SpliceResult, splice
+from loadpath.splice.plan import PlanOptions, simplify
+from loadpath.splice.verify import SpliceCheck, check_output
 from loadpath.toolpath import Path, Toolpaths
 
 __all__ = ["PipelineOptions", "PipelineResult", "JobResult", "run", "STAGES"]
@@ -71,7 +73,8 @@ class PipelineOptions:
 
     Attributes
     ----------
-    engine : {"swarm", "streamlines"}
+    engine : str
+        A registered engine (:data:`loadpath.engines.NAMES`).
     engine_params : mapping
         Engine parameters (``{"K": 5.0}`` for the swarm).
     pitch : float or None, mm
@@ -92,7 +95,7 @@ class PipelineOptions:
         fills it (:func:`loadpath.pipeline.units.with_overlap`).
     """
 
-    engine: str = "swarm"
+    engine: str = engines.DEFAULT
     engine_params: Mapping[str, Any] = field(default_factory=dict)
     pitch: float | None = None
     principal: str = "max_abs"
@@ -334,6 +337,10 @@ def run(
         options.workers,
         lambda done, total: tell("paths", done, total),
         length_retry=splice_options.plan.max_correction,
+        machine=Machine(
+            nozzle=splice_options.plan.nozzle_diameter,
+            width_range=tuple(float(w) for w in splice_options.plan.width_range),
+        ),
     )
     shifted = {k: tp for k, (tp, _) in zip(phased, results[len(jobs) :], strict=True)}
     results = results[: len(jobs)]

@@ -37,8 +37,9 @@ from typing import Any
 
 import numpy as np
 import shapely
+from loadpath import engines
 from loadpath._typing import Region
-from loadpath.engines import generate
+from loadpath.engines import Machine, generate
 from loadpath.field import StressField
 from loadpath.geometry import group_regions
 from loadpath.pipeline.units import Unit
@@ -163,7 +164,7 @@ def plan_jobs(
 
 # ---------------------------------------------------------------------------------------------- running
 
-_WORK: list[tuple[str, EngineInput, dict[str, Any], float | None, float]] = []
+_WORK: list[tuple[str, EngineInput, dict[str, Any], float | None, float, Machine | None]] = []
 
 _PITCH_STEP = (0.6, 1.6)  # bounds of the second run's pitch, as a factor of the first's
 
@@ -178,14 +179,14 @@ def length_target(job: Job) -> float | None:
 
 
 def _run_one(i: int) -> tuple[Toolpaths, float]:
-    engine, inp, params, target, retry = _WORK[i]
+    engine, inp, params, target, retry, machine = _WORK[i]
     t0 = time.perf_counter()
-    tp = generate(engine, inp, **params)
+    tp = generate(engine, inp, machine, **params)
     if target:
         got = tp.total_length
         if got > target * (1.0 + retry):
             pitch = inp.pitch * float(np.clip(got / target, *_PITCH_STEP))
-            again = generate(engine, replace(inp, pitch=pitch), **params)
+            again = generate(engine, replace(inp, pitch=pitch), machine, **params)
             got2 = again.total_length
             if abs(got2 / target - 1.0) < abs(got / target - 1.0):
                 again.stats["pitch_matched_to_length"] = pitch
@@ -209,6 +210,7 @@ def run_jobs(
     workers: int = 1,
     progress: Callable[[int, int], None] | None = None,
     length_retry: float = 0.15,
+    machine: Machine | None = None,
 ) -> list[tuple[Toolpaths, float]]:
     """Run every job's engine; ``(paths, seconds)`` per job, in job order.
 
@@ -226,9 +228,11 @@ def run_jobs(
         A fixed-width job whose paths are longer than :func:`length_target` by more than this share
         is run again at the matching pitch: the splicer's ``max_correction`` (its flow correction
         takes back that much at most, the printed links only add length).
+    machine : Machine, optional
+        The machine facts; each engine receives those it declares (:mod:`loadpath.engines.registry`).
     """
     global _WORK
-    _WORK = [(engine, j.input, {**params, **j.params}, length_target(j), length_retry) for j in jobs]
+    _WORK = [(engine, j.input, {**params, **j.params}, length_target(j), length_retry, machine) for j in jobs]
     n = len(jobs)
     out: list[tuple[Toolpaths, float] | None] = [None] * n
     try:
@@ -239,12 +243,9 @@ def run_jobs(
                 if progress:
                     progress(i + 1, n)
         else:
-            if engine == "swarm":
-                # compile (or load) the numba kernels once here: forked workers inherit them, where
-                # each would otherwise compile them on its own on a cold cache
-                from loadpath.engines.swarm.warmup import warm_up
-
-                warm_up()
+            # compile (or load) an engine's compiled kernels once here: forked workers inherit
+            # them, where each would otherwise compile them on its own on a cold cache
+            engines.warm_up(engine)
             ctx = multiprocessing.get_context("fork")
             with ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx) as pool:
                 futures = {pool.submit(_run_one, i): i for i in range(n)}
@@ -267,14 +268,13 @@ def run_jobs(
 def lays_phase(engine: str, params: Mapping[str, Any]) -> bool:
     """Whether the engine, run with these parameters, lays a staggered copy itself (option ``phase``).
 
-    The swarm and the streamline engine's default mode take ``phase = 0.5``: their seeds, one pitch
-    apart, move on by half a pitch, so the copy is a whole layer whose paths run between the first
-    one's.  Faithful streamlines (lattice or element-centroid seeds) have no such seeds; their copy
-    is the paths shifted sideways (:func:`stagger`).
+    The registry says (:meth:`loadpath.engines.Engine.lays_phase`): the swarm and the streamline
+    engine's default mode take ``phase = 0.5``: their seeds, one pitch apart, move on by half a
+    pitch, so the copy is a whole layer whose paths run between the first one's.  Faithful
+    streamlines (lattice or element-centroid seeds) have no such seeds; their copy is the paths
+    shifted sideways (:func:`stagger`).
     """
-    if engine == "swarm":
-        return True
-    return engine == "streamlines" and params.get("mode", "default") == "default"
+    return engines.get(engine).lays_phase(params)
 
 
 def _dominant_normal(paths: Sequence[Path]) -> np.ndarray:

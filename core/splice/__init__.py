@@ -2,7 +2,8 @@
 
 >>> from loadpath import gcode, splice
 >>> program = gcode.read("examples/ohs.gcode")                                   # doctest: +SKIP
->>> result = splice.splice(program, [splice.BlockFill(block=17, paths=paths, region=region)], options)  # doctest: +SKIP
+>>> fills = [splice.BlockFill(block=17, paths=paths, region=region)]          # doctest: +SKIP
+>>> result = splice.splice(program, fills, options)                          # doctest: +SKIP
 >>> splice.check_output(program, result.data, result).problems                   # doctest: +SKIP
 []
 

@@ -34,12 +34,12 @@ from dataclasses import dataclass
 import numpy as np
 from loadpath._typing import Points2, Region
 from loadpath.gcode.blocks import BARRIER, NEUTRAL, TRAVEL, WIPE
-from loadpath.splice.emit import Style, Writer, fmt
 from loadpath.gcode.model import Block, Program
-from loadpath.splice.plan import BlockPlan, Chain
 from loadpath.gcode.rowindex import move_rows
-from loadpath.splice.travel import Motion, TravelState, travel, unretract, wipe_back
 from loadpath.gcode.words import G, M, T
+from loadpath.splice.emit import Style, Writer, fmt
+from loadpath.splice.plan import BlockPlan, Chain
+from loadpath.splice.travel import Motion, TravelState, travel, unretract, wipe_back
 
 __all__ = ["Rewritten", "rewrite_block", "refusal"]
 

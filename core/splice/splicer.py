@@ -29,13 +29,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from loadpath._typing import Region
 from loadpath.errors import SettingsError
+from loadpath.gcode.model import Block, Program
+from loadpath.gcode.rowindex import move_rows
 from loadpath.splice.beadruns import RunOptions, bead_runs
 from loadpath.splice.emit import STYLES, Style
 from loadpath.splice.flow import FlowModel
-from loadpath.gcode.model import Block, Program
 from loadpath.splice.plan import PlanOptions, plan_block
 from loadpath.splice.rewrite import refusal, rewrite_block
-from loadpath.gcode.rowindex import move_rows
 from loadpath.splice.travel import Motion, Retraction
 from loadpath.toolpath import Path
 

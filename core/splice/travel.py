@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Points2, Region
-from loadpath.splice.emit import Writer
 from loadpath.gcode.model import Program
+from loadpath.splice.emit import Writer
 from shapely.geometry import LineString
 
 __all__ = [

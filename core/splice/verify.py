@@ -31,11 +31,11 @@ import numpy as np
 import shapely
 from loadpath._typing import Region
 from loadpath.gcode.blocks import EXTRUDE, RETRACT, WIPE
-from loadpath.splice.lineview import LineView, read_lines
 from loadpath.gcode.model import Program
 from loadpath.gcode.rowindex import move_rows
-from loadpath.splice.splicer import SpliceResult
 from loadpath.gcode.words import G
+from loadpath.splice.lineview import LineView, read_lines
+from loadpath.splice.splicer import SpliceResult
 
 __all__ = ["SpliceCheck", "check_splice", "check_output", "layer_features"]
 

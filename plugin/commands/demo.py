@@ -11,6 +11,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from loadpath import engines
+
 HELP = "run the pipeline on the shipped example into ./loadpath-demo/"
 
 __all__ = ["HELP", "add_args", "run", "example_files"]
@@ -27,7 +29,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--engine",
-        choices=("swarm", "streamlines"),
+        choices=engines.NAMES,
         default=None,
         help="path engine (default: the load case's, else swarm)",
     )

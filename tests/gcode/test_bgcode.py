@@ -14,7 +14,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from loadpath.errors import GCodeParseError, UnsupportedFlavorError
 from loadpath.gcode import bgcode
-from loadpath.gcode.bgcode import meatpack
 from loadpath.gcode.bgcode import (
     BlockType,
     ChecksumType,
@@ -22,6 +21,7 @@ from loadpath.gcode.bgcode import (
     GCodeEncoding,
     MetadataEncoding,
     ThumbnailFormat,
+    meatpack,
 )
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "bgcode"

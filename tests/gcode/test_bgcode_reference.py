@@ -18,8 +18,14 @@ import pytest
 from conftest import IN_CI
 from loadpath.errors import GCodeParseError
 from loadpath.gcode import bgcode
-from loadpath.gcode.bgcode import meatpack
-from loadpath.gcode.bgcode import BlockType, ChecksumType, Compression, GCodeEncoding, ThumbnailFormat
+from loadpath.gcode.bgcode import (
+    BlockType,
+    ChecksumType,
+    Compression,
+    GCodeEncoding,
+    ThumbnailFormat,
+    meatpack,
+)
 from loadpath.gcode.bgcode.blocks import decompress, iter_blocks
 
 try:

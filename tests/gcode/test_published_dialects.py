@@ -33,8 +33,8 @@ import pytest
 from loadpath import gcode, geometry
 from loadpath.errors import LoadpathError
 from loadpath.gcode import Role, role_of
-from loadpath.splice.verify import check_splice
 from loadpath.plugin.job import JobRequest, run_job
+from loadpath.splice.verify import check_splice
 
 COMMITTED = Path(__file__).resolve().parents[1] / "data" / "published"
 EXTERNAL = os.environ.get("LOADPATH_PUBLISHED_GCODE", "")

@@ -17,8 +17,8 @@ import sys
 from pathlib import Path
 
 from loadpath import gcode
-from loadpath.splice.verify import check_splice
 from loadpath.plugin.job import JobRequest, run_job
+from loadpath.splice.verify import check_splice
 
 REPO = Path(__file__).resolve().parents[2]
 VENV_BIN = Path(sys.executable).parent

@@ -18,8 +18,8 @@ import slicing
 from conftest import require_tool
 from integration_helpers import VENV_BIN, assert_spliced, reference, write_bad_case, write_case
 from loadpath import gcode
-from loadpath.splice.verify import check_splice
 from loadpath.prusaslicer_postproc import main
+from loadpath.splice.verify import check_splice
 
 HOOK = VENV_BIN / "loadpath-prusaslicer"
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import shapely
 import slicing
-from loadpath.loadcase import Body, merge_slabs, parse, resolve
 from loadpath.body import cover_slabs
+from loadpath.loadcase import Body, merge_slabs, parse, resolve
 from shapely.geometry import Point, box
 
 

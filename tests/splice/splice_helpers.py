@@ -13,10 +13,10 @@ import numpy as np
 import shapely
 from loadpath import gcode
 from loadpath.gcode.flavors import Role
-from loadpath.splice import BlockFill, splice
-from loadpath.splice.verify import check_splice
 from loadpath.metrics import rectilinear
 from loadpath.plugin import settings as S
+from loadpath.splice import BlockFill, splice
+from loadpath.splice.verify import check_splice
 from loadpath.toolpath import Path
 
 SLICED_CASES = {

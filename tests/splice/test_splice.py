@@ -16,8 +16,8 @@ import shapely
 from loadpath import gcode
 from loadpath.gcode.blocks import EXTRUDE, RETRACT, TRAVEL, UNRETRACT, WIPE
 from loadpath.gcode.flavors import Role
-from loadpath.splice.verify import layer_features
 from loadpath.plugin import settings as S
+from loadpath.splice.verify import layer_features
 from loadpath.toolpath import Path as ToolPath
 from shapely.geometry import LineString
 from splice_helpers import SLICED_CASES, infill_blocks, own_paths_fill, rectilinear_fills, run_splice

@@ -85,9 +85,10 @@ def _shared_stamp(disp: Any, sources: tuple[Path, ...]) -> Any:
     return disp
 
 
-def jit_family(
-    sources: tuple[Path, ...],
-) -> tuple[Callable[[Callable[..., Any]], Callable[..., Any]], Callable[[Callable[..., Any]], Callable[..., Any]]]:
+_Jit = Callable[[Callable[..., Any]], Callable[..., Any]]
+
+
+def jit_family(sources: tuple[Path, ...]) -> tuple[_Jit, _Jit]:
     """``(njit, njit_inline)`` whose kernels' cache entries are stamped with ``sources``.
 
     ``njit`` compiles in nopython mode, cached on disk, numpy error model.  ``njit_inline`` compiles

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import shapely
 from loadpath._typing import Points2
+from loadpath.engines.finish.ends import extend_ends
 from loadpath.engines.streamlines._lines import Lines
 from loadpath.engines.streamlines.density import Selected, drop_crossings, select, thesis_density_control
 from loadpath.engines.streamlines.directions import DirectionGrid
@@ -36,7 +37,6 @@ from loadpath.engines.streamlines.params import StreamlineParams, resolve_params
 from loadpath.engines.streamlines.seeding import boundary_seeds, lattice
 from loadpath.engines.streamlines.segindex import SegmentIndex
 from loadpath.engines.streamlines.widths import tile
-from loadpath.engines.finish.ends import extend_ends
 from loadpath.errors import GeometryError, SettingsError
 from loadpath.toolpath import EngineInput, Path, Toolpaths
 

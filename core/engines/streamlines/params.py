@@ -23,7 +23,7 @@ from typing import Any
 
 from loadpath.errors import SettingsError
 
-__all__ = ["MODES", "StreamlineParams", "resolve_params"]
+__all__ = ["MODES", "StreamlineParams", "StreamlineOptions", "resolve_params"]
 
 MODES = ("default", "faithful")
 
@@ -155,6 +155,27 @@ class StreamlineParams:
 _DEFAULT_KEYS = {f.name for f in fields(StreamlineParams)} - {"mode"}
 
 
+@dataclass(frozen=True)
+class StreamlineOptions:
+    """The streamline engine's options that are not :class:`StreamlineParams` fields.
+
+    Attributes
+    ----------
+    mode : {"default", "faithful"}
+    nozzle : float, mm
+        Nozzle diameter (a machine fact the pipeline passes, :mod:`loadpath.engines.registry`).
+    width_range : (float, float)
+        Narrowest and widest bead, as multiples of ``nozzle`` (a machine fact).
+    flow_width : float or None, mm
+        The slicer's flow width at the nominal pitch; None: the pitch, as for solid infill.
+    """
+
+    mode: str = "default"
+    nozzle: float = 0.4
+    width_range: tuple[float, float] = (0.6, 1.6)
+    flow_width: float | None = None
+
+
 def resolve_params(mode: str, pitch: float, **options: Any) -> StreamlineParams:
     """Defaults of a mode for a nominal pitch, overridden by ``options``.
 
@@ -175,9 +196,11 @@ def resolve_params(mode: str, pitch: float, **options: Any) -> StreamlineParams:
     if mode not in MODES:
         raise SettingsError(f"streamlines mode = {mode!r} is unknown; use one of {', '.join(MODES)}")
     opts = dict(options)
-    nozzle = float(opts.pop("nozzle", 0.4))
-    width_range = tuple(opts.pop("width_range", (0.6, 1.6)))
-    flow_width = float(opts.pop("flow_width", pitch))
+    d = StreamlineOptions()
+    nozzle = float(opts.pop("nozzle", d.nozzle))
+    width_range = tuple(opts.pop("width_range", d.width_range))
+    flow_width = opts.pop("flow_width", d.flow_width)
+    flow_width = float(pitch if flow_width is None else flow_width)
     unknown = sorted(set(opts) - _DEFAULT_KEYS)
     if unknown:
         raise SettingsError(

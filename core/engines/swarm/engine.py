@@ -26,14 +26,15 @@ import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Points2, Region
 from loadpath.engines.finish.boundary import Domain
-from loadpath.engines.swarm.caps import settle_ends
 from loadpath.engines.finish.ends import extend_ends
+from loadpath.engines.finish.widths import centre_points, local_pitch
+from loadpath.engines.swarm.caps import settle_ends
 from loadpath.engines.swarm.gaps import gap_fill
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.joins import join_ends
+from loadpath.engines.swarm.options import SwarmOptions
 from loadpath.engines.swarm.raster import raster_for
 from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, run
-from loadpath.engines.finish.widths import centre_points, local_pitch
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
 from loadpath.toolpath import EngineInput, Path, Toolpaths
@@ -42,23 +43,6 @@ from shapely.geometry.base import BaseGeometry
 __all__ = ["generate", "SwarmParams"]
 
 _PARAM_NAMES = {f.name for f in fields(SwarmParams)}
-_ENGINE_OPTIONS = {
-    "coverage_target",
-    "max_swarms",
-    "fill",
-    "fill_min_width",
-    "widths",
-    "width_cap",
-    "extend_ends",
-    "end_cap",
-    "centre",
-    "end_overlap",
-    "gaps",
-    "phase",
-    "settle",
-    "join",
-    "hairpin",
-}
 
 
 class _Recorder:
@@ -371,34 +355,12 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     """
     if not (np.isfinite(K) and K >= 0):
         raise SettingsError(f"K = {K!r} must be a non-negative number (the paper uses 0.5 to 50; default 5)")
-    opts = dict(options)
-    coverage_target = float(opts.pop("coverage_target", 0.995))  # type: ignore[arg-type]
-    max_swarms = int(opts.pop("max_swarms", 400))  # type: ignore[call-overload]
-    fill = bool(opts.pop("fill", True))
-    fill_min_width = float(opts.pop("fill_min_width", 0.6))  # type: ignore[arg-type]
-    widths = str(opts.pop("widths", "measured"))
-    width_cap = float(opts.pop("width_cap", 1.5))  # type: ignore[arg-type]
-    extend = bool(opts.pop("extend_ends", True))
-    end_cap = float(opts.pop("end_cap", 0.0))  # type: ignore[arg-type]
-    centre = float(opts.pop("centre", 0.25))  # type: ignore[arg-type]
-    gaps = bool(opts.pop("gaps", True))
-    phase = float(opts.pop("phase", 0.0))  # type: ignore[arg-type]
-    settle = opts.pop("settle", None)
-    join = bool(opts.pop("join", True))
-    hairpin = opts.pop("hairpin", None)
-    hairpin = None if hairpin is None else float(hairpin)  # type: ignore[arg-type]
-    settle = None if settle is None else float(settle)  # type: ignore[arg-type]
-    end_overlap = opts.pop("end_overlap", 0.0)
-    end_overlap = None if end_overlap is None else float(end_overlap)  # type: ignore[arg-type]
-    if widths not in ("geometric", "swarm", "measured"):
+    opts, rest = SwarmOptions.from_options(options)
+    params_kw = {k: rest.pop(k) for k in list(rest) if k in _PARAM_NAMES}
+    if rest:
         raise SettingsError(
-            f"widths = {widths!r}; use 'geometric' (from the finished layer) or 'swarm' (from the chains)"
-        )
-    params_kw = {k: opts.pop(k) for k in list(opts) if k in _PARAM_NAMES}
-    if opts:
-        raise SettingsError(
-            f"unknown swarm option(s) {', '.join(sorted(opts))}; known: "
-            f"{', '.join(sorted(_PARAM_NAMES | _ENGINE_OPTIONS))}"
+            f"unknown swarm option(s) {', '.join(sorted(rest))}; known: "
+            f"{', '.join(sorted(_PARAM_NAMES | SwarmOptions.names()))}"
         )
     params = SwarmParams(K=float(K), **params_kw)  # type: ignore[arg-type]
     t0 = time.perf_counter()
@@ -406,6 +368,22 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     region = shapely.make_valid(inp.region) if not inp.region.is_valid else inp.region
     region = shapely.normalize(region)
     stats: dict = {}
+    paths = _lay(inp, region, pitch, params, opts, stats)
+    paths = _finish(paths, region, pitch, inp.field, params, opts, stats)
+    stats["time_s"] = time.perf_counter() - t0
+    stats["K"] = params.K
+    return Toolpaths(paths=tuple(paths), stats=stats)
+
+
+def _lay(
+    inp: EngineInput, region: Region, pitch: float, params: SwarmParams, opts: SwarmOptions, stats: dict
+) -> list[Path]:
+    """Run the swarms: the first from where the load enters, then fill swarms until the region is covered.
+
+    Returns the paths as the swarms traced them (a negative pitch marks a point whose width the
+    swarm was unsure of); ``stats`` gets the counts and times.
+    """
+    phase = opts.phase
     grid = Occupancy(tuple(region.bounds), pitch / 3.0)
     t_raster = time.perf_counter()
     raster = raster_for(inp.field, tuple(region.bounds), params.field_cell * pitch)
@@ -469,23 +447,23 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     given_up: list[Region] = []
     left, counted = shapely.get_parts(region), 0
     known: dict = {}
-    while fill and swarms < max_swarms:
+    while opts.fill and swarms < opts.max_swarms:
         # only the paths laid since the last round are subtracted from what was left
         left = _subtract_beads(left, rec.lines(min_pid=counted), pitch)
         counted = next_pid
-        pieces = _pieces(left, fill_min_width * pitch, known)
+        pieces = _pieces(left, opts.fill_min_width * pitch, known)
         if given_up:
             pieces = [p for p in pieces if not any(p.equals_exact(g, 1e-9) for g in given_up)]
         covered = 1.0 - sum(p.area for p in pieces) / area
         stats["coverage_nominal"] = covered
-        if not pieces or covered >= coverage_target:
+        if not pieces or covered >= opts.coverage_target:
             break
         rounds += 1
         progressed = False
         # seeds for every piece at once: a round's swarms stay in their own pieces
         all_seeds = _fill_seeds(pieces, inp.field, pitch, (params.margin + 0.05) * pitch, phase)
         for piece, seeds in zip(pieces, all_seeds, strict=True):
-            if swarms >= max_swarms:
+            if swarms >= opts.max_swarms:
                 break
             if seeds is None:
                 given_up.append(piece)
@@ -501,7 +479,26 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
     stats["time_fill_s"] = time.perf_counter() - t_fill
     stats["fill_rounds"] = rounds
     stats["swarms"] = swarms
-    paths = rec.paths()
+    return rec.paths()
+
+
+def _finish(
+    paths: list[Path],
+    region: Region,
+    pitch: float,
+    field: StressField,
+    params: SwarmParams,
+    opts: SwarmOptions,
+    stats: dict,
+) -> list[Path]:
+    """Run the finishing stages, in order: bead widths, ends, joins, gap beads, settled ends.
+
+    Each stage takes the paths (points and widths) of the one before and is switched by its option.
+    """
+    widths, width_cap, centre, extend = opts.widths, opts.width_cap, opts.centre, opts.extend_ends
+    end_cap, end_overlap, join, hairpin, gaps, settle = (
+        opts.end_cap, opts.end_overlap, opts.join, opts.hairpin, opts.gaps, opts.settle
+    )  # fmt: skip
     if widths in ("geometric", "measured") and paths:
         t_w = time.perf_counter()
         everywhere = widths == "measured"
@@ -535,7 +532,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
             region,
             pitch,
             edge_gap=params.edge_gap,
-            field=inp.field,
+            field=field,
             cap=end_cap,
             overlap=end_overlap,
         )
@@ -552,9 +549,7 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         stats["time_joins_s"] = time.perf_counter() - t_j
     if gaps and paths:
         t_g = time.perf_counter()
-        gp, gw, st = gap_fill(
-            [p.points for p in paths], [p.pitch for p in paths], region, pitch, field=inp.field
-        )
+        gp, gw, st = gap_fill([p.points for p in paths], [p.pitch for p in paths], region, pitch, field=field)
         paths += [Path(points=q, pitch=w, kind="fill") for q, w in zip(gp, gw, strict=True)]
         stats.update(st)
         stats["time_gaps_s"] = time.perf_counter() - t_g
@@ -566,6 +561,4 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         paths = [Path(points=q, pitch=w, kind=p.kind) for q, w, p in zip(sp, sw, paths, strict=True)]
         stats.update(st)
         stats["time_settle_s"] = time.perf_counter() - t_s
-    stats["time_s"] = time.perf_counter() - t0
-    stats["K"] = params.K
-    return Toolpaths(paths=tuple(paths), stats=stats)
+    return paths

@@ -1,8 +1,8 @@
-"""Binary G-code (``.bgcode``, PrusaSlicer 2.7+), the container the reader decodes and the writer re-encodes.
+r"""Binary G-code (``.bgcode``, PrusaSlicer 2.7+), the container the reader decodes and the writer re-encodes.
 
 >>> from loadpath.gcode import bgcode
->>> bgcode.decode(bgcode.encode(bgcode.new_container({}, {}, {}), "G1 X1\\n")).gcode
-'G1 X1\\n'
+>>> bgcode.decode(bgcode.encode(bgcode.new_container({}, {}, {}), "G1 X1\n")).gcode
+'G1 X1\n'
 
 Modules:
 

@@ -6,8 +6,8 @@ import numpy as np
 import shapely
 from loadpath import metrics as M
 from loadpath.engines.finish.ends import extend_ends
-from loadpath.engines.swarm.gaps import gap_fill
 from loadpath.engines.finish.widths import centre_points, local_pitch
+from loadpath.engines.swarm.gaps import gap_fill
 from loadpath.toolpath import Path
 from shapely.geometry import box
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from loadpath.engines.finish import _numba as shared
 from loadpath.engines.swarm import _jit as jit
-from loadpath.engines.swarm import warmup
 from loadpath.engines.swarm import kernel_step as ks
+from loadpath.engines.swarm import warmup
 
 
 @pytest.fixture(scope="module")

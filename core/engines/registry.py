@@ -1,0 +1,219 @@
+"""The engine registry: every path engine, and what the pipeline must know about it, in one place.
+
+An :class:`Engine` entry names the engine and says
+
+- where its ``generate(inp: EngineInput, **options) -> Toolpaths`` lives (imported on first use,
+  so naming the engines imports neither numba nor an engine);
+- its options (a frozen dataclass, :meth:`Engine.options_class`) and which of the user's settings
+  it takes (``settings``: the swarm's ``K``);
+- whether it lays the staggered copy of a run of identical layers itself (:meth:`Engine.lays_phase`:
+  from seeds moved on by half a pitch, option ``phase``) or the pipeline shifts its paths sideways
+  (:func:`loadpath.pipeline.paths.stagger`);
+- its warm-up (compile or load compiled kernels before worker processes fork);
+- which machine facts (:class:`Machine`: nozzle, bead-width range, flow width) it receives; the
+  pipeline hands them down and :func:`generate` passes an engine the ones it declares.
+
+The command line, the settings schema (and the Cura plugin's schema generated from it), the load
+case's ``[toolpath] engine`` and the demo read the names from :data:`NAMES`, a live view: adding an
+engine is one :func:`register` call.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, fields
+from typing import Any
+
+from loadpath.errors import SettingsError
+from loadpath.toolpath import EngineInput, Toolpaths
+
+__all__ = ["Machine", "Engine", "register", "unregister", "get", "NAMES", "DEFAULT", "generate", "warm_up"]
+
+
+@dataclass(frozen=True)
+class Machine:
+    """What the printer and the slicer's settings allow, as an engine may need it.
+
+    Attributes
+    ----------
+    nozzle : float, mm
+        Nozzle diameter.
+    width_range : (float, float)
+        Narrowest and widest bead, as multiples of ``nozzle`` (the splicer clamps to the same range).
+    flow_width : float or None, mm
+        The slicer's bead width at the nominal pitch; None: the pitch (solid infill).
+    """
+
+    nozzle: float = 0.4
+    width_range: tuple[float, float] = (0.6, 1.6)
+    flow_width: float | None = None
+
+
+def _load(dotted: str) -> Any:
+    module, _, name = dotted.partition(":")
+    obj = importlib.import_module(module)
+    return getattr(obj, name) if name else obj
+
+
+@dataclass(frozen=True)
+class Engine:
+    """One registered path engine.
+
+    Attributes
+    ----------
+    name : str
+        What the user types (``--engine``, ``[toolpath] engine``).
+    module : str
+        Import path of the module whose ``generate(inp, **options)`` runs the engine.
+    options : str
+        ``"module:Class"`` of its frozen options dataclass (imported on use).
+    summary : str
+        One line for help texts.
+    settings : tuple of str
+        User settings (:class:`loadpath.plugin.settings.Settings` fields) passed to the engine as
+        options of the same name.
+    phase : callable
+        ``phase(options) -> bool``: whether, run with these options, it lays the staggered copy
+        itself (option ``phase = 0.5``).
+    warm_up : str or None
+        ``"module:function"`` compiling what the engine compiles, run before workers fork.
+    machine : tuple of str
+        :class:`Machine` fields the engine receives as options of the same name.
+    """
+
+    name: str
+    module: str
+    options: str
+    summary: str
+    settings: tuple[str, ...] = ()
+    phase: Callable[[Mapping[str, Any]], bool] = lambda options: False
+    warm_up: str | None = None
+    machine: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        unknown = set(self.machine) - {f.name for f in fields(Machine)}
+        if unknown:
+            raise SettingsError(f"engine {self.name!r}: unknown machine facts {', '.join(sorted(unknown))}")
+
+    def lays_phase(self, options: Mapping[str, Any]) -> bool:
+        """Whether the engine, run with ``options``, lays a staggered copy itself (option ``phase``)."""
+        return bool(self.phase(options))
+
+    def options_class(self) -> type:
+        """Return the engine's frozen options dataclass."""
+        cls: type = _load(self.options)
+        return cls
+
+    def machine_options(self, machine: Machine | None) -> dict[str, Any]:
+        """Return the machine facts this engine receives, as options (None values left out)."""
+        if machine is None:
+            return {}
+        values = {k: getattr(machine, k) for k in self.machine}
+        return {k: v for k, v in values.items() if v is not None}
+
+
+_REGISTRY: dict[str, Engine] = {}
+
+
+class _Names(Sequence[str]):
+    """The registered engine names, in registration order; a live view of the registry."""
+
+    def __getitem__(self, i: Any) -> Any:
+        return tuple(_REGISTRY)[i]
+
+    def __len__(self) -> int:
+        return len(_REGISTRY)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(tuple(_REGISTRY))
+
+    def __contains__(self, name: object) -> bool:
+        return name in _REGISTRY
+
+    def __repr__(self) -> str:
+        return repr(tuple(_REGISTRY))
+
+
+NAMES: Sequence[str] = _Names()
+"""Registered engine names (first: the default), always current."""
+
+
+def register(engine: Engine) -> Engine:
+    """Add an engine (a name registered twice is an error)."""
+    if engine.name in _REGISTRY:
+        raise SettingsError(f"an engine named {engine.name!r} is registered already")
+    _REGISTRY[engine.name] = engine
+    return engine
+
+
+def unregister(name: str) -> None:
+    """Remove an engine (tests that register one of their own)."""
+    _REGISTRY.pop(name, None)
+
+
+def get(name: str) -> Engine:
+    """Return the engine called ``name`` (one-line :class:`SettingsError` when none is)."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise SettingsError(f"engine = {name!r} is unknown; use one of {', '.join(_REGISTRY)}") from None
+
+
+def generate(engine: str, inp: EngineInput, machine: Machine | None = None, **options: Any) -> Toolpaths:
+    """Run the named engine on one region.
+
+    Parameters
+    ----------
+    engine : str
+        A registered name (:data:`NAMES`).
+    inp : EngineInput
+    machine : Machine, optional
+        Machine facts; the engine receives those it declares (explicit ``options`` win).
+    **options
+        Engine options (``K`` for the swarm, ...).
+
+    Returns
+    -------
+    Toolpaths
+    """
+    entry = get(engine)
+    module = importlib.import_module(entry.module)
+    result: Toolpaths = module.generate(inp, **{**entry.machine_options(machine), **options})
+    return result
+
+
+def warm_up(engine: str) -> None:
+    """Run the engine's warm-up, if it has one (before forking workers that would each compile)."""
+    entry = get(engine)
+    if entry.warm_up:
+        _load(entry.warm_up)()
+
+
+# ------------------------------------------------------------------------------ the engines
+
+DEFAULT = "swarm"
+"""The engine used when the user names none."""
+
+register(
+    Engine(
+        name="swarm",
+        module="loadpath.engines.swarm",
+        options="loadpath.engines.swarm.options:SwarmOptions",
+        summary="the swarm paper's agents (Guidetti et al. 2024)",
+        settings=("K",),
+        phase=lambda options: True,
+        warm_up="loadpath.engines.swarm.warmup:warm_up",
+    )
+)
+register(
+    Engine(
+        name="streamlines",
+        module="loadpath.engines.streamlines",
+        options="loadpath.engines.streamlines.params:StreamlineOptions",
+        summary="streamlines of the principal stress (the thesis)",
+        # faithful streamlines (lattice or element-centroid seeds) have no seeds to move on
+        phase=lambda options: options.get("mode", "default") == "default",
+        machine=("nozzle", "width_range"),
+    )
+)
