@@ -14,8 +14,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from loadpath import engines
-from loadpath.errors import LoadCaseError
+from loadpath import options
+from loadpath.errors import LoadCaseError, SettingsError
 from loadpath.loadcase.model import (
     AXES,
     PLA,
@@ -42,9 +42,6 @@ _TOP_KEYS = ("version", "object", "frame", "material", "supports", "loads", "too
 _MATERIAL_KEYS = ("youngs_modulus", "poissons_ratio")
 _SUPPORT_KEYS = ("name", "where", "fix")
 _LOAD_KEYS = ("name", "where", "force", "pressure")
-_TOOLPATH_KEYS = ("engine", "pitch", "K", "principal", "replace")
-_PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
-_REPLACE = ("solid", "sparse", "top", "bottom")
 
 _EXAMPLE_SUPPORT = '[[supports]] where = { side = "x_min", within = 5.0 } fix = ["x", "y", "z"]'
 _EXAMPLE_LOAD = '[[loads]] where = { side = "x_max", within = 5.0 } force = [1000.0, 0.0, 0.0]'
@@ -335,30 +332,45 @@ def _unique_names(c: _Ctx, supports: tuple[Support, ...], loads: tuple[Load, ...
 
 
 def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
+    """Read the ``[toolpath]`` table: keys, choices and bounds are those of :mod:`loadpath.options`."""
     if value is None:
         return ToolpathOptions()
     t = c.table(value, "toolpath")
-    c.keys(t, _TOOLPATH_KEYS, "[toolpath]")
-    engine = c.string(t["engine"], "toolpath.engine", engines.NAMES) if "engine" in t else None
+    c.keys(t, options.TABLE_KEYS, "[toolpath]")
+
+    def bounded(name: str, x: Any) -> Any:
+        try:
+            return options.convert(options.field(name), x, f"toolpath.{name}")
+        except SettingsError as exc:
+            raise c.fail(str(exc)) from None
+
+    engine = (
+        c.string(t["engine"], "toolpath.engine", options.field("engine").choices) if "engine" in t else None
+    )
     pitch = None
     if "pitch" in t:
         pitch = c.number(t["pitch"], "toolpath.pitch", "mm")
         if pitch <= 0:
             raise c.fail(f"toolpath.pitch = {pitch} must be > 0 mm (e.g. 0.45)")
+        pitch = bounded("pitch", pitch)
     k = None
     if "K" in t:
         k = c.number(t["K"], "toolpath.K", "dimensionless")
         if k < 0:
             raise c.fail(f"toolpath.K = {k} must be >= 0 (the paper uses 5)")
-    principal = c.string(t["principal"], "toolpath.principal", _PRINCIPALS) if "principal" in t else None
+        k = bounded("K", k)
+    principal = (
+        c.string(t["principal"], "toolpath.principal", options.PRINCIPALS) if "principal" in t else None
+    )
     replace = None
     if "replace" in t:
         r = t["replace"]
         if not isinstance(r, list) or not r:
             raise c.fail(
-                f"toolpath.replace = {r!r} must be a non-empty list of {', '.join(map(repr, _REPLACE))}"
+                f"toolpath.replace = {r!r} must be a non-empty list of "
+                f"{', '.join(map(repr, options.REPLACE_KINDS))}"
             )
         for kind in r:
-            c.string(kind, "toolpath.replace[]", _REPLACE)
+            c.string(kind, "toolpath.replace[]", options.REPLACE_KINDS)
         replace = tuple(dict.fromkeys(r))
     return ToolpathOptions(engine=engine, pitch=pitch, K=k, principal=principal, replace=replace)

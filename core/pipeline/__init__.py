@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 import shapely
-from loadpath import engines
+from loadpath import options
 from loadpath.engines import Machine
 from loadpath.errors import SpliceError
 from loadpath.gcode import Program, parse
@@ -95,16 +95,24 @@ class PipelineOptions:
         fills it (:func:`loadpath.pipeline.units.with_overlap`).
     """
 
-    engine: str = engines.DEFAULT
+    engine: str = options.field("engine").default
     engine_params: Mapping[str, Any] = field(default_factory=dict)
-    pitch: float | None = None
-    principal: str = "max_abs"
-    replace: tuple[str, ...] = ("solid",)
-    stagger: bool = True
+    pitch: float | None = options.field("pitch").default
+    principal: str = options.field("principal").default
+    replace: tuple[str, ...] = options.field("replace").default
+    stagger: bool = options.field("stagger").default
     workers: int = 1
     check: bool = True
     volume_tol: float = 0.03
     overlap: bool = True
+
+    def __post_init__(self) -> None:
+        # the toolpath options' own checks (loadpath.options), so a caller that builds these
+        # directly gets the same one-line errors as the command line and the load case
+        for name in ("engine", "principal", "replace", "stagger"):
+            options.convert(options.field(name), getattr(self, name), f"PipelineOptions.{name}")
+        if options.user_pitch(self.pitch) is not None:
+            options.convert(options.field("pitch"), self.pitch, "PipelineOptions.pitch")
 
 
 @dataclass

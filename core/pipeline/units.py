@@ -21,6 +21,7 @@ import numpy as np
 import shapely
 from loadpath._typing import Region
 from loadpath.geometry import InfillBlock, PrintGeometry
+from loadpath.options import user_pitch
 
 __all__ = [
     "Unit",
@@ -194,6 +195,7 @@ def select_units(
     """
     kinds = tuple(replace)
     skip = set(exclude)
+    pitch = user_pitch(pitch)
     out = []
     for obj in geo.objects:
         if obj.name not in objects:
@@ -214,8 +216,8 @@ def select_units(
                     if region.is_empty or region.area <= 0:
                         continue
                     w = [b.length for b in blocks]
-                    p = pitch if pitch else _median([b.pitch for b in blocks], w)
-                    if not pitch and kind in FIXED_WIDTH_KINDS:
+                    p = pitch if pitch is not None else _median([b.pitch for b in blocks], w)
+                    if pitch is None and kind in FIXED_WIDTH_KINDS:
                         p = sparse_pitch(p, region.area, sum(w))
                     out.append(
                         Unit(

@@ -1,0 +1,247 @@
+"""The toolpath options: what a user chooses about the new paths, with types, bounds and conversion.
+
+One owner for the options the load case's ``[toolpath]`` table, the pipeline
+(:class:`loadpath.pipeline.PipelineOptions`) and the application's settings
+(:mod:`loadpath.plugin.settings`, which adds the machine and run fields, resolves them from the
+slicer and generates the command line and the Cura plugin's settings) all speak of:
+
+- :class:`Field` -- one option: name, kind, default, unit, help, choices, bounds, its command-line
+  flag, whether the ``[toolpath]`` table may set it;
+- :data:`TOOLPATH_FIELDS` -- the toolpath options (engine, pitch, K, principal, replace, bead
+  widths, links, volume matching, stagger); :data:`TABLE_KEYS` -- those the ``[toolpath]`` table
+  takes;
+- :func:`convert` -- a value checked against its field and converted, one line on bad input;
+- :func:`user_pitch` -- the one reading of "no pitch": None or 0 means each unit's slicer pitch.
+
+The engine names come from the registry (:data:`loadpath.engines.NAMES`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from loadpath import engines
+from loadpath.errors import SettingsError
+
+__all__ = [
+    "Field",
+    "TOOLPATH_FIELDS",
+    "TABLE_KEYS",
+    "PRINCIPALS",
+    "REPLACE_KINDS",
+    "field",
+    "convert",
+    "user_pitch",
+]
+
+PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
+"""Principal stresses a path can follow (``alternate``: ``max_abs`` and ``min_abs`` by layer)."""
+REPLACE_KINDS = ("solid", "sparse", "top", "bottom")
+"""Infill kinds that can be replaced."""
+
+
+@dataclass(frozen=True)
+class Field:
+    """One setting in the schema.
+
+    Attributes
+    ----------
+    name : str
+        Attribute of :class:`Settings`.
+    kind : {"str", "float", "int", "bool", "kinds", "optional_float"}
+    default : Any
+    unit : str
+    help : str
+    choices : tuple of str
+        Allowed values (``str`` and ``kinds``).
+    minimum, maximum : float or None
+        Bounds (inclusive) for numbers.
+    cli : str or None
+        Command-line flag of its own (``--pitch``); every field is also reachable with ``--set``.
+    toolpath : bool
+        Allowed in the load case's ``[toolpath]`` table.
+    group : {"toolpath", "machine", "run"}
+        ``machine`` fields normally come from the slicer.
+    """
+
+    name: str
+    kind: str
+    default: Any
+    unit: str = ""
+    help: str = ""
+    choices: tuple[str, ...] = ()
+    minimum: float | None = None
+    maximum: float | None = None
+    cli: str | None = None
+    toolpath: bool = False
+    group: str = "toolpath"
+
+
+TOOLPATH_FIELDS: tuple[Field, ...] = (
+    Field("engine", "str", engines.DEFAULT, "", "path engine", engines.NAMES, cli="--engine", toolpath=True),
+    Field(
+        "pitch",
+        "optional_float",
+        None,
+        "mm",
+        "centre-to-centre distance of the new paths; default: the slicer's pitch for the replaced infill",
+        minimum=0.05,
+        maximum=50.0,
+        cli="--pitch",
+        toolpath=True,
+    ),
+    Field(
+        "K",
+        "float",
+        5.0,
+        "",
+        "swarm: weight of stress alignment against even spacing",
+        minimum=0.0,
+        maximum=1000.0,
+        cli="--K",
+        toolpath=True,
+    ),
+    Field(
+        "principal",
+        "str",
+        "max_abs",
+        "",
+        "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers)",
+        PRINCIPALS,
+        cli="--principal",
+        toolpath=True,
+    ),
+    Field(
+        "replace",
+        "kinds",
+        ("solid",),
+        "",
+        "infill kinds replaced (comma-separated)",
+        REPLACE_KINDS,
+        cli="--replace",
+        toolpath=True,
+    ),
+    Field(
+        "width_min",
+        "float",
+        0.6,
+        "x nozzle",
+        "narrowest bead, as a multiple of the nozzle diameter",
+        minimum=0.2,
+        maximum=1.0,
+    ),
+    Field(
+        "width_max",
+        "float",
+        1.6,
+        "x nozzle",
+        "widest bead, as a multiple of the nozzle diameter",
+        minimum=1.0,
+        maximum=3.0,
+    ),
+    Field(
+        "link_max",
+        "float",
+        2.0,
+        "pitches",
+        "longest printed link between neighbouring path ends",
+        minimum=0.0,
+        maximum=10.0,
+    ),
+    Field(
+        "match_volume", "bool", True, "", "scale the flow so each block extrudes the volume the slicer did"
+    ),
+    Field(
+        "max_correction",
+        "float",
+        0.15,
+        "",
+        "largest relative flow change volume matching may apply",
+        minimum=0.0,
+        maximum=0.5,
+    ),
+    Field(
+        "stagger",
+        "bool",
+        True,
+        "",
+        "every other layer of a run of identical layers lies half a pitch over (laid again by the engine)",
+    ),
+)
+"""The toolpath options, in the order the help lists them."""
+
+_BY_NAME = {f.name: f for f in TOOLPATH_FIELDS}
+
+TABLE_KEYS: tuple[str, ...] = tuple(f.name for f in TOOLPATH_FIELDS if f.toolpath)
+"""Keys of the load case's ``[toolpath]`` table."""
+
+
+def field(name: str) -> Field:
+    """Return the toolpath option called ``name``."""
+    return _BY_NAME[name]
+
+
+def user_pitch(value: float | None) -> float | None:
+    """Return the user's pitch, or None where None or 0 asks for each unit's slicer pitch."""
+    return float(value) if value else None
+
+
+def convert(f: Field, value: Any, where: str) -> Any:
+    """Validate and convert one value of field ``f``.
+
+    Numbers may be given as text (``"0.45"``, ``"20%"``), kinds as a comma-separated string or a
+    list; an ``optional_float`` of None, ``""``, ``"none"`` or ``"auto"`` is None.  Anything outside
+    the field's type, choices or bounds is a one-line :class:`~loadpath.errors.SettingsError` that
+    starts with ``where``.
+    """
+    try:
+        if f.kind == "optional_float" and (
+            value is None or str(value).strip().lower() in ("", "none", "auto")
+        ):
+            return None
+        if f.kind in ("float", "optional_float"):
+            v = float(str(value).strip().rstrip("%")) / (100.0 if str(value).strip().endswith("%") else 1.0)
+            if not math.isfinite(v):
+                raise ValueError
+        elif f.kind == "int":
+            v = int(float(str(value)))
+        elif f.kind == "bool":
+            v = _bool(value)
+        elif f.kind == "kinds":
+            items = value.split(",") if isinstance(value, str) else list(value)
+            v = tuple(dict.fromkeys(str(x).strip().lower() for x in items if str(x).strip()))
+            bad = [x for x in v if x not in f.choices]
+            if bad or not v:
+                raise SettingsError(
+                    f"{where}: {', '.join(bad) or 'nothing'} is not an infill kind; use any of "
+                    f"{', '.join(f.choices)}"
+                )
+            return v
+        else:
+            v = str(value).strip()
+    except (TypeError, ValueError):
+        raise SettingsError(
+            f"{where} = {value!r} is not a valid {f.kind.replace('optional_', '')}"
+            f"{' (' + f.unit + ')' if f.unit else ''}; {f.help}"
+        ) from None
+    if f.choices and v not in f.choices:
+        raise SettingsError(f"{where} = {v!r} is not one of {', '.join(f.choices)}")
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        if (f.minimum is not None and v < f.minimum) or (f.maximum is not None and v > f.maximum):
+            raise SettingsError(
+                f"{where} = {v} {f.unit} is outside {f.minimum}..{f.maximum} {f.unit}; {f.help}"
+            )
+    return v
+
+
+def _bool(value: Any) -> bool:
+    if isinstance(value, bool):
+        return value
+    s = str(value).strip().lower()
+    if s in ("1", "true", "yes", "on"):
+        return True
+    if s in ("0", "false", "no", "off", ""):
+        return False
+    raise ValueError(value)
