@@ -67,9 +67,15 @@ def read(path: str | Path) -> LoadCase:
     LoadCaseError
         The file cannot be read or is not a valid load case.
     """
+    from loadpath.files import NotRegularError, read_regular
+
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = read_regular(p, limit=64 << 20).decode("utf-8")
+    except NotRegularError as exc:
+        raise LoadCaseError(f"load case {str(p)!r} {exc}; give the path of a .toml file") from None
+    except FileNotFoundError:
+        raise LoadCaseError(f"cannot read load case {str(p)!r}: it does not exist; check the path") from None
     except OSError as exc:
         raise LoadCaseError(
             f"cannot read load case {str(p)!r}: {exc.strerror or exc}; check the path"
