@@ -27,6 +27,7 @@ from typing import Any
 from loadpath.errors import LoadpathError, SettingsError
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
+from loadpath.plugin.lifecycle import note_written
 
 __all__ = ["JobRequest", "JobResult", "run_job", "default_output", "write_atomic", "infer_cura_filament"]
 
@@ -137,6 +138,7 @@ def write_atomic(path: Path, data: bytes, mode_like: Path | None = None) -> None
         if mode is not None:
             os.chmod(tmp, mode)
         os.replace(tmp, path)
+        note_written(path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
         raise SettingsError(

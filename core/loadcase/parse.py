@@ -103,7 +103,14 @@ def parse(text: str, source: str = "load case") -> LoadCase:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise LoadCaseError(f"{source}: not valid TOML: {exc}; fix the syntax (see interface.md)") from exc
-    return from_dict(data, source=source)
+    except RecursionError:
+        raise LoadCaseError(
+            f"{source}: arrays or tables nested too deeply to read; a load case nests at most a few "
+            "levels (see interface.md)") from None
+    try:
+        return from_dict(data, source=source)
+    except RecursionError:
+        raise LoadCaseError(f"{source}: values nested too deeply; see interface.md for the keys") from None
 
 
 class _Ctx:
