@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from loadpath.errors import GCodeParseError
 from loadpath.gcode.model import Program
+from loadpath.gcode.words import G, M
 
 __all__ = ["Bounds", "bounds_of", "check_bounds", "MARGIN_MM", "GENEROUS_MM"]
 
@@ -104,7 +105,35 @@ def bounds_of(config: dict[str, str]) -> Bounds:
 
 
 def _fail(program: Program, line: int, what: str) -> None:
+    st = program.state
+    if not bool(st.absolute_xyz[line]):  # the likely cause: a G91 the file never switches back
+        g91 = np.flatnonzero(st.cmd[: line + 1] == G + 91)
+        at = f" at line {int(g91[-1]) + 1}" if len(g91) else ""
+        what = what.split("; a mistyped number?")[0] + (
+            f"; the line is in relative mode (G91{at}: X/Y/Z are steps from the last point, and slicers "
+            "extrude in absolute mode): remove the G91 or switch back with G90 after it")
     raise GCodeParseError(what, line_no=line + 1, text=program.line(line))
+
+
+def _check_e_mode(program: Program) -> None:
+    """Absolute E (M82) with relative E numbers: most extrusions in the layers would run backwards."""
+    mv = program.moves
+    st = program.state
+    xy = (mv["layer"] >= 0) & (np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"]) > 0) & (mv["e"] != 0)
+    absolute = ~st.e_relative[mv["line"]]
+    sel = xy & absolute
+    n = int(sel.sum())
+    if n < 20:
+        return
+    back = int((mv["e"][sel] < 0).sum())
+    if back > 0.4 * n:
+        i = int(mv["line"][np.flatnonzero(sel & (mv["e"] < 0))[0]])
+        m82 = np.flatnonzero(st.cmd[: i + 1] == M + 82)
+        at = f" (M82 at line {int(m82[-1]) + 1})" if len(m82) else ""
+        raise GCodeParseError(
+            f"the file is in absolute E mode{at} but its E values look relative: {back} of {n} moves in "
+            "its layers would pull filament back; remove the M82 (or add M83) to match how the slicer "
+            "wrote E, or export again", line_no=i + 1, text=program.line(i))
 
 
 def check_bounds(program: Program) -> None:
@@ -116,8 +145,12 @@ def check_bounds(program: Program) -> None:
     if len(mv) == 0:
         return
     b = bounds_of(program.config)
+    _check_e_mode(program)
     fix = "a mistyped number? export the G-code from the slicer again, or correct the line"
     checks = []  # (bad mask over moves, message builder)
+    in_layer = mv["extrude"] & (mv["layer"] >= 0)
+    relative = in_layer & ~program.state.absolute_xyz[mv["line"]]
+    checks.append((relative, lambda i: "an extrusion in a layer"))
     for axis, (lo, hi) in (("x", b.x), ("y", b.y), ("z", b.z)):
         v = mv[axis + "1"]
         bad = ~np.isfinite(v) | (v < lo) | (v > hi)
@@ -131,7 +164,6 @@ def check_bounds(program: Program) -> None:
     e = mv["e"]
     checks.append((~np.isfinite(e) | (np.abs(e) > MAX_DE_MM), lambda i: (
         f"the line moves {e[i]:g} mm of filament at once (at most {MAX_DE_MM:g}); {fix}")))
-    in_layer = mv["extrude"] & (mv["layer"] >= 0)
     seg = np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"])
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(seg >= _MIN_LEN_FOR_RATIO, e / np.maximum(seg, 1e-300), 0.0)
