@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from loadpath.errors import LoadpathError, SettingsError
+from loadpath.plugin.lifecycle import note_written
 
 __all__ = [
     "Task",
@@ -269,6 +270,8 @@ def run_local(
         for i, t in enumerate(tasks):
             res = process(t)
             results[i] = res
+            if res.output:
+                note_written(res.output)
             if progress:
                 progress(res, i + 1, n)
         return [r for r in results if r is not None]
@@ -277,7 +280,11 @@ def run_local(
     ctx = multiprocessing.get_context(
         "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
     )
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+    from loadpath.procs import stop_pool, worker_init
+
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
+                               initargs=(None, True))
+    try:
         futures = {pool.submit(process, t): i for i, t in enumerate(tasks)}
         for done, fut in enumerate(as_completed(futures), 1):
             i = futures[fut]
@@ -291,8 +298,14 @@ def run_local(
                     message=f"the worker process stopped ({type(exc).__name__}: {exc})",
                 )
             results[i] = res
+            if res.output:
+                note_written(res.output)
             if progress:
                 progress(res, done, n)
+    except BaseException:  # Ctrl-C, SIGTERM: end the workers (they remove their temp files) and say so
+        stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
     return [r for r in results if r is not None]
 
 

@@ -1,18 +1,25 @@
 """The ``loadpath`` command line: ``main(argv) -> exit status``.
 
 Subcommands live in :mod:`loadpath.plugin.commands` (one module each).  Any :class:`LoadpathError`
-becomes one line on stderr, ``loadpath: <what is wrong and how to fix it>``, and exit status 1.
+becomes one line on stderr, ``loadpath: <what is wrong and how to fix it>``, and exit status 1; any
+other exception (MemoryError, RecursionError, a numpy error, a bug) one line with its type and the
+advice to report it (``LOADPATH_DEBUG=1`` re-raises it with its traceback).  SIGINT and SIGTERM stop
+the command the same way: temporary files are removed and one line says which files were written.
+Python and numpy warnings are not shown (``LOADPATH_DEBUG=1`` shows them).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
+import warnings
 from collections.abc import Sequence
 
 from loadpath import __version__
 from loadpath.errors import LoadpathError
+from loadpath.plugin import lifecycle
 
 __all__ = ["main", "COMMANDS"]
 
@@ -57,18 +64,82 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: 0 on success, 1 on a loadpath error, 2 on a usage error, 130 on interrupt.
+        Exit status: 0 on success, 1 on a loadpath error, 2 on a usage error, 130 on SIGINT (Ctrl-C),
+        143 on SIGTERM.
     """
     parser = build_parser()
     args = parser.parse_args(argv)
+    debug = os.environ.get("LOADPATH_DEBUG", "") not in ("", "0")
+    if not debug:  # Python and numpy warnings are for developers; users get loadpath's own lines
+        warnings.simplefilter("ignore")
+        # nor "Exception ignored in ..." tracebacks: a Ctrl-C during a fork raises inside an at-fork
+        # hook, where Python drops it (lifecycle remembers the signal and the stages re-raise it)
+        sys.unraisablehook = _drop_unraisable
+    written = []
+    with lifecycle.terminate_as_interrupt(), lifecycle.record_writes(written):
+        try:
+            status = int(args._run(args) or 0)
+            lifecycle.raise_if_stopped()  # a signal whose exception Python dropped (inside a fork)
+            return status
+        except LoadpathError as exc:
+            _say(f"loadpath: {exc}")
+            return 1
+        except lifecycle.Interrupted as exc:
+            _say(f"loadpath: {exc.signame}: stopped; {lifecycle.what_was_written(written)}")
+            if argv is None:  # the real command: end now, without the interpreter's exit hooks, which
+                _flush_and_exit(exc.status)  # would join stopped pools and print their threads' errors
+            return exc.status
+        except BrokenPipeError:
+            _quiet_stdout()
+            _say("loadpath: the output pipe was closed before everything was printed (BrokenPipeError); "
+                 f"{lifecycle.what_was_written(written)}")
+            return 1
+        except Exception as exc:  # a bug or a resource: one line, never a traceback (LOADPATH_DEBUG=1 keeps it)
+            if debug:
+                raise
+            _say(f"loadpath: {_internal(exc)}; {lifecycle.what_was_written(written)}")
+            return 1
+
+
+def _internal(exc: BaseException) -> str:
+    """One line for an unexpected exception: its type, what it says, and what to do."""
+    if isinstance(exc, MemoryError):
+        return f"out of memory ({type(exc).__name__}); close other programs or process a smaller file"
+    if isinstance(exc, RecursionError):
+        return "input nested too deeply to read (RecursionError); please report this with the input files"
+    text = " ".join(str(exc).split())[:200]
+    return (f"internal error ({type(exc).__module__}.{type(exc).__name__}: {text}); please report this with "
+            "the input files (LOADPATH_DEBUG=1 shows where)")
+
+
+def _drop_unraisable(unraisable: object) -> None:
+    """``sys.unraisablehook`` outside LOADPATH_DEBUG: say nothing."""
+
+
+def _flush_and_exit(status: int) -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(status)
+
+
+def _say(line: str) -> None:
     try:
-        return int(args._run(args) or 0)
-    except LoadpathError as exc:
-        print(f"loadpath: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("loadpath: interrupted; no file was written", file=sys.stderr)
-        return 130
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
+
+
+def _quiet_stdout() -> None:
+    """After a broken pipe: point stdout at /dev/null so the interpreter's final flush stays silent."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
 
 
 if __name__ == "__main__":  # pragma: no cover

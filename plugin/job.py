@@ -26,7 +26,9 @@ from typing import Any
 
 from loadpath import engines
 from loadpath.errors import LoadpathError, SettingsError
+from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
+from loadpath.plugin.lifecycle import note_written
 
 __all__ = ["JobRequest", "JobResult", "run_job", "default_output", "write_atomic", "infer_cura_filament"]
 
@@ -114,9 +116,10 @@ def write_atomic(path: Path, data: bytes, mode_like: Path | None = None) -> None
 
     The file keeps the permission bits of ``path`` if it exists, else takes those of ``mode_like``
     (the input G-code) if given, else the umask default (``0o666 & ~umask``, what the user's own
-    tools would create); never ``mkstemp``'s 0600.
+    tools would create); never ``mkstemp``'s 0600.  A symlink is followed: its target is replaced and
+    the link kept.
     """
-    path = Path(path)
+    path = write_target(path)  # through a symlink: rewrite its target, keep the link
     folder = path.parent if str(path.parent) else Path(".")
     mode = next(
         (Path(p).stat().st_mode & 0o7777 for p in (path, mode_like) if p is not None and Path(p).is_file()),
@@ -136,6 +139,7 @@ def write_atomic(path: Path, data: bytes, mode_like: Path | None = None) -> None
         if mode is not None:
             os.chmod(tmp, mode)
         os.replace(tmp, path)
+        note_written(path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
         raise SettingsError(
@@ -197,6 +201,7 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     out = inp if request.in_place else Path(request.output) if request.output else default_output(inp)
     result = JobResult(output=out)
     on_failure = str(request.cli.get("on_failure") or "fail")
+    _check_paths(inp, out, request.in_place)  # before any work; never turned into "kept"
     try:
         return _run(request, inp, out, result, progress)
     except LoadpathError as exc:
@@ -212,10 +217,22 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
         raise LoadpathError(error)
     result.error = error
     result.warnings.append(f"kept the slicer's G-code unchanged: {error}")
-    if out != inp and inp.is_file():
-        write_atomic(out, inp.read_bytes(), mode_like=inp)
+    if not same_file(out, inp) and inp.is_file():
+        write_atomic(out, read_regular(inp), mode_like=inp)
         result.written = True
     return result
+
+
+def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
+    """Refuse an input that is no regular file and an output that may not be written (one line each)."""
+    kind = kind_of(inp)
+    if kind == "missing":
+        raise SettingsError(f"G-code file {str(inp)!r} does not exist; check the path")
+    if kind is not None:
+        raise SettingsError(f"G-code file {str(inp)!r} is {kind}, not a file; give the path of a .gcode file")
+    why = check_output(out, None if in_place else inp, in_place)
+    if why:
+        raise SettingsError(why)
 
 
 def _run(
@@ -230,8 +247,6 @@ def _run(
 
     times = result.times
     t = time.perf_counter()
-    if not inp.is_file():
-        raise SettingsError(f"G-code file {str(inp)!r} does not exist; check the path")
     lc = loadcase.read(request.loadcase)
     program, container = gcode.read_container(inp)
     cura = settings_mod.read_cura_settings(request.slicer_settings) if request.slicer_settings else None
@@ -274,9 +289,9 @@ def _run(
         if pres.changed
         else program.to_bytes()
         if container is None
-        else inp.read_bytes()
+        else read_regular(inp)
     )
-    if pres.changed or out != inp:
+    if pres.changed or not same_file(out, inp):
         write_atomic(out, data, mode_like=inp)
         result.written = True
     times["write"] = time.perf_counter() - t

@@ -143,10 +143,13 @@ def read_container(path: str | os.PathLike, *, strict: bool = True):
 
 def _read_bytes(path: str | os.PathLike) -> bytes:
     """Return the file's bytes; a missing or unreadable file is a one-line :class:`GCodeParseError`."""
+    from loadpath.files import NotRegularError, read_regular
+
     where = os.fspath(path)
     try:
-        with open(path, "rb") as fh:
-            return fh.read()
+        return read_regular(path)
+    except NotRegularError as exc:
+        raise GCodeParseError(f"{where} {exc}; give the path of a .gcode file") from None
     except FileNotFoundError:
         raise GCodeParseError(f"{where} does not exist; check the path of the G-code file") from None
     except IsADirectoryError:

@@ -58,6 +58,13 @@ def check_structure(program: Program, mk: Markers) -> None:
             line_no=n,
             text=program.line(n - 1) if n else None,
         )
+    mv = program.moves
+    extr = mv["extrude"] & (mv["layer"] >= 0)
+    if extr.any() and not (mv["feature"][extr] >= 0).any():
+        raise UnsupportedFlavorError(
+            f"no feature markers (';TYPE:' or '; FEATURE:') before any of the {int(extr.sum())} extrusions "
+            "in this file's layers: loadpath tells perimeters from infill by them; pass the slicer's own "
+            "output, not a file whose comments were stripped")
 
 
 def _truncation(program: Program, mk: Markers) -> str | None:

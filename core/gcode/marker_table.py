@@ -131,7 +131,9 @@ def _names(buf: np.ndarray, start: Ints, room: Ints, width: int) -> tuple[list[s
     """Distinct names (decoded, stripped, in order of first appearance) and each line's index."""
     if len(start) == 0:
         return [], np.zeros(0, dtype=np.int64)
-    items = np.ndarray(shape=(len(buf) - width,), dtype=f"V{width}", buffer=buf, strides=(1,))
+    if int(start.max()) + width > len(buf):  # a name on the file's last line (a cut file): pad the window
+        buf = np.concatenate([buf, np.zeros(width, dtype=np.uint8)])
+    items = np.ndarray(shape=(len(buf) - width + 1,), dtype=f"V{width}", buffer=buf, strides=(1,))
     win = items[start].view(np.uint8).reshape(len(start), width)
     win = np.where(np.arange(width) < room[:, None], win, np.uint8(0))
     raw = np.ascontiguousarray(win).view(f"S{width}").ravel()

@@ -52,7 +52,8 @@ def parse_numbers(buf: np.ndarray, starts: Ints, limit: Ints) -> tuple[Floats, I
         The numbers; NaN where no number starts there (a bare word letter).
     length : (k,) int64
         Bytes each number occupies; 0 when no number starts there (a bare letter), -2 when the bytes
-        look like a number but are not one (``-``, ``.``, ``1.2.3``).  A valid number is followed by a
+        look like a number but are not one (``-``, ``.``, ``1.2.3``), -3 when the number overflows a double
+        (309 or more digits).  A valid number is followed by a
         byte that is not part of it: the caller checks what follows (space, another word, end of code).
     """
     k = len(starts)
@@ -72,7 +73,7 @@ def parse_numbers(buf: np.ndarray, starts: Ints, limit: Ints) -> tuple[Floats, I
                 j += 1
             try:
                 values[i] = float(raw[s:j])
-                length[i] = j - s
+                length[i] = j - s if np.isfinite(values[i]) else -3  # 309+ digits overflow to inf
             except ValueError:
                 values[i] = np.nan
                 length[i] = -2 if j > s else 0

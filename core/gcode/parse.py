@@ -12,6 +12,7 @@ import numpy as np
 from loadpath.errors import UnsupportedFlavorError
 from loadpath.gcode.arcs import sample_arcs
 from loadpath.gcode.blocks import BLOCK_DTYPE, find_blocks, line_kinds
+from loadpath.gcode.bounds import check_bounds
 from loadpath.gcode.checks import check_structure
 from loadpath.gcode.flavors import Dialect, detect_slicer, role_of
 from loadpath.gcode.lines import check_text, index_lines
@@ -135,6 +136,7 @@ def parse_bytes(data: bytes, strict: bool = True) -> Program:
     )
     if strict:
         check_structure(program, mk)
+        check_bounds(program)
     return program
 
 

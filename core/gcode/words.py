@@ -237,10 +237,11 @@ def _words(
         ok_end = (after >= e[ci]) | _ENDS_WORD[buf[after]]
         line_no = ln[ci]
         letter = _LETTER_CODE[mat.ravel()[flat]]
-        bad = (length == -2) | ((length > 0) & ~ok_end) | ((length == 0) & ~bare_ok[ci])
+        bad = (length <= -2) | ((length > 0) & ~ok_end) | ((length == 0) & ~bare_ok[ci])
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            what = "has no number" if length[i] == 0 else "has a malformed number"
+            what = ("has no number" if length[i] == 0 else "has a number too large for any printer"
+                    if length[i] == -3 else "has a malformed number")
             raise GCodeParseError(
                 f"word {LETTERS[letter[i] - 1]!r} {what}; fix or remove the line (G-code numbers are plain "
                 "decimals such as 12.5 or -.04)",
@@ -293,6 +294,10 @@ def _words_slow(
                         raise GCodeParseError(
                             f"word {ch!r} has a malformed number; fix or remove the line", line_no=int(ln) + 1
                         ) from None
+                    if np.isinf(values[ch][ln]):
+                        raise GCodeParseError(
+                            f"word {ch!r} has a number too large for any printer ({j - i - 1} digits); fix or "
+                            "remove the line", line_no=int(ln) + 1)
                     present[ln] |= np.uint16(BIT[ch])
                 else:
                     other[ln] = True

@@ -64,9 +64,15 @@ def read(path: str | Path) -> LoadCase:
     LoadCaseError
         The file cannot be read or is not a valid load case.
     """
+    from loadpath.files import NotRegularError, read_regular
+
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = read_regular(p, limit=64 << 20).decode("utf-8")
+    except NotRegularError as exc:
+        raise LoadCaseError(f"load case {str(p)!r} {exc}; give the path of a .toml file") from None
+    except FileNotFoundError:
+        raise LoadCaseError(f"cannot read load case {str(p)!r}: it does not exist; check the path") from None
     except OSError as exc:
         raise LoadCaseError(
             f"cannot read load case {str(p)!r}: {exc.strerror or exc}; check the path"
@@ -94,7 +100,14 @@ def parse(text: str, source: str = "load case") -> LoadCase:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise LoadCaseError(f"{source}: not valid TOML: {exc}; fix the syntax (see interface.md)") from exc
-    return from_dict(data, source=source)
+    except RecursionError:
+        raise LoadCaseError(
+            f"{source}: arrays or tables nested too deeply to read; a load case nests at most a few "
+            "levels (see interface.md)") from None
+    try:
+        return from_dict(data, source=source)
+    except RecursionError:
+        raise LoadCaseError(f"{source}: values nested too deeply; see interface.md for the keys") from None
 
 
 class _Ctx:

@@ -16,7 +16,7 @@ import math
 import re
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,25 +36,38 @@ _TET10_FROM_GMSH = np.array([0, 1, 2, 3, 4, 5, 6, 7, 9, 8])  # gmsh edge order (
 _LOCK = threading.Lock()
 
 
-def _keep_sigpipe_ignored() -> None:
-    """Put SIGPIPE back to ignored after gmsh's first ``initialize`` reset it to the default.
+def _saved_signal_actions() -> Callable[[], None]:
+    """Save the process's SIGPIPE, SIGINT and SIGTERM actions; the returned call puts them back.
 
-    Python ignores SIGPIPE (a write to a closed pipe or socket raises ``BrokenPipeError``); gmsh's
-    first ``initialize`` resets it in C behind Python's back, so afterwards such a write kills the
-    process: the local service when a client hangs up, the test run when a test's server does.
-    Restored through libc, because ``signal.signal`` only works in the main thread (the service
-    meshes in worker threads).  Nothing is done where Python itself does not ignore SIGPIPE.
+    gmsh's first ``initialize`` resets SIGPIPE and SIGTERM to their defaults in C, behind Python's
+    back: afterwards a write to a closed pipe or socket kills the process (the local service when a
+    client hangs up) instead of raising ``BrokenPipeError``, and SIGTERM kills ``loadpath run`` at once
+    instead of letting it remove its temporary files and say what was written
+    (:mod:`loadpath.plugin.lifecycle`).  Saved and restored with libc's ``sigaction`` (an opaque
+    buffer larger than ``struct sigaction``), because ``signal.signal`` only works in the main thread
+    and the service meshes in worker threads.  A no-op where libc has no ``sigaction``.
     """
     import signal
 
-    if not hasattr(signal, "SIGPIPE") or signal.getsignal(signal.SIGPIPE) is not signal.SIG_IGN:
-        return
-    import ctypes
+    try:
+        import ctypes
 
-    libc = ctypes.CDLL(None, use_errno=True)
-    libc.signal.restype = ctypes.c_void_p
-    libc.signal.argtypes = [ctypes.c_int, ctypes.c_void_p]
-    libc.signal(int(signal.SIGPIPE), 1)  # 1 == SIG_IGN
+        libc = ctypes.CDLL(None, use_errno=True)
+        sigaction = libc.sigaction
+    except (OSError, AttributeError):  # pragma: no cover (not POSIX)
+        return lambda: None
+    saved = []
+    for name in ("SIGPIPE", "SIGINT", "SIGTERM"):
+        if hasattr(signal, name):
+            buf = ctypes.create_string_buffer(512)
+            if sigaction(int(getattr(signal, name)), None, buf) == 0:
+                saved.append((int(getattr(signal, name)), buf))
+
+    def restore() -> None:
+        for signum, buf in saved:
+            sigaction(signum, buf, None)
+
+    return restore
 
 
 def _gmsh() -> Any:
@@ -70,8 +83,9 @@ def _session(name: str) -> Iterator[Any]:
     """Initialise gmsh with our options and an empty model; finalise it afterwards."""
     gmsh = _gmsh()
     with _LOCK:
+        restore_signals = _saved_signal_actions()
         gmsh.initialize(["-noenv"], readConfigFiles=False, interruptible=False)
-        _keep_sigpipe_ignored()
+        restore_signals()
         try:
             gmsh.logger.start()  # kept for the error message when no elements come out
             opt = gmsh.option.setNumber

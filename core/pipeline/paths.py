@@ -43,6 +43,7 @@ from loadpath.engines import Machine, generate
 from loadpath.field import StressField
 from loadpath.geometry import group_regions
 from loadpath.pipeline.units import Unit
+from loadpath.procs import raise_if_stopped, stop_pool, worker_init
 from loadpath.toolpath import EngineInput, Path, Toolpaths
 
 __all__ = [
@@ -247,16 +248,24 @@ def run_jobs(
             # them, where each would otherwise compile them on its own on a cold cache
             engines.warm_up(engine)
             ctx = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx) as pool:
+            pool = ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx,
+                                       initializer=worker_init, initargs=(os.getpid(),))
+            try:
                 futures = {pool.submit(_run_one, i): i for i in range(n)}
                 done = 0
                 from concurrent.futures import as_completed
 
+                raise_if_stopped()
                 for fut in as_completed(futures):
+                    raise_if_stopped()
                     out[futures[fut]] = fut.result()
                     done += 1
                     if progress:
                         progress(done, n)
+            except BaseException:  # an interrupt or a failed job: stop the others instead of waiting
+                stop_pool(pool)
+                raise
+            pool.shutdown(wait=True)
     finally:
         _WORK = []
     return [o for o in out if o is not None]

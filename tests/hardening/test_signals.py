@@ -1,0 +1,167 @@
+"""Kills at chosen stages (#20): no process left, no temp file left, the input untouched, one line.
+
+``loadpath run`` runs as a real subprocess in its own session (its own process group, as a shell
+job is) on real PrusaSlicer output with two workers.  A stage is chosen by watching the process:
+"paths" is the moment its worker processes exist (the parallel paths stage).  Then:
+
+- Ctrl-C (SIGINT to the whole process group, as a terminal sends it): one line, exit 130, no worker
+  tracebacks (before: 32-38 lines of ``KeyboardInterrupt`` from the workers);
+- SIGTERM: the same as SIGINT, exit 143;
+- SIGKILL: the workers die with their parent (before: two ~113 MB workers re-parented to init and
+  blocked for as long as anyone watched).
+
+Afterwards no process of the group is alive (checked in ``/proc``), the folder holds only the input
+and the load case (no hidden ``.OUT.xxxx.tmp``), and the input's checksum is unchanged.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from cases import GRIP_PULL
+
+LOADPATH = [sys.executable, "-m", "loadpath.plugin.cli"]
+
+
+def _group_alive(pgid: int) -> list[int]:
+    """Pids (not zombies) whose process group is ``pgid``."""
+    out = []
+    for name in os.listdir("/proc"):
+        if name.isdigit():
+            try:
+                fields = Path(f"/proc/{name}/stat").read_bytes().rsplit(b")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[2]) == pgid and fields[0] != b"Z":
+                out.append(int(name))
+    return out
+
+
+def _children(pid: int) -> list[int]:
+    from loadpath.procs import children_of
+
+    return children_of(pid)
+
+
+def _wait_gone(pgid: int, timeout: float = 15.0) -> list[int]:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        alive = _group_alive(pgid)
+        if not alive:
+            return []
+        time.sleep(0.1)
+    return _group_alive(pgid)
+
+
+@pytest.fixture()
+def job(tmp_path, sliced):
+    src = sliced("prusa", "ohs", "mixed")
+    g = tmp_path / "part.gcode"
+    shutil.copyfile(src, g)
+    case = tmp_path / "case.toml"
+    case.write_text(GRIP_PULL, encoding="utf-8")
+    return tmp_path, g, case
+
+
+def _start(g: Path, case: Path, *extra: str) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    env.pop("LOADPATH_DEBUG", None)
+    return subprocess.Popen(
+        [*LOADPATH, "run", str(g), "--loadcase", str(case), "--set", "jobs=2", "--replace", "solid,sparse", *extra],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, env=env,
+    )
+
+
+def _wait_for_workers(p: subprocess.Popen, timeout: float = 240.0) -> list[int]:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and p.poll() is None:
+        kids = [k for k in _children(p.pid) if _cmd(k) and "resource_tracker" not in _cmd(k)]
+        if len(kids) >= 2:
+            return kids
+        time.sleep(0.05)
+    raise AssertionError(f"no paths-stage workers appeared (exit {p.poll()}): {p.stderr.read()!r}")
+
+
+def _cmd(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
+
+
+def _check_clean(folder: Path, g: Path, digest: str, pgid: int) -> None:
+    assert _wait_gone(pgid) == [], "processes of the killed job are still alive"
+    assert sorted(p.name for p in folder.iterdir()) == ["case.toml", "part.gcode"]
+    assert hashlib.sha256(g.read_bytes()).hexdigest() == digest
+
+
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm", "sigkill"])
+def test_kill_in_the_paths_stage_leaves_nothing(job, how):
+    folder, g, case = job
+    digest = hashlib.sha256(g.read_bytes()).hexdigest()
+    p = _start(g, case)
+    pgid = p.pid
+    try:
+        _wait_for_workers(p)
+        if how == "ctrl-c":
+            os.killpg(pgid, signal.SIGINT)
+        elif how == "sigterm":
+            os.kill(p.pid, signal.SIGTERM)
+        else:
+            os.kill(p.pid, signal.SIGKILL)
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            os.killpg(pgid, signal.SIGKILL)
+    err = err.decode().strip()
+    if how == "sigkill":
+        assert p.returncode == -signal.SIGKILL
+    else:
+        assert p.returncode == (130 if how == "ctrl-c" else 143), err
+        assert err.count("\n") == 0 and "Traceback" not in err, err
+        assert err == ("loadpath: interrupted (Ctrl-C): stopped; no file was written" if how == "ctrl-c"
+                       else "loadpath: terminated (SIGTERM): stopped; no file was written")
+    _check_clean(folder, g, digest, pgid)
+
+
+@pytest.mark.parametrize("delay", [0.3, 1.5])
+def test_sigterm_early_leaves_nothing(job, delay):
+    """SIGTERM while the file is read or the layers derived (before any worker)."""
+    folder, g, case = job
+    digest = hashlib.sha256(g.read_bytes()).hexdigest()
+    p = _start(g, case)
+    time.sleep(delay)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    err = err.decode().strip()
+    assert p.returncode in (143, -signal.SIGTERM), err  # -15: before the handler was installed
+    assert "Traceback" not in err and err.count("\n") <= 0
+    _check_clean(folder, g, digest, p.pid)
+
+
+def test_sigterm_in_the_write_window_removes_the_temp_file(job, monkeypatch):
+    """A signal that arrives while the temp file exists (after its data is on disk, before the rename):
+    the write window is microseconds long on a real disk, so the signal is raised from inside it."""
+    from loadpath.plugin import job as job_mod
+    from loadpath.plugin.lifecycle import Interrupted
+
+    folder, g, case = job
+    real_fsync = os.fsync
+
+    def fsync_then_sigterm(fd):
+        real_fsync(fd)
+        assert [p.name for p in folder.iterdir() if p.name.startswith(".out.gcode.")]  # temp exists
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(job_mod.os, "fsync", fsync_then_sigterm)
+    with pytest.raises(Interrupted):
+        job_mod.write_atomic(folder / "out.gcode", b"G1 X1\n")
+    assert sorted(p.name for p in folder.iterdir()) == ["case.toml", "part.gcode"]
