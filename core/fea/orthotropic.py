@@ -65,7 +65,9 @@ __all__ = [
     "ABS_PRINTED",
     "LINEAR",
     "NMO",
+    "BEADS",
     "VOID_FILL",
+    "orientation_average",
     "rotation_voigt",
     "rotate",
     "direction_moments",
@@ -221,8 +223,8 @@ class FillModel:
     f2: float = 1.05
 
     def __post_init__(self) -> None:
-        if self.kind not in ("linear", "nmo"):
-            raise SettingsError(f"fill model {self.kind!r} is unknown; use 'linear' or 'nmo'")
+        if self.kind not in ("linear", "nmo", "beads"):
+            raise SettingsError(f"fill model {self.kind!r} is unknown; use 'beads', 'linear' or 'nmo'")
         if not (0.0 < self.v_a < 1.0 and self.s_L > 0 and 0.0 < self.f1 < 1.0 < self.f2):
             raise SettingsError(
                 f"NMO parameters v_a = {self.v_a}, s_L = {self.s_L}, f1 = {self.f1}, f2 = {self.f2} "
@@ -253,6 +255,8 @@ class FillModel:
 
 LINEAR = FillModel("linear")
 NMO = FillModel("nmo")
+BEADS = FillModel("beads")
+"""The bead model (:mod:`loadpath.stiffness.beads`): fusion, transfer and crossings from the beads."""
 
 
 def rotation_voigt(theta: np.ndarray | float, dim: int) -> np.ndarray:
@@ -382,7 +386,19 @@ def printed_matrices(
     model : FillModel
     dim : {2, 3}
     """
-    local = ply_matrices(material, fill, model, dim)  # (m, nv, nv)
+    return orientation_average(ply_matrices(material, fill, model, dim), moments, dim)
+
+
+def orientation_average(local: np.ndarray, moments: np.ndarray, dim: int) -> np.ndarray:
+    """Mean of local (bead-axes) matrices ``(m, nv, nv)`` over each element's bead directions (exact).
+
+    Parameters
+    ----------
+    local : (m, nv, nv) float, MPa
+    moments : (m, 4) float
+        Direction moments (:func:`direction_moments`).
+    dim : {2, 3}
+    """
     lam = averaging_weights(moments)  # (m, 5)
     out = np.zeros_like(local)
     for j, t in enumerate(_HARMONIC_ANGLES):

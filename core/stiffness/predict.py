@@ -170,6 +170,10 @@ def stiffness_mesh(
 
 def material_matrices(fields: PlyFields, material: PrintedMaterial, model: FillModel, dim: int) -> np.ndarray:
     """Per-element stiffness of the stacked plies, ``(m, nv, nv)`` MPa (``sum_k w_k C_k``)."""
+    if model.kind == "beads":
+        from loadpath.stiffness.beads import ply_stack
+
+        return np.einsum("l,lmij->mij", fields.weight, ply_stack(fields, material, dim))
     out = None
     fill = fields.effective_fill()
     for k in range(len(fields.layers)):
@@ -265,7 +269,7 @@ def predict(
     if mesh is None:
         mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
     t1 = time.perf_counter()
-    fields = sample_deposits(mesh, deposits, options.resolution)
+    fields = _sample(mesh, deposits, options)
     D = material_matrices(fields, options.material, options.fill_model, mesh.dim)
     t2 = time.perf_counter()
     an, c, energy, density, peak = solve_printed(rb, mesh, D)
@@ -294,6 +298,16 @@ def predict(
             "analysis": rb.analysis,
         },
     )
+
+
+def _sample(mesh: MeshData, deposits: Deposits, options: StiffnessOptions) -> PlyFields:
+    """Sample the deposits; the bead model first cuts them into pieces and measures their state."""
+    if options.fill_model.kind != "beads":
+        return sample_deposits(mesh, deposits, options.resolution)
+    from loadpath.stiffness.beads import attributes
+
+    pieces, attrs = attributes(deposits, options.material.E1, options.material.G12)
+    return sample_deposits(mesh, pieces, options.resolution, attrs)
 
 
 def _principal_angle(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> Floats:
