@@ -51,6 +51,7 @@ PIECE = 1.0
 """mm: longest piece a bead is cut into, so that fusion and transfer are resolved along it."""
 
 _PARALLEL = np.cos(np.radians(25.0))
+_CONE = np.tan(np.radians(60.0))  # a neighbour lies within 60 degrees of the bead's normal
 _TURN = np.cos(np.radians(35.0))
 _NECK_REF = float(np.sqrt(1.0 - (np.pi / 4.0) ** 2))  # b/h at the slicer's solid spacing
 _WALLS = np.array([int(Role.PERIMETER), int(Role.EXTERNAL_PERIMETER), int(Role.OVERHANG_PERIMETER)])
@@ -110,7 +111,7 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     whether anything lies on each side at all.
 
     The neighbour on a side is the nearest point of another bead's centre line seen from the bead's
-    midpoint within 45 degrees of its normal: a parallel neighbour (its foot of perpendicular) or the
+    midpoint within 60 degrees of its normal: a parallel neighbour (its foot of perpendicular) or the
     end of a bead that butts against it (infill meeting a wall at an angle).
     """
     from scipy.spatial import cKDTree
@@ -133,7 +134,9 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     for rows in np.split(order, bounds):
         if len(rows) < 2:
             continue
-        reach = 0.5 * float(np.max(length[rows])) + 1.6 * float(np.max(w[rows]) + np.max(h[rows]))
+        # far enough to see a neighbour whose stadium still touches (1.2 x the widest usual bead)
+        touch = 1.2 * float(np.quantile(w[rows], 0.99) + np.quantile(h[rows], 0.99))
+        reach = 0.5 * float(np.max(length[rows])) + touch
         pairs = cKDTree(mid[rows]).query_pairs(reach, output_type="ndarray")
         if len(pairs) == 0:
             continue
@@ -144,7 +147,7 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
         along = np.einsum("ij,ij->i", r, u[i])
         off = r[:, 0] * -u[i, 1] + r[:, 1] * u[i, 0]
         dist = np.hypot(along, off)
-        keep = (np.abs(along) <= np.abs(off)) & (dist > 1e-3) & (dist < 1.6 * (w[i] + h[i]))
+        keep = (np.abs(along) <= _CONE * np.abs(off)) & (dist > 1e-3) & (dist < touch)
         i, j, off, dist = i[keep], j[keep], off[keep], dist[keep]
         phi = neck_fraction(dist, w[i], w[j], h[i])
         lft = off > 0
@@ -247,7 +250,7 @@ def crossing_spacing(density: np.ndarray, c2: np.ndarray, s2: np.ndarray, order:
             if 0 <= j < L:
                 q = order[j]
                 sin2 = np.clip(0.5 * (1.0 - c2[k] * c2[q] - s2[k] * s2[q]), 0.0, 1.0)
-                n_c = n_c + density[q] * np.sqrt(sin2)
+                n_c[k] = n_c[k] + density[q] * np.sqrt(sin2)
     return 1.0 / np.maximum(n_c, 1e-3)
 
 

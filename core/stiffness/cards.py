@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from loadpath.errors import SettingsError
-from loadpath.fea.orthotropic import PrintedMaterial
+from loadpath.fea.orthotropic import ABS_PRINTED, PLA_PRINTED, PrintedMaterial
 
 __all__ = ["Strengths", "MaterialCard", "CARDS", "card", "card_for", "PLA_CARD", "PETG_CARD", "ABS_CARD"]
 
@@ -104,16 +104,7 @@ _GRANT = (
 
 PLA_CARD = MaterialCard(
     "pla",
-    PrintedMaterial(
-        "PLA (printed, fully fused ply)",
-        E1=2669.0,
-        E2=2583.0,
-        G12=919.0,
-        nu12=0.43,
-        nu23=0.37,
-        density=1.24,
-        source=_LI,
-    ),
+    PLA_PRINTED,
     Strengths(Xt=52.0, Xc=61.0, Yt=32.0, Yc=47.0, S=35.0),
     {
         "E1": _LI,
@@ -172,16 +163,7 @@ _AHN = (
 )
 ABS_CARD = MaterialCard(
     "abs",
-    PrintedMaterial(
-        "ABS (printed, fully fused ply)",
-        E1=2010.0,
-        E2=1671.0,
-        G12=641.0,
-        nu12=0.32,
-        nu23=0.35,
-        density=1.04,
-        source=_ALAIMO,
-    ),
+    ABS_PRINTED,
     Strengths(Xt=26.0, Xc=39.0, Yt=14.0, Yc=35.0, S=14.0),
     {
         "E1": _ALAIMO,

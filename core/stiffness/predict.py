@@ -43,7 +43,7 @@ from loadpath.fea.analysis import Analysis, analyze, build_mesh
 from loadpath.fea.assembly import cell_dofs, gradients, strain_matrix
 from loadpath.fea.boundary import load_vector
 from loadpath.fea.elements import tetra_rule, triangle_rule
-from loadpath.fea.orthotropic import LINEAR, PLA_PRINTED, FillModel, PrintedMaterial, printed_matrices
+from loadpath.fea.orthotropic import BEADS, PLA_PRINTED, FillModel, PrintedMaterial, printed_matrices
 from loadpath.fea.stress import cell_stress
 from loadpath.loadcase.resolve import ResolvedBody
 from loadpath.mesh.data import MeshData
@@ -73,7 +73,9 @@ class StiffnessOptions:
     material : PrintedMaterial
         Default :data:`~loadpath.fea.orthotropic.PLA_PRINTED`.
     fill_model : FillModel
-        ``LINEAR`` (default) or the thesis's spacing-dependent ``NMO``.
+        ``BEADS`` (default: fusion, transfer and crossings measured from the beads,
+        :mod:`loadpath.stiffness.beads`), ``LINEAR`` (every component scaled by the fill) or the
+        thesis's spacing-dependent ``NMO``.
     resolution : float, mm
         Sampling step of the beads (:func:`~loadpath.stiffness.fields.sample_deposits`).
     mesh_size : MeshSize or float, optional
@@ -83,10 +85,13 @@ class StiffnessOptions:
     """
 
     material: PrintedMaterial = PLA_PRINTED
-    fill_model: FillModel = LINEAR
+    fill_model: FillModel = BEADS
     resolution: float = DEFAULT_RESOLUTION
     mesh_size: MeshSize | float | None = None
     pitch: float = DEFAULT_PITCH
+    card: str | None = None
+    """Material card to use by name (``pla``, ``petg``, ``abs``); None: the file's filament type
+    (:func:`loadpath.stiffness.cards.card_for`).  Only :func:`~.compare.evaluate_file` reads it."""
 
 
 @dataclass(frozen=True)
