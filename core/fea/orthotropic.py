@@ -65,7 +65,9 @@ __all__ = [
     "ABS_PRINTED",
     "LINEAR",
     "NMO",
+    "BEADS",
     "VOID_FILL",
+    "orientation_average",
     "rotation_voigt",
     "rotate",
     "direction_moments",
@@ -161,23 +163,21 @@ class PrintedMaterial:
         return self.plane_stress() if dim == 2 else self.stiffness_3d()
 
 
-# Casavola C., Cazzato A., Moramarco V., Pappalettere C., "Orthotropic mechanical properties of fused
-# deposition modelling parts described by classical laminate theory", Materials & Design 90 (2016)
-# 453-458: PLA coupons printed at 100 % infill with the rasters at 0, 90 and +-45 degrees (tension),
-# the lamina constants identified for classical laminate theory.  Values as recalled from the paper's
-# table (E1 3209, E2 2899, G12 1195 MPa, nu12 0.33); they could not be re-read in the session that
-# wrote this module: check them against the paper before quoting predictions as absolute numbers.
-# Relative stiffness between toolpaths depends on the ratios E2/E1 and G12/E1 only.
-# Density: PLA 1.24 g/cm³ (Prusament PLA data sheet; the MK3S filament preset of the tests).
+# Li M., Xu Y., Fang J., Thin-Walled Structures 199 (2024) 111800: printed PLA lamina, as transcribed in
+# Strecs3D's material card (github tomohiron907/Strecs3D, FEM/step2inp/MaterialManager.cpp, read there):
+# E1 2669, E2 2583, E3 2208, nu12 0.43, nu13 = nu23 0.37, G12 919, G13 = G23 844 MPa.  This replaces
+# E1 3209 / E2 2899 / G12 1195 MPa attributed to Casavola et al., Materials & Design 90 (2016) 453-458
+# "from memory", which no session could re-read.  Strengths and the rest of the card:
+# loadpath.stiffness.cards.  Density: PLA 1.24 g/cm3 (Prusament PLA; the MK3S filament preset).
 PLA_PRINTED = PrintedMaterial(
-    "PLA (printed, 100 % infill)",
-    E1=3209.0,
-    E2=2899.0,
-    G12=1195.0,
-    nu12=0.33,
-    nu23=0.35,
+    "PLA (printed, fully fused ply)",
+    E1=2669.0,
+    E2=2583.0,
+    G12=919.0,
+    nu12=0.43,
+    nu23=0.37,
     density=1.24,
-    source="Casavola et al., Materials & Design 90 (2016) 453-458 (PLA lamina, classical laminate theory)",
+    source="Li, Xu & Fang, Thin-Walled Structures 199 (2024) 111800 (printed PLA lamina), via Strecs3D's card",
 )
 """Default printed material: PLA (source in the code above)."""
 
@@ -185,7 +185,7 @@ PLA_PRINTED = PrintedMaterial(
 # FDM 3D-printed parts", Composites Part B 113 (2017) 371-380, as used by the thesis (Murugan, §3.6,
 # thesis-digest.md §4.3): fully filled printed ABS, E_L 2010, E_T 1671, G_LT 641 MPa, nu_LT 0.32.
 ABS_PRINTED = PrintedMaterial(
-    "ABS (printed, 100 % infill)",
+    "ABS (printed, fully fused ply)",
     E1=2010.0,
     E2=1671.0,
     G12=641.0,
@@ -221,8 +221,8 @@ class FillModel:
     f2: float = 1.05
 
     def __post_init__(self) -> None:
-        if self.kind not in ("linear", "nmo"):
-            raise SettingsError(f"fill model {self.kind!r} is unknown; use 'linear' or 'nmo'")
+        if self.kind not in ("linear", "nmo", "beads"):
+            raise SettingsError(f"fill model {self.kind!r} is unknown; use 'beads', 'linear' or 'nmo'")
         if not (0.0 < self.v_a < 1.0 and self.s_L > 0 and 0.0 < self.f1 < 1.0 < self.f2):
             raise SettingsError(
                 f"NMO parameters v_a = {self.v_a}, s_L = {self.s_L}, f1 = {self.f1}, f2 = {self.f2} "
@@ -253,6 +253,8 @@ class FillModel:
 
 LINEAR = FillModel("linear")
 NMO = FillModel("nmo")
+BEADS = FillModel("beads")
+"""The bead model (:mod:`loadpath.stiffness.beads`): fusion, transfer and crossings from the beads."""
 
 
 def rotation_voigt(theta: np.ndarray | float, dim: int) -> np.ndarray:
@@ -355,8 +357,8 @@ def ply_matrices(
     """
     v = np.clip(np.asarray(fill, dtype=float), VOID_FILL, max_fill)
     C = material.local(dim)
-    if model.kind == "linear":
-        return v[:, None, None] * C[None]
+    if model.kind in ("linear", "beads"):  # beads: the fully fused, endless ply (the bead model's own
+        return v[:, None, None] * C[None]  # matrices come from loadpath.stiffness.beads)
     out = model.scale(C[None], v[:, None, None])
     out[:, 0, 0] = C[0, 0] * v  # along the filament: linear (Eq. 3.16)
     return out
@@ -382,7 +384,19 @@ def printed_matrices(
     model : FillModel
     dim : {2, 3}
     """
-    local = ply_matrices(material, fill, model, dim)  # (m, nv, nv)
+    return orientation_average(ply_matrices(material, fill, model, dim), moments, dim)
+
+
+def orientation_average(local: np.ndarray, moments: np.ndarray, dim: int) -> np.ndarray:
+    """Mean of local (bead-axes) matrices ``(m, nv, nv)`` over each element's bead directions (exact).
+
+    Parameters
+    ----------
+    local : (m, nv, nv) float, MPa
+    moments : (m, 4) float
+        Direction moments (:func:`direction_moments`).
+    dim : {2, 3}
+    """
     lam = averaging_weights(moments)  # (m, 5)
     out = np.zeros_like(local)
     for j, t in enumerate(_HARMONIC_ANGLES):

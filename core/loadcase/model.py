@@ -39,10 +39,14 @@ class Material:
         ``E > 0``.
     poissons_ratio : float
         ``-1 < nu < 0.5``.
+    printed : str or None
+        Material card of the printed-part model (``pla``, ``petg``, ``abs``;
+        :mod:`loadpath.stiffness.cards`); None: the G-code's filament type.
     """
 
     youngs_modulus: float = 3500.0
     poissons_ratio: float = 0.35
+    printed: str | None = None
 
     @property
     def E(self) -> float:  # noqa: N802 (the usual symbol)

@@ -39,7 +39,7 @@ else:  # pragma: no cover
 __all__ = ["read", "parse", "from_dict"]
 
 _TOP_KEYS = ("version", "object", "frame", "material", "supports", "loads", "toolpath")
-_MATERIAL_KEYS = ("youngs_modulus", "poissons_ratio")
+_MATERIAL_KEYS = ("youngs_modulus", "poissons_ratio", "printed")
 _SUPPORT_KEYS = ("name", "where", "fix")
 _LOAD_KEYS = ("name", "where", "force", "pressure")
 
@@ -232,7 +232,12 @@ def _material(c: _Ctx, value: Any) -> Material:
         raise c.fail(f"material.youngs_modulus = {e} must be > 0 MPa (PLA: 3500)")
     if not -1.0 < nu < 0.5:
         raise c.fail(f"material.poissons_ratio = {nu} must lie in (-1, 0.5) (PLA: 0.35)")
-    return Material(e, nu)
+    printed = None
+    if "printed" in t:
+        printed = c.string(t["printed"], "material.printed").strip().lower()
+        if printed not in ("pla", "petg", "abs"):
+            raise c.fail(f'material.printed = "{printed}" is not a card; use "pla", "petg" or "abs"')
+    return Material(e, nu, printed)
 
 
 def _name(c: _Ctx, t: Mapping[str, Any], where: str, default: str) -> str:

@@ -12,11 +12,18 @@ Typical use::
     top = stiffness.ceiling(rb, mesh=p.mesh)      # every element filled along its principal stress
 
     rows = stiffness.compare_files(["a.gcode", "b.gcode"], "case.toml")   # what ``loadpath compare`` prints
+    card, _ = stiffness.card_for(program.config)  # PLA / PETG / ABS from the file's filament type
+    a = stiffness.assess(rb, dep, card)           # stiffness, failure load, safety factor, mass, where
 
-Model: :mod:`loadpath.fea.orthotropic` (printed ply, fill models, orientation averaging); beads to
-elements: :mod:`.fields`; solve and ceiling: :mod:`.predict`; files: :mod:`.compare`.
+Model: :mod:`loadpath.fea.orthotropic` (printed ply, fill models, orientation averaging); the beads
+as printed (fusion, bead ends, crossings): :mod:`.beads`; beads to elements: :mod:`.fields`; solve and
+ceiling: :mod:`.predict`; first-ply failure: :mod:`.strength`; material cards: :mod:`.cards`; the
+one-call entry: :mod:`.assess`; files: :mod:`.compare`.
 """
 
+from loadpath.stiffness import cards
+from loadpath.stiffness.assess import Assessment, assess
+from loadpath.stiffness.cards import CARDS, MaterialCard, Strengths, card_for
 from loadpath.stiffness.compare import CompareRow, FileResult, compare_files, evaluate_file, gains
 from loadpath.stiffness.deposits import PART_ROLES, Deposits, from_program, from_toolpaths
 from loadpath.stiffness.fields import DEFAULT_RESOLUTION, PlyFields, sample_deposits
@@ -31,6 +38,13 @@ from loadpath.stiffness.predict import (
 )
 
 __all__ = [
+    "assess",
+    "Assessment",
+    "cards",
+    "CARDS",
+    "MaterialCard",
+    "Strengths",
+    "card_for",
     "Deposits",
     "from_program",
     "from_toolpaths",

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -31,14 +31,39 @@ from loadpath.gcode.model import Program
 from loadpath.loadcase.model import LoadCase
 from loadpath.loadcase.resolve import ResolvedBody, resolve
 from loadpath.mesh.data import MeshData
+from loadpath.stiffness.cards import PLA_CARD, MaterialCard, card_for
 from loadpath.stiffness.deposits import from_program
+from loadpath.stiffness.strength import Failure, first_failure
 from loadpath.stiffness.predict import Prediction, StiffnessOptions, predict, stiffness_mesh
 from loadpath.toolpath import Path
 
-__all__ = ["FileResult", "CompareRow", "evaluate_file", "compare_files", "gains", "infill_paths", "ROW_KEYS"]
+__all__ = [
+    "FileResult",
+    "CompareRow",
+    "evaluate_file",
+    "compare_files",
+    "gains",
+    "infill_paths",
+    "row",
+    "ROW_KEYS",
+    "MECHANICS_KEYS",
+]
 
 ROW_KEYS = ("file", "compliance", "peak_displacement", "relative_stiffness", "beta", "coverage")
-"""The keys every row has (interface.md); rows also carry ``mass`` and ``relative_specific_stiffness``."""
+"""The keys every row has (interface.md); rows also carry :data:`MECHANICS_KEYS`."""
+
+MECHANICS_KEYS = (
+    "mass",
+    "relative_specific_stiffness",
+    "relative_stiffness_per_mass",
+    "failure_load",
+    "safety_factor",
+    "relative_failure_load",
+    "relative_failure_load_per_mass",
+    "failure_location",
+    "failure_mode",
+)
+"""Keys added by the strength model (issue 14): failure load N, safety factor, per mass, where."""
 
 _INFILL = np.array([int(r) for r in Role if r.is_infill], dtype=np.int64)
 _MAX_BETA_LAYERS = 24
@@ -68,6 +93,26 @@ class FileResult:
     isotropic: tuple[Analysis, ...] = field(repr=False)
     beta: float
     coverage: float
+    failures: tuple[Failure, ...] = ()
+    card: MaterialCard = PLA_CARD
+    card_why: str = "default"
+
+    @property
+    def weakest(self) -> Failure | None:
+        """The body's failure with the smallest safety factor (None without a strength result)."""
+        return min(self.failures, key=lambda f: f.load_factor) if self.failures else None
+
+    @property
+    def failure_load(self) -> float:
+        """Failure load of the weakest body, N."""
+        w = self.weakest
+        return w.failure_load if w is not None else float("nan")
+
+    @property
+    def safety_factor(self) -> float:
+        """Smallest safety factor over the bodies."""
+        w = self.weakest
+        return w.load_factor if w is not None else float("nan")
 
     @property
     def compliance(self) -> float:
@@ -100,7 +145,18 @@ class CompareRow:
     coverage : float
     mass : float, g
     relative_specific_stiffness : float
-        ``(compliance * mass) of the first file / (compliance * mass)``.
+        ``(compliance * mass) of the first file / (compliance * mass)``: the stiffness at equal
+        mass (this file scaled to the first file's mass).
+    failure_load : float, N
+        Load at first-ply failure (:mod:`loadpath.stiffness.strength`).
+    safety_factor : float
+        Failure load over the applied load.
+    relative_failure_load : float
+        Against the first file.
+    relative_failure_load_per_mass : float
+        ``(failure_load / mass) / (failure_load / mass) of the first file``.
+    failure_location : (3,) tuple of float, mm, or None
+    failure_mode : str
     """
 
     file: str
@@ -111,12 +167,25 @@ class CompareRow:
     coverage: float
     mass: float
     relative_specific_stiffness: float
+    failure_load: float = float("nan")
+    safety_factor: float = float("nan")
+    relative_failure_load: float = float("nan")
+    relative_failure_load_per_mass: float = float("nan")
+    failure_location: tuple[float, float, float] | None = None
+    failure_mode: str = ""
+
+    @property
+    def relative_stiffness_per_mass(self) -> float:
+        """Same as ``relative_specific_stiffness`` (the name issue 14 gives it)."""
+        return self.relative_specific_stiffness
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready mapping (NaN becomes None)."""
         out: dict[str, Any] = {}
-        for k in (*ROW_KEYS, "mass", "relative_specific_stiffness"):
+        for k in (*ROW_KEYS, *MECHANICS_KEYS):
             v = getattr(self, k)
+            if isinstance(v, tuple):
+                v = [round(float(x), 3) for x in v]
             out[k] = None if isinstance(v, float) and not np.isfinite(v) else v
         return out
 
@@ -219,10 +288,13 @@ def evaluate_file(
         except OSError as exc:
             raise LoadpathError(f"cannot read {source}: {exc.strerror or exc}; check the path") from None
     label = name if name is not None else (str(source) if not isinstance(source, Program) else "program")
+    named = options.card or getattr(loadcase.material, "printed", None)
+    card, card_why = card_for(program.config, named)
+    options = replace(options, material=card.elastic)
     geo = geometry.layer_geometry(program, check=False)
     rbs = resolve(loadcase, geo.bodies())
     diameter = geo.filament_diameter
-    preds, isos = [], []
+    preds, isos, fails = [], [], []
     mc = ms = cov = area = 0.0
     for rb in rbs:
         obj = geo.object(rb.name)
@@ -237,13 +309,24 @@ def evaluate_file(
             if meshes is not None:
                 meshes[key] = mesh
         dep = from_program(program, obj.code, diameter)
-        preds.append(predict(rb, dep, options, mesh))
+        pred = predict(rb, dep, options, mesh)
+        preds.append(pred)
+        fails.append(first_failure(pred, card))
         iso = analyze(rb, mesh=mesh)
         isos.append(iso)
         a, b, c, d = _path_metrics(program, obj, rb, iso, diameter, options.pitch)
         mc, ms, cov, area = mc + a, ms + b, cov + c, area + d
     beta = mc / ms if ms > 0 else float("nan")
-    return FileResult(label, tuple(preds), tuple(isos), beta, cov / area if area > 0 else float("nan"))
+    return FileResult(
+        label,
+        tuple(preds),
+        tuple(isos),
+        beta,
+        cov / area if area > 0 else float("nan"),
+        tuple(fails),
+        card,
+        card_why,
+    )
 
 
 def compare_files(
@@ -272,20 +355,29 @@ def compare_files(
                 "compare files of the same part (or name the object with object = in the load case)"
             )
     ref = results[0]
-    rows = [
-        CompareRow(
-            r.file,
-            r.compliance,
-            r.peak_displacement,
-            ref.compliance / r.compliance,
-            r.beta,
-            r.coverage,
-            r.mass,
-            (ref.compliance * ref.mass) / (r.compliance * r.mass),
-        )
-        for r in results
-    ]
+    rows = [row(r, ref) for r in results]
     return rows, results
+
+
+def row(r: FileResult, ref: FileResult) -> CompareRow:
+    """The comparison row of one file against the reference file."""
+    w = r.weakest
+    return CompareRow(
+        r.file,
+        r.compliance,
+        r.peak_displacement,
+        ref.compliance / r.compliance,
+        r.beta,
+        r.coverage,
+        r.mass,
+        (ref.compliance * ref.mass) / (r.compliance * r.mass),
+        r.failure_load,
+        r.safety_factor,
+        r.failure_load / ref.failure_load,
+        (r.failure_load / r.mass) / (ref.failure_load / ref.mass),
+        w.location if w is not None else None,
+        w.mode if w is not None else "",
+    )
 
 
 def gains(

@@ -87,6 +87,9 @@ class PlyFields:
     lost: float
     resolution: float
     neighbours: object = field(default=None, repr=False, compare=False)
+    extra: dict = field(default_factory=dict, repr=False, compare=False)
+    """Volume-weighted means per ply and element, ``(L, m)``, of the per-bead arrays passed to
+    :func:`sample_deposits` as ``attributes`` (e.g. the bead model's fusion and transfer)."""
 
     @property
     def total_volume(self) -> float:
@@ -199,7 +202,12 @@ def _harmonics(angle: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(2 * angle), np.sin(2 * angle), np.cos(4 * angle), np.sin(4 * angle)], axis=1)
 
 
-def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFAULT_RESOLUTION) -> PlyFields:
+def sample_deposits(
+    mesh: MeshData,
+    deposits: Deposits,
+    resolution: float = DEFAULT_RESOLUTION,
+    attributes: dict[str, np.ndarray] | None = None,
+) -> PlyFields:
     """Fill and direction moments of the deposits on the elements of a mesh (module docstring).
 
     Parameters
@@ -209,6 +217,9 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
     deposits : Deposits
     resolution : float, mm
         Distance between sample points along and across the beads.
+    attributes : dict of str -> (n,) float, optional
+        Per-bead quantities to average (by volume) per ply and element into ``PlyFields.extra``;
+        the flow width is always averaged (``extra["width"]``).
 
     Returns
     -------
@@ -238,6 +249,8 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
         groups = [(np.flatnonzero(inv == i), (float(k.real), float(k.imag))) for i, k in enumerate(uk)]
     vol = np.zeros(n_ply * m)
     mom = np.zeros((n_ply * m, 4))
+    attrs = {"width": deposits.flow_width, **(attributes or {})}
+    acc = {k: np.zeros(n_ply * m) for k in attrs}
     lost = 0.0
     nz = 1 if mesh.dim == 2 else _Z_SAMPLES
     for rows, zrange in groups:
@@ -273,6 +286,8 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
             vol += np.bincount(idx, weights=wi, minlength=n_ply * m)
             for j in range(4):
                 mom[:, j] += np.bincount(idx, weights=wi * harm[seg[inside], j], minlength=n_ply * m)
+            for k, a in attrs.items():
+                acc[k] += np.bincount(idx, weights=wi * np.asarray(a)[seg[inside]], minlength=n_ply * m)
     if not np.any(vol > 0):
         raise GeometryError(
             "no extruded material lies inside the part outline; the G-code and the part do not overlap"
@@ -281,6 +296,7 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
     mom = mom.reshape(n_ply, m, 4)
     with np.errstate(invalid="ignore", divide="ignore"):
         moments = np.where(vol[..., None] > 0, mom / vol[..., None], 0.0)
+        extra = {k: np.where(vol > 0, a.reshape(n_ply, m) / vol, 0.0) for k, a in acc.items()}
     measure = np.abs(mesh.measures)
     if mesh.dim == 2:
         fill = vol / (measure[None, :] * heights[:, None])
@@ -298,6 +314,7 @@ def sample_deposits(mesh: MeshData, deposits: Deposits, resolution: float = DEFA
         lost,
         float(resolution),
         (_adjacency(mesh), measure),
+        extra,
     )
 
 

@@ -16,7 +16,7 @@ from loadpath.errors import ToolMissingError
 from loadpath.stiffness.fields import tet_section
 from loadpath.stiffness.predict import Prediction
 
-__all__ = ["draw_orientation", "draw_energy", "draw_prediction"]
+__all__ = ["draw_orientation", "draw_energy", "draw_prediction", "draw_gain"]
 
 
 def _figure(size: tuple[float, float]):  # type: ignore[no-untyped-def]
@@ -109,3 +109,40 @@ def draw_prediction(pred: Prediction, folder: str | os.PathLike[str], stem: str)
         draw_orientation(pred, d / f"{stem}_orientation.png"),
         draw_energy(pred, d / f"{stem}_energy.png"),
     ]
+
+
+def draw_gain(
+    base: Prediction, design: Prediction, index_base: np.ndarray, index_design: np.ndarray,
+    path: str | os.PathLike[str], title: str = "",
+) -> Path:
+    """Where a design gains or loses against a baseline on the same mesh: two panels.
+
+    Left: strain energy density ratio ``design / base`` (below 1: the design deforms less there).
+    Right: failure index ratio ``design / base`` (below 1: further from failing there).  Both on a
+    logarithmic scale from 1/4 to 4, where both have material.
+    """
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import LogNorm
+
+    tri, elem = _triangles(base)
+    w, h = _size(tri)
+    fig = _figure((w, 2 * h))
+    norm = LogNorm(vmin=0.25, vmax=4.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        energy = design.energy_density[elem] / base.energy_density[elem]
+        index = index_design[elem] / index_base[elem]
+    panels = (("strain energy density", energy), ("failure index", index))
+    for i, (what, ratio) in enumerate(panels):
+        ax = fig.add_subplot(2, 1, i + 1)
+        r = np.where(np.isfinite(ratio) & (ratio > 0), ratio, 1.0)
+        pc = PolyCollection(tri, array=np.clip(r, 0.25, 4.0), cmap="coolwarm", edgecolor="none", norm=norm)
+        ax.add_collection(pc)
+        fig.colorbar(pc, ax=ax, label=f"{what}: {design.name or 'B'} / {base.name or 'A'}")
+        ax.autoscale_view()
+        ax.set_aspect("equal")
+        ax.set_title(title + f" {what} ratio (blue: the second file gains)" if title else f"{what} ratio")
+        ax.set_xlabel("x, mm")
+        ax.set_ylabel("y, mm")
+    out = Path(path)
+    fig.savefig(out, dpi=130, bbox_inches="tight")
+    return out

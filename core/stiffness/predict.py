@@ -43,7 +43,7 @@ from loadpath.fea.analysis import Analysis, analyze, build_mesh
 from loadpath.fea.assembly import cell_dofs, gradients, strain_matrix
 from loadpath.fea.boundary import load_vector
 from loadpath.fea.elements import tetra_rule, triangle_rule
-from loadpath.fea.orthotropic import LINEAR, PLA_PRINTED, FillModel, PrintedMaterial, printed_matrices
+from loadpath.fea.orthotropic import BEADS, PLA_PRINTED, FillModel, PrintedMaterial, printed_matrices
 from loadpath.fea.stress import cell_stress
 from loadpath.loadcase.resolve import ResolvedBody
 from loadpath.mesh.data import MeshData
@@ -73,7 +73,9 @@ class StiffnessOptions:
     material : PrintedMaterial
         Default :data:`~loadpath.fea.orthotropic.PLA_PRINTED`.
     fill_model : FillModel
-        ``LINEAR`` (default) or the thesis's spacing-dependent ``NMO``.
+        ``BEADS`` (default: fusion, transfer and crossings measured from the beads,
+        :mod:`loadpath.stiffness.beads`), ``LINEAR`` (every component scaled by the fill) or the
+        thesis's spacing-dependent ``NMO``.
     resolution : float, mm
         Sampling step of the beads (:func:`~loadpath.stiffness.fields.sample_deposits`).
     mesh_size : MeshSize or float, optional
@@ -83,10 +85,13 @@ class StiffnessOptions:
     """
 
     material: PrintedMaterial = PLA_PRINTED
-    fill_model: FillModel = LINEAR
+    fill_model: FillModel = BEADS
     resolution: float = DEFAULT_RESOLUTION
     mesh_size: MeshSize | float | None = None
     pitch: float = DEFAULT_PITCH
+    card: str | None = None
+    """Material card to use by name (``pla``, ``petg``, ``abs``); None: the file's filament type
+    (:func:`loadpath.stiffness.cards.card_for`).  Only :func:`~.compare.evaluate_file` reads it."""
 
 
 @dataclass(frozen=True)
@@ -170,6 +175,10 @@ def stiffness_mesh(
 
 def material_matrices(fields: PlyFields, material: PrintedMaterial, model: FillModel, dim: int) -> np.ndarray:
     """Per-element stiffness of the stacked plies, ``(m, nv, nv)`` MPa (``sum_k w_k C_k``)."""
+    if model.kind == "beads":
+        from loadpath.stiffness.beads import ply_stack
+
+        return np.einsum("l,lmij->mij", fields.weight, ply_stack(fields, material, dim))
     out = None
     fill = fields.effective_fill()
     for k in range(len(fields.layers)):
@@ -265,7 +274,7 @@ def predict(
     if mesh is None:
         mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
     t1 = time.perf_counter()
-    fields = sample_deposits(mesh, deposits, options.resolution)
+    fields = _sample(mesh, deposits, options)
     D = material_matrices(fields, options.material, options.fill_model, mesh.dim)
     t2 = time.perf_counter()
     an, c, energy, density, peak = solve_printed(rb, mesh, D)
@@ -294,6 +303,16 @@ def predict(
             "analysis": rb.analysis,
         },
     )
+
+
+def _sample(mesh: MeshData, deposits: Deposits, options: StiffnessOptions) -> PlyFields:
+    """Sample the deposits; the bead model first cuts them into pieces and measures their state."""
+    if options.fill_model.kind != "beads":
+        return sample_deposits(mesh, deposits, options.resolution)
+    from loadpath.stiffness.beads import attributes
+
+    pieces, attrs = attributes(deposits, options.material.E1, options.material.G12)
+    return sample_deposits(mesh, pieces, options.resolution, attrs)
 
 
 def _principal_angle(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> Floats:
