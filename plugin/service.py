@@ -265,27 +265,9 @@ class _Handler(BaseHTTPRequestHandler):
                     },
                 )
             elif self.path == "/v1/schema":
-                from loadpath.plugin.settings import SCHEMA
+                from loadpath.plugin.settings import SCHEMA, field_json
 
-                self._send(
-                    200,
-                    {
-                        "ok": True,
-                        "settings": {
-                            f.name: {
-                                "type": f.kind,
-                                "default": list(f.default) if isinstance(f.default, tuple) else f.default,
-                                "unit": f.unit,
-                                "help": f.help,
-                                "choices": list(f.choices),
-                                "minimum": f.minimum,
-                                "maximum": f.maximum,
-                                "group": f.group,
-                            }
-                            for f in SCHEMA
-                        },
-                    },
-                )
+                self._send(200, {"ok": True, "settings": {f.name: field_json(f) for f in SCHEMA}})
             else:
                 raise RequestError(
                     404, "not_found", f"no {self.path}; use GET /v1/health, GET /v1/schema or POST /v1/run"

@@ -46,6 +46,7 @@ from loadpath.plugin.slicers import (
 __all__ = [
     "Field",
     "SCHEMA",
+    "field_json",
     "Settings",
     "REPLACE_KINDS",
     "ENGINES",
@@ -341,6 +342,20 @@ SCHEMA: tuple[Field, ...] = (
         group="machine",
     ),
 )
+
+
+def field_json(f: Field) -> dict[str, Any]:
+    """A schema field as JSON (what ``GET /v1/schema`` and the load-case editor show)."""
+    return {
+        "type": f.kind,
+        "default": list(f.default) if isinstance(f.default, tuple) else f.default,
+        "unit": f.unit,
+        "help": f.help,
+        "choices": list(f.choices),
+        "minimum": f.minimum,
+        "maximum": f.maximum,
+        "group": f.group,
+    }
 _FIELDS = {f.name: f for f in SCHEMA}
 
 
