@@ -21,6 +21,8 @@ TOOLS = {
     "CuraEngine": "cura-engine",
     "ccx": "calculix-ccx",
     "cura": "cura",  # Cura's Python modules and machine definitions
+    "chromium": "chromium",  # the load-case editor's browser tests
+    "chromedriver": "chromium-driver",
 }
 
 CURA_PLUGINS = Path("/usr/lib/cura/plugins")

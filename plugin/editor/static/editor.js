@@ -421,6 +421,7 @@ function caseForServer() {
 
 function scheduleResolve(delay = 200) {
   clearTimeout(S.timer);
+  document.body.dataset.resolved = "0";
   S.timer = setTimeout(resolve, delay);
 }
 
@@ -662,6 +663,7 @@ async function save() {
   document.body.dataset.saved = "1";
 }
 
+window.editorState = S;  // for the tests and for debugging in the browser's console
 window.addEventListener("DOMContentLoaded", () => {
   start().catch((e) => { showErrors([{ item: null, message: e.message }]); });
 });
