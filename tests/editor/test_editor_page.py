@@ -195,8 +195,10 @@ def test_gcode_click_hole_and_edge_solve_save_run(browser, editor, prusa_bracket
     assert "layer" in browser.find_element(By.ID, "paths-note").text
     saved = _save(browser, ed)
     assert 'frame = "bed"' in saved
-    assert "# picks the hole at x 147.50, y 92.50" in saved
-    assert "# picks 15.00 mm of outline in x 95.00..110.00, y 124.50..125.00" in saved or "picks 1" in saved
+    # the comments say what each selector picked on this part (the hole's centre, the edge's extent)
+    assert re.search(r"\[\[loads\]\]\n# picks the hole at x 147\.[45]\d, y 92\.[45]\d \(4\.\d\d mm across\)", saved), saved
+    assert re.search(r"\[\[supports\]\]\n# picks 1[56]\.\d\d mm of outline in x 9[45]\.\d\d\.\.11\d\.\d\d, "
+                     r"y 124\.\d\d\.\.125\.00", saved), saved
     _run(prusa_bracket, ed.case, tmp_path / "out.gcode")
     assert_same_resolution(saved, HAND_GCODE, prusa_bracket)
 
