@@ -283,19 +283,17 @@ def test_errors_are_inline_in_runs_words(browser, editor, test_stls, tmp_path):
     assert err.is_displayed()
     assert err.text.startswith("case.toml: load 'bolt' (hole_near = [30.0, 30.0], radius = 2.0) selects no "
                                "boundary of object 'bracket.stl'; the nearest hole is")
-    # a pin alone leaves the part free to turn: the solve says so next to the supports
-    browser.execute_script("document.querySelector('[data-item=\"supports/0\"] .delete').click()")
-    _click_feature(browser, "hole")
-    browser.find_element(By.ID, "as-support").click()
+    # a support that holds only x leaves the part free to slide in y: the solve says so by the supports
+    _item(browser, "supports/0").find_element(By.CSS_SELECTOR, "input.fix-y").click()
     _item(browser, "loads/0").find_element(By.CSS_SELECTOR, ".delete").click()
-    _click_feature(browser, "edge", "side x_max")
+    _click_feature(browser, "hole")
     browser.find_element(By.ID, "as-load").click()
     _settled(browser)
     assert _errors(browser) == []
     browser.find_element(By.ID, "solve").click()
     wait_for(browser, "document.body.dataset.solved === '1'", 300, "the solve")
     msg = browser.find_element(By.ID, "err-supports").text
-    assert "is free to" in msg and "the supports ('pin 1') do not hold it" in msg, msg
+    assert "is free to" in msg and "the supports ('wall') do not hold it" in msg, msg
 
 
 def test_keyboard_alone_adds_a_support_and_a_load(browser, editor, test_stls, tmp_path):
