@@ -152,7 +152,7 @@ class EditorSession:
         sels = []
         for rb in rbs:
             lo, hi = rb.body.bounds
-            pad = 0.05 * float(np.max(hi - lo)) + 1.0
+            pad = 0.01 * float(np.max(hi - lo)) + 0.5  # open sides of a box drawn just past the part
             for sel in rb.selections:
                 box = None
                 if sel.lower is not None:

@@ -73,7 +73,7 @@ function span() {
 }
 
 function fitView() {
-  const b = S.part.bounds, p = 0.1 * span() + 2;
+  const b = S.part.bounds, p = 0.22 * span() + 2;
   const svg = $("svg");
   svg.setAttribute("viewBox", `${b[0] - p} ${-(b[3] + p)} ${b[2] - b[0] + 2 * p} ${b[3] - b[1] + 2 * p}`);
   svg.setAttribute("preserveAspectRatio", "xMidYMid meet");
@@ -501,10 +501,10 @@ function drawArrows() {
     if (!a) return;
     const m = Math.hypot(ld.force[0], ld.force[1]);
     if (m === 0) return;
-    const L = 0.25 * span() * (m / ref);
+    const L = 0.18 * span() * (m / ref);
     const ux = ld.force[0] / m, uy = ld.force[1] / m;
     const tip = [a[0] + ux * L, a[1] + uy * L];
-    const hs = 0.04 * span();
+    const hs = 0.03 * span();
     const grp = sv("g", { class: "arrow", "data-item": `loads/${i}` });
     grp.appendChild(sv("line", { x1: a[0], y1: a[1], x2: tip[0], y2: tip[1], "vector-effect": "non-scaling-stroke", "stroke-width": "3" }));
     const left = [tip[0] - ux * hs - uy * hs * 0.5, tip[1] - uy * hs + ux * hs * 0.5];
