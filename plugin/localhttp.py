@@ -85,7 +85,9 @@ def read_json_body(headers: Mapping[str, str], rfile: BinaryIO, limit_mb: float,
     """
     ctype = (headers.get("Content-Type") or "").split(";")[0].strip().lower()
     if ctype != "application/json":
-        raise RequestError(415, "unsupported_media_type", "send the request as Content-Type: application/json")
+        raise RequestError(
+            415, "unsupported_media_type", "send the request as Content-Type: application/json"
+        )
     length = headers.get("Content-Length")
     if length is None or not length.isdigit():
         raise RequestError(411, "length_required", "give the body's Content-Length")

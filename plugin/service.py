@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
+
 from loadpath.plugin.localhttp import HOST, check_host_origin, read_json_body
 from loadpath.plugin.service_job import RequestError, check_request, child, confine
 
@@ -313,7 +314,8 @@ class _Handler(BaseHTTPRequestHandler):
         if self.path != "/v1/run":
             raise RequestError(404, "not_found", f"no POST {self.path}; use POST /v1/run")
         try:
-            req = read_json_body(self.headers, self.rfile, svc.config.max_request_mb, "loadpath serve --max-mb")
+            limit = svc.config.max_request_mb
+            req = read_json_body(self.headers, self.rfile, limit, "loadpath serve --max-mb")
         except RequestError as exc:
             if exc.status == 413:
                 self.close_connection = True

@@ -345,7 +345,7 @@ SCHEMA: tuple[Field, ...] = (
 
 
 def field_json(f: Field) -> dict[str, Any]:
-    """A schema field as JSON (what ``GET /v1/schema`` and the load-case editor show)."""
+    """Return a schema field as JSON (what ``GET /v1/schema`` and the load-case editor show)."""
     return {
         "type": f.kind,
         "default": list(f.default) if isinstance(f.default, tuple) else f.default,

@@ -36,8 +36,9 @@ def main(argv: list[str] | None = None) -> int:
 
     w, h = (int(v) for v in a.size.split("x"))
     exe = Path(sys.executable).with_name("loadpath")
-    proc = subprocess.Popen([str(exe), "edit", a.part, "--loadcase", a.case, "--no-browser"],
-                            stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [str(exe), "edit", a.part, "--loadcase", a.case, "--no-browser"], stdout=subprocess.PIPE, text=True
+    )
     try:
         m = re.search(r"editor at (\S+)", proc.stdout.readline())
         if not m:
@@ -49,8 +50,10 @@ def main(argv: list[str] | None = None) -> int:
             opts.add_argument(arg)
         drv = webdriver.Chrome(options=opts, service=Service("/usr/bin/chromedriver"))
         try:
-            drv.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
-                                {"width": w, "height": h, "deviceScaleFactor": 1, "mobile": False})
+            drv.execute_cdp_cmd(
+                "Emulation.setDeviceMetricsOverride",
+                {"width": w, "height": h, "deviceScaleFactor": 1, "mobile": False},
+            )
             drv.get(m.group(1))
             _wait(drv, "document.body.dataset.ready === '1' && document.body.dataset.resolved === '1'", 60)
             if not a.no_solve:

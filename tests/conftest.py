@@ -53,4 +53,5 @@ def repo_root() -> Path:
     return REPO
 
 
+from editor_fixtures import *  # noqa: E402,F401,F403  the load-case editor: loadpath edit + Chromium
 from fixtures import *  # noqa: E402,F401,F403  shared real-slicer fixtures (tests/fixtures.py)

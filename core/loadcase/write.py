@@ -30,7 +30,7 @@ __all__ = ["to_toml", "selector_toml", "describe_pick"]
 
 
 def _num(v: float) -> str:
-    """A TOML float that reads back to the same value (``1000.0``, ``0.35``, ``-2.5e-05``)."""
+    """Write a TOML float that reads back to the same value (``1000.0``, ``0.35``, ``-2.5e-05``)."""
     if not math.isfinite(v):
         raise ValueError(f"cannot write {v!r} into a load case; give a finite number")
     return repr(float(v))
@@ -41,7 +41,7 @@ def _str(s: str) -> str:
 
 
 def selector_toml(sel: Selector) -> str:
-    """The inline table of a selector: ``{ side = "x_min", within = 10.0 }``."""
+    """Return the inline table of a selector: ``{ side = "x_min", within = 10.0 }``."""
     if isinstance(sel, SideSelector):
         body = f"side = {_str(sel.side)}, within = {_num(sel.within)}"
     elif isinstance(sel, HoleSelector):
@@ -83,16 +83,19 @@ def describe_pick(sel: Selection, analysis: str) -> str:
         mid = c.mean(axis=0)
         across = 2.0 * float(np.mean(np.linalg.norm(c - mid, axis=1)))
         z0, z1 = sel.holes[0][0], sel.holes[-1][1]
-        return (f"picks the hole at x {mid[0]:.2f}, y {mid[1]:.2f} ({across:.2f} mm across), "
-                f"z {z0:.2f}..{z1:.2f}")
+        return (
+            f"picks the hole at x {mid[0]:.2f}, y {mid[1]:.2f} ({across:.2f} mm across), z {z0:.2f}..{z1:.2f}"
+        )
     lines = sel.lines
     out = []
     if lines is not None and not lines.is_empty:
         x0, y0, x1, y1 = lines.bounds
         z0 = min(z for z, _, _ in sel.lateral)
         z1 = max(z for _, z, _ in sel.lateral)
-        out.append(f"{lines.length:.2f} mm of outline in x {x0:.2f}..{x1:.2f}, y {y0:.2f}..{y1:.2f}, "
-                   f"z {z0:.2f}..{z1:.2f}")
+        out.append(
+            f"{lines.length:.2f} mm of outline in x {x0:.2f}..{x1:.2f}, y {y0:.2f}..{y1:.2f}, "
+            f"z {z0:.2f}..{z1:.2f}"
+        )
     if analysis == "3d" and sel.faces:
         out.append(f"{sel.area_faces:.2f} mm² of top/bottom faces")
     return "picks " + " and ".join(out) + f" ({area:.2f} mm²)"
@@ -102,8 +105,11 @@ def _support(s: Support, note: str | None) -> list[str]:
     out = ["[[supports]]"]
     if note:
         out.append(f"# {note}")
-    out += [f"name = {_str(s.name)}", f"where = {selector_toml(s.where)}",
-            "fix = [" + ", ".join(_str(a) for a in s.fix) + "]"]
+    out += [
+        f"name = {_str(s.name)}",
+        f"where = {selector_toml(s.where)}",
+        "fix = [" + ", ".join(_str(a) for a in s.fix) + "]",
+    ]
     return out
 
 
@@ -138,7 +144,7 @@ def _toolpath(t: ToolpathOptions) -> list[str]:
 
 
 def to_toml(lc: LoadCase, picks: Mapping[str, str] | None = None, header: str | None = None) -> str:
-    """The TOML text of a load case.
+    """Return the TOML text of a load case.
 
     Parameters
     ----------
@@ -160,12 +166,18 @@ def to_toml(lc: LoadCase, picks: Mapping[str, str] | None = None, header: str | 
     out.append("version = 1")
     if lc.object is not None:
         out.append(f"object = {_str(lc.object)}")
-    frame_note = ("coordinates relative to the part's minimum corner" if lc.frame == "part"
-                  else "coordinates of the G-code (the printer bed)")
+    frame_note = (
+        "coordinates relative to the part's minimum corner"
+        if lc.frame == "part"
+        else "coordinates of the G-code (the printer bed)"
+    )
     out.append(f"frame = {_str(lc.frame)}  # {frame_note}")
-    out += ["", "[material]              # isotropic linear elastic, used for the stress analysis",
-            f"youngs_modulus = {_num(lc.material.youngs_modulus)}  # MPa",
-            f"poissons_ratio = {_num(lc.material.poissons_ratio)}"]
+    out += [
+        "",
+        "[material]              # isotropic linear elastic, used for the stress analysis",
+        f"youngs_modulus = {_num(lc.material.youngs_modulus)}  # MPa",
+        f"poissons_ratio = {_num(lc.material.poissons_ratio)}",
+    ]
     for s in lc.supports:
         out += ["", *_support(s, picks.get(s.name))]
     for ld in lc.loads:

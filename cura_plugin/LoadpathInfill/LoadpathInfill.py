@@ -117,7 +117,8 @@ class LoadpathInfill(Extension):
             part = runner.edit_part(folder, chunks, None if chunks else self._plateTriangles())
             if self._editor is not None and self._editor.poll() is None:
                 self._editor.terminate()  # one editor at a time
-            self._editor = runner.start_editor(self.pref("command"), part, case, os.path.join(folder, "editor.log"))
+            log = os.path.join(folder, "editor.log")
+            self._editor = runner.start_editor(self.pref("command"), part, case, log)
         except (runner.RunnerError, OSError) as exc:
             self._show("Cannot open the load-case editor: " + str(exc))
             return

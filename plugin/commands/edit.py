@@ -22,8 +22,12 @@ __all__ = ["HELP", "add_args", "run", "default_save_path"]
 def add_args(parser: argparse.ArgumentParser) -> None:
     """Register the command's arguments."""
     parser.add_argument("part", metavar="PART", help="G-code (.gcode, .bgcode) or STL of the part")
-    parser.add_argument("--loadcase", metavar="CASE.toml", type=Path,
-                        help="the case to open (when it exists) and to save; default PART's name with .toml")
+    parser.add_argument(
+        "--loadcase",
+        metavar="CASE.toml",
+        type=Path,
+        help="the case to open (when it exists) and to save; default PART's name with .toml",
+    )
     parser.add_argument("--port", type=int, default=0, help="TCP port on 127.0.0.1 (default: any free port)")
     parser.add_argument("--no-browser", action="store_true", help="print the address, do not open a browser")
 
@@ -55,8 +59,11 @@ def run(args: argparse.Namespace) -> int:
             f"cannot listen on 127.0.0.1:{args.port} ({exc.strerror or exc}); choose another --port"
         ) from None
     opened = "opened " + str(save) if initial is not None else "new case, saved to " + str(save)
-    print(f"loadpath edit: {part.path.name} ({part.kind}, {len(session.view['layers'])} distinct region(s)); "
-          f"{opened}; editor at {server.url}", flush=True)
+    print(
+        f"loadpath edit: {part.path.name} ({part.kind}, {len(session.view['layers'])} distinct region(s)); "
+        f"{opened}; editor at {server.url}",
+        flush=True,
+    )
     if not args.no_browser:
         webbrowser.open(server.url)
     try:

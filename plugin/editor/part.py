@@ -24,7 +24,15 @@ from loadpath.loadcase import Body, merge_slabs
 from loadpath.loadcase.body import polygons_of
 from shapely.geometry import LineString, MultiLineString, Polygon
 
-__all__ = ["EditorPart", "load_part", "section_stl", "layer_view", "STL_LAYER_MM", "EDGE_PAD_MM"]
+__all__ = [
+    "EditorPart",
+    "load_part",
+    "section_stl",
+    "layer_view",
+    "frame_origin",
+    "STL_LAYER_MM",
+    "EDGE_PAD_MM",
+]
 
 STL_LAYER_MM = 0.2
 """Height step of the STL's cross-sections (a typical layer height)."""
@@ -90,7 +98,9 @@ def section_stl(path: Path, step: float = STL_LAYER_MM) -> Body:
     try:
         mesh = trimesh.load(str(path), force="mesh")
     except (OSError, ValueError) as exc:
-        raise LoadpathError(f"cannot read STL {str(path)!r}: {exc}; check the path and that it is a mesh") from None
+        raise LoadpathError(
+            f"cannot read STL {str(path)!r}: {exc}; check the path and that it is a mesh"
+        ) from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise LoadpathError(f"{path}: no triangles in the file; export the part as an STL mesh")
     z_lo, z_hi = (float(v) for v in mesh.bounds[:, 2])
@@ -113,7 +123,7 @@ def section_stl(path: Path, step: float = STL_LAYER_MM) -> Body:
 
 
 def _rings_to_region(segs: np.ndarray) -> Any:
-    """Closed loops from section segments ``(m, 2, 2)``, nested by even-odd (holes inside outers)."""
+    """Join section segments into closed loops ``(m, 2, 2)``, nested by even-odd (holes inside outers)."""
     if len(segs) == 0:
         return None
     merged = shapely.line_merge(MultiLineString([LineString(s) for s in np.round(segs, 9)]))
@@ -172,8 +182,11 @@ def _edges(ring: Any, tol: float) -> list[np.ndarray]:
 
 
 def _edge_selector(pts: np.ndarray, body: Body, origin: np.ndarray) -> dict[str, Any]:
-    """The selector a click on an edge makes: a side selector when the edge lies on a side of the
-    part's bounding box (it fits any placement), else the edge's box widened by 0.5 mm."""
+    """Return the selector a click on an edge makes.
+
+    A side selector when the edge lies on a side of the part's bounding box (it fits any placement),
+    else the edge's box widened by 0.5 mm.
+    """
     lo, hi = body.bounds
     span = float(np.max(hi[:2] - lo[:2]))
     on = 1e-3 * span + 0.05
@@ -184,8 +197,12 @@ def _edge_selector(pts: np.ndarray, body: Body, origin: np.ndarray) -> dict[str,
             return {"side": f"{a}_max", "within": EDGE_PAD_MM}
     b0 = pts.min(axis=0) - EDGE_PAD_MM - origin[:2]
     b1 = pts.max(axis=0) + EDGE_PAD_MM - origin[:2]
-    return {"x_min": round(float(b0[0]), 3), "x_max": round(float(b1[0]), 3),
-            "y_min": round(float(b0[1]), 3), "y_max": round(float(b1[1]), 3)}
+    return {
+        "x_min": round(float(b0[0]), 3),
+        "x_max": round(float(b1[0]), 3),
+        "y_min": round(float(b0[1]), 3),
+        "y_max": round(float(b1[1]), 3),
+    }
 
 
 def frame_origin(body: Body, frame: str) -> np.ndarray:
@@ -227,24 +244,40 @@ def layer_view(part: EditorPart, frame: str) -> dict[str, Any]:
                     hp = Polygon(ring)
                     c = np.asarray(hp.centroid.coords)[0]
                     d = 2.0 * math.sqrt(hp.area / math.pi)
-                    holes.append({
-                        "center": np.round(c, 4).tolist(),
-                        "diameter": round(d, 3),
-                        "ring": _coords(ring),
-                        "where": {"hole_near": [round(float(c[0] - origin[0]), 3),
-                                                round(float(c[1] - origin[1]), 3)],
-                                  "radius": round(max(0.5, d / 4), 2)},
-                    })
+                    holes.append(
+                        {
+                            "center": np.round(c, 4).tolist(),
+                            "diameter": round(d, 3),
+                            "ring": _coords(ring),
+                            "where": {
+                                "hole_near": [
+                                    round(float(c[0] - origin[0]), 3),
+                                    round(float(c[1] - origin[1]), 3),
+                                ],
+                                "radius": round(max(0.5, d / 4), 2),
+                            },
+                        }
+                    )
                 for ring in [poly.exterior]:
                     for e in _edges(ring, 0.002 * span):
-                        edges.append({"points": np.round(e, 4).tolist(),
-                                      "length": round(float(LineString(e).length), 3),
-                                      "where": _edge_selector(e, b, origin)})
+                        edges.append(
+                            {
+                                "points": np.round(e, 4).tolist(),
+                                "length": round(float(LineString(e).length), 3),
+                                "where": _edge_selector(e, b, origin),
+                            }
+                        )
             objs.append({"name": b.name, "polygons": polys, "holes": holes, "edges": edges})
         file_layers = []
         if part.geo is not None:
-            file_layers = sorted({g.layer_index + 1 for o in part.geo.objects for g in o.layers
-                                  if z0 - 1e-6 <= g.z - g.height / 2 <= z1 + 1e-6})
+            file_layers = sorted(
+                {
+                    g.layer_index + 1
+                    for o in part.geo.objects
+                    for g in o.layers
+                    if z0 - 1e-6 <= g.z - g.height / 2 <= z1 + 1e-6
+                }
+            )
         layers.append({"z0": z0, "z1": z1, "z": zm, "file_layers": file_layers, "objects": objs})
     return {
         "bounds": [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])],

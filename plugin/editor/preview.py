@@ -1,4 +1,4 @@
-""""Solve" in the editor: the stress field of the shown layer and a preview of the new paths.
+"""Solve in the editor: the stress field of the shown layer and a preview of the new paths.
 
 * the stress: :func:`loadpath.fea.analyze` of the resolved body (the analysis ``run`` makes), its
   layer field sampled on a grid, decomposed into both principal stresses and directions;
@@ -58,12 +58,19 @@ def stress_grid(rb: ResolvedBody, z: float, principal: str, samples: int = 46) -
     ok = np.all(np.isfinite(t), axis=1)
     s1, s2, e1, _ = principal_stresses(t[ok])
     rows = np.column_stack([pts[ok], s1, s2, np.arctan2(e1[:, 1], e1[:, 0])])
-    return analysis, {"h": round(float(h), 4), "points": np.round(rows, 4).tolist(),
-                      "scale": float(field.scale), "residual": float(res.residual),
-                      "analysis": rb.analysis, "body": rb.name}
+    return analysis, {
+        "h": round(float(h), 4),
+        "points": np.round(rows, 4).tolist(),
+        "scale": float(field.scale),
+        "residual": float(res.residual),
+        "analysis": rb.analysis,
+        "body": rb.name,
+    }
 
 
-def gcode_preview(part: Any, case_file: Path, lc: LoadCase, z0: float, z1: float, work: Path) -> dict[str, Any]:
+def gcode_preview(
+    part: Any, case_file: Path, lc: LoadCase, z0: float, z1: float, work: Path
+) -> dict[str, Any]:
     """Run the pipeline on the G-code and compare the slicer's infill with the new one.
 
     Parameters
@@ -86,32 +93,42 @@ def gcode_preview(part: Any, case_file: Path, lc: LoadCase, z0: float, z1: float
     new = gcode.read(out)
     geo = part.geo
     diameter = geo.filament_diameter
-    layers = sorted({g.layer_index for o in geo.objects for g in o.layers if z0 - 1e-6 <= g.z - g.height / 2 <= z1 + 1e-6})
+    layers = sorted(
+        {g.layer_index for o in geo.objects for g in o.layers if z0 - 1e-6 <= g.z - g.height / 2 <= z1 + 1e-6}
+    )
     mid = 0.5 * (z0 + z1)
     layers.sort(key=lambda i: abs(part.program.layers[i].z - mid))
     shown = None
     for i in layers:
         before = [p for o in geo.objects for p in infill_paths(part.program, i, o.code, diameter)]
         after = [p for o in geo.objects for p in infill_paths(new, i, o.code, diameter)]
-        if len(before) != len(after) or any(a.points.shape != b.points.shape or not np.allclose(a.points, b.points)
-                                            for a, b in zip(before, after, strict=False)):
+        if len(before) != len(after) or any(
+            a.points.shape != b.points.shape or not np.allclose(a.points, b.points)
+            for a, b in zip(before, after, strict=False)
+        ):
             shown = (i, before, after)
             break
     rows, _ = compare_files([part.path, out], lc)
     kinds = ", ".join(job.settings.replace) if job.settings is not None else "?"
     answer: dict[str, Any] = {
-        "changed": job.changed, "warnings": job.warnings,
-        "stiffness": {"slicer_compliance": rows[0].compliance, "new_compliance": rows[1].compliance,
-                      "relative_stiffness": rows[1].relative_stiffness,
-                      "relative_specific_stiffness": rows[1].relative_specific_stiffness,
-                      "slicer_peak_displacement": rows[0].peak_displacement,
-                      "new_peak_displacement": rows[1].peak_displacement},
+        "changed": job.changed,
+        "warnings": job.warnings,
+        "stiffness": {
+            "slicer_compliance": rows[0].compliance,
+            "new_compliance": rows[1].compliance,
+            "relative_stiffness": rows[1].relative_stiffness,
+            "relative_specific_stiffness": rows[1].relative_specific_stiffness,
+            "slicer_peak_displacement": rows[0].peak_displacement,
+            "new_peak_displacement": rows[1].peak_displacement,
+        },
         "failure_load": None,
         "failure_note": "no failure load: loadpath has no strength model yet (stiffness only)",
     }
     if shown is None:
-        answer["paths_note"] = (f"no layer of this region was replaced (replace = {kinds}); "
-                                "choose other kinds under [toolpath] replace or another region")
+        answer["paths_note"] = (
+            f"no layer of this region was replaced (replace = {kinds}); "
+            "choose other kinds under [toolpath] replace or another region"
+        )
         answer["layer"] = None
         answer["paths"] = answer["slicer_paths"] = []
     else:
@@ -124,7 +141,7 @@ def gcode_preview(part: Any, case_file: Path, lc: LoadCase, z0: float, z1: float
 
 
 def stl_preview(rb: ResolvedBody, analysis: Any, lc: LoadCase, z: float) -> dict[str, Any]:
-    """The path engine on the cross-section at ``z`` inset by two perimeters (an unsliced STL)."""
+    """Run the path engine on the cross-section at ``z`` inset by two perimeters (an unsliced STL)."""
     from loadpath.engines import generate
     from loadpath.toolpath import EngineInput
 
@@ -136,10 +153,20 @@ def stl_preview(rb: ResolvedBody, analysis: Any, lc: LoadCase, z: float) -> dict
     engine = tp.engine or "swarm"
     principal = tp.principal if tp.principal not in (None, "alternate") else "max_abs"
     params = {"K": tp.K} if engine == "swarm" and tp.K is not None else {}
-    paths = generate(engine, EngineInput(region, analysis.field(z, principal), tp.pitch or 0.45,
-                                         rb.load_entry(z)), **params)
-    return {"paths": _paths_json(paths.paths), "slicer_paths": [], "layer": None,
-            "paths_note": (f"{engine} paths at pitch {tp.pitch or 0.45:g} mm on the section at z = {z:g} mm "
-                           "(STL: slice it for the real paths and the predicted stiffness)"),
-            "stiffness": None, "failure_load": None,
-            "failure_note": "no failure load: loadpath has no strength model yet (stiffness only)"}
+    paths = generate(
+        engine,
+        EngineInput(region, analysis.field(z, principal), tp.pitch or 0.45, rb.load_entry(z)),
+        **params,
+    )
+    return {
+        "paths": _paths_json(paths.paths),
+        "slicer_paths": [],
+        "layer": None,
+        "paths_note": (
+            f"{engine} paths at pitch {tp.pitch or 0.45:g} mm on the section at z = {z:g} mm "
+            "(STL: slice it for the real paths and the predicted stiffness)"
+        ),
+        "stiffness": None,
+        "failure_load": None,
+        "failure_note": "no failure load: loadpath has no strength model yet (stiffness only)",
+    }

@@ -33,13 +33,17 @@ __all__ = ["EditorServer", "MAX_BODY_MB", "STATIC"]
 MAX_BODY_MB = 5.0
 """Largest request body (a load case as JSON is a few kB)."""
 
-STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
-          "/editor.js": ("editor.js", "text/javascript; charset=utf-8"),
-          "/editor.css": ("editor.css", "text/css; charset=utf-8")}
+STATIC = {
+    "/": ("index.html", "text/html; charset=utf-8"),
+    "/editor.js": ("editor.js", "text/javascript; charset=utf-8"),
+    "/editor.css": ("editor.css", "text/css; charset=utf-8"),
+}
 """The only paths served as files, and the package files they are."""
 
-_CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
-        "connect-src 'self'; form-action 'none'; frame-ancestors 'none'; base-uri 'none'")
+_CSP = (
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
+    "connect-src 'self'; form-action 'none'; frame-ancestors 'none'; base-uri 'none'"
+)
 
 
 def _static_files() -> dict[str, tuple[bytes, str]]:
@@ -148,6 +152,16 @@ class _Handler(BaseHTTPRequestHandler):
         except RequestError as exc:
             self._error(exc)
         except Exception as exc:  # a bug: one line to the page, the server keeps running
-            self._json(500, {"ok": False, "error": {"code": "internal", "message": (
-                f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); "
-                "please report it with the part and the load case")}})
+            self._json(
+                500,
+                {
+                    "ok": False,
+                    "error": {
+                        "code": "internal",
+                        "message": (
+                            f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); "
+                            "please report it with the part and the load case"
+                        ),
+                    },
+                },
+            )

@@ -35,7 +35,7 @@ _GRID = 46  # stress samples across the part's larger side
 
 
 def case_to_dict(lc: lcmod.LoadCase) -> dict[str, Any]:
-    """The TOML-table form of a load case (what the page edits); read back from :func:`to_toml`."""
+    """Return the TOML-table form of a load case (what the page edits); read back from :func:`to_toml`."""
     return tomllib.loads(lcmod.to_toml(lc))
 
 
@@ -47,15 +47,21 @@ def materials() -> list[dict[str, Any]]:
     """
     from loadpath.fea.orthotropic import ABS_PRINTED, PLA_PRINTED
 
-    cards = [{"name": "PLA (interface default)", "youngs_modulus": lcmod.PLA.youngs_modulus,
-              "poissons_ratio": lcmod.PLA.poissons_ratio, "source": "docs/interface.md"}]
+    cards = [
+        {
+            "name": "PLA (interface default)",
+            "youngs_modulus": lcmod.PLA.youngs_modulus,
+            "poissons_ratio": lcmod.PLA.poissons_ratio,
+            "source": "docs/interface.md",
+        }
+    ]
     for m in (PLA_PRINTED, ABS_PRINTED):
         cards.append({"name": m.name, "youngs_modulus": m.E1, "poissons_ratio": m.nu12, "source": m.source})
     return cards
 
 
 def toolpath_schema() -> list[dict[str, Any]]:
-    """The settings a ``[toolpath]`` table may hold, with their help texts (the settings schema)."""
+    """Return the settings a ``[toolpath]`` table may hold, with their help texts (the settings schema)."""
     from loadpath.plugin.settings import SCHEMA, field_json
 
     return [{"name": f.name, **field_json(f)} for f in SCHEMA if f.toolpath]
@@ -88,8 +94,9 @@ class EditorSession:
     part: EditorPart
     save_path: Path
     initial: lcmod.LoadCase | None = None
-    _work: tempfile.TemporaryDirectory = field(default_factory=lambda: tempfile.TemporaryDirectory(
-        prefix="loadpath-edit-"))
+    _work: tempfile.TemporaryDirectory = field(
+        default_factory=lambda: tempfile.TemporaryDirectory(prefix="loadpath-edit-")
+    )
     _solving: threading.Lock = field(default_factory=threading.Lock)
 
     def __post_init__(self) -> None:
@@ -104,13 +111,29 @@ class EditorSession:
     # ------------------------------------------------------------------------------------ answers
     def start(self) -> dict[str, Any]:
         """GET /api/start: the part, the case to show, the choices and help texts."""
-        case = case_to_dict(self.initial) if self.initial is not None else {
-            "version": 1, "frame": self.part.frame, "supports": [], "loads": [],
-            "material": {"youngs_modulus": lcmod.PLA.youngs_modulus,
-                         "poissons_ratio": lcmod.PLA.poissons_ratio}}
-        return {"ok": True, "part": {"name": self.part.path.name, "kind": self.part.kind, **self.view},
-                "frame": self.view_frame, "case": case, "save_path": str(self.save_path),
-                "materials": materials(), "toolpath": toolpath_schema()}
+        case = (
+            case_to_dict(self.initial)
+            if self.initial is not None
+            else {
+                "version": 1,
+                "frame": self.part.frame,
+                "supports": [],
+                "loads": [],
+                "material": {
+                    "youngs_modulus": lcmod.PLA.youngs_modulus,
+                    "poissons_ratio": lcmod.PLA.poissons_ratio,
+                },
+            }
+        )
+        return {
+            "ok": True,
+            "part": {"name": self.part.path.name, "kind": self.part.kind, **self.view},
+            "frame": self.view_frame,
+            "case": case,
+            "save_path": str(self.save_path),
+            "materials": materials(),
+            "toolpath": toolpath_schema(),
+        }
 
     def _case(self, data: Any) -> lcmod.LoadCase:
         if not isinstance(data, dict):
@@ -134,8 +157,11 @@ class EditorSession:
             lc = self._case(partial)
             rbs = self._resolved(lc)
         except LoadCaseError as exc:
-            return {"ok": False, "errors": [{"item": _item_of(str(exc)), "message": str(exc)}],
-                    "selections": []}
+            return {
+                "ok": False,
+                "errors": [{"item": _item_of(str(exc)), "message": str(exc)}],
+                "selections": [],
+            }
         index = {s.name: f"supports/{i}" for i, s in enumerate(lc.supports)}
         index.update({ld.name: f"loads/{i}" for i, ld in enumerate(lc.loads)})
         errors = []
@@ -143,12 +169,25 @@ class EditorSession:
             for sel, msg in lcmod.empty_selections(rb):
                 errors.append({"item": index[sel.name], "message": msg})
         if not lc.supports:
-            errors.append({"item": "supports", "message": (
-                f"{lc.source}: missing section [[supports]]; the part must be held: click an edge "
-                "or a hole and choose a support")})
+            errors.append(
+                {
+                    "item": "supports",
+                    "message": (
+                        f"{lc.source}: missing section [[supports]]; the part must be held: click an edge "
+                        "or a hole and choose a support"
+                    ),
+                }
+            )
         if not lc.loads:
-            errors.append({"item": "loads", "message": (
-                f"{lc.source}: missing section [[loads]]; add at least one load: click a hole or an edge")})
+            errors.append(
+                {
+                    "item": "loads",
+                    "message": (
+                        f"{lc.source}: missing section [[loads]]; add at least one load: "
+                        "click a hole or an edge"
+                    ),
+                }
+            )
         sels = []
         for rb in rbs:
             lo, hi = rb.body.bounds
@@ -159,16 +198,26 @@ class EditorSession:
                     blo = np.maximum(sel.lower[:2], lo[:2] - pad)
                     bhi = np.minimum(sel.upper[:2], hi[:2] + pad)
                     box = np.round(np.concatenate([blo, bhi]), 4).tolist()
-                sels.append({
-                    "item": index[sel.name], "name": sel.name, "object": rb.name, "role": sel.role,
-                    "picked": lcmod.describe_pick(sel, rb.analysis), "box": box,
-                    "layers": [_lines_json(sel.lines_at(L["z"])) for L in self.view["layers"]],
-                })
+                sels.append(
+                    {
+                        "item": index[sel.name],
+                        "name": sel.name,
+                        "object": rb.name,
+                        "role": sel.role,
+                        "picked": lcmod.describe_pick(sel, rb.analysis),
+                        "box": box,
+                        "layers": [_lines_json(sel.lines_at(L["z"])) for L in self.view["layers"]],
+                    }
+                )
         picks = {s["name"]: s["picked"] for s in sels}
         ok = not errors
-        return {"ok": ok, "errors": errors, "selections": sels,
-                "analysis": {rb.name: f"{rb.analysis} ({rb.reason})" for rb in rbs},
-                "toml": lcmod.to_toml(lc, picks, self._header()) if lc.supports and lc.loads else None}
+        return {
+            "ok": ok,
+            "errors": errors,
+            "selections": sels,
+            "analysis": {rb.name: f"{rb.analysis} ({rb.reason})" for rb in rbs},
+            "toml": lcmod.to_toml(lc, picks, self._header()) if lc.supports and lc.loads else None,
+        }
 
     def _header(self) -> str:
         return f"load case made with `loadpath edit` on {self.part.path.name}"

@@ -8,7 +8,6 @@ import socket
 from importlib import resources
 
 import pytest
-from editor_fixtures import editor  # noqa: F401 (fixture)
 
 pytestmark = pytest.mark.slow
 
@@ -63,15 +62,22 @@ def test_other_hosts_and_origins_are_refused(running):
         _request(port, "GET", "/", headers={"Host": f"evil.example:{port}"}),  # DNS rebinding
         _request(port, "GET", "/api/start", headers={"Host": "attacker.test"}),
         _request(port, "POST", "/api/resolve", case, headers={"Origin": "http://evil.example"}),
-        _request(port, "POST", "/api/save", case, headers={"Origin": "http://127.0.0.1:1"}),  # another local page
+        _request(
+            port, "POST", "/api/save", case, headers={"Origin": "http://127.0.0.1:1"}
+        ),  # another local page
         _request(port, "POST", "/api/save", case, headers={"Origin": "null"}),
         _request(port, "POST", "/api/solve", case, headers={"Sec-Fetch-Site": "cross-site"}),
     ]
     for status, _, body in refused:
         assert status == 403 and json.loads(body)["error"]["code"] == "forbidden"
     assert not running.case.exists()  # the refused saves wrote nothing
-    status, _, body = _request(port, "POST", "/api/resolve", case,
-                               headers={"Origin": f"http://127.0.0.1:{port}", "Sec-Fetch-Site": "same-origin"})
+    status, _, body = _request(
+        port,
+        "POST",
+        "/api/resolve",
+        case,
+        headers={"Origin": f"http://127.0.0.1:{port}", "Sec-Fetch-Site": "same-origin"},
+    )
     assert status == 200 and "missing section [[supports]]" in json.loads(body)["errors"][0]["message"]
 
 
@@ -80,10 +86,20 @@ def test_serves_nothing_outside_its_own_files(running):
     static = resources.files("loadpath.plugin.editor") / "static"
     status, h, js = _request(port, "GET", "/editor.js?../../setup.cfg")
     assert status == 200 and js == (static / "editor.js").read_bytes()
-    for path in ["/../setup.cfg", "/%2e%2e/%2e%2e/setup.cfg", "/..%2f..%2fsetup.cfg", "/static/editor.js",
-                 "/editor.js/../../session.py", "//etc/passwd", "/api/../../../../etc/passwd",
-                 "/session.py", "/index.html/..", "/editor.css%00.py", f"/{running.case.name}",
-                 str(running.part)]:
+    for path in [
+        "/../setup.cfg",
+        "/%2e%2e/%2e%2e/setup.cfg",
+        "/..%2f..%2fsetup.cfg",
+        "/static/editor.js",
+        "/editor.js/../../session.py",
+        "//etc/passwd",
+        "/api/../../../../etc/passwd",
+        "/session.py",
+        "/index.html/..",
+        "/editor.css%00.py",
+        f"/{running.case.name}",
+        str(running.part),
+    ]:
         status, _, body = _request(port, "GET", path)
         assert status == 404, path
         assert json.loads(body)["error"]["code"] == "not_found"
@@ -100,8 +116,9 @@ def test_bodies_are_bounded_and_checked(running):
     r = conn.getresponse()
     assert r.status == 413 and json.loads(r.read())["error"]["code"] == "too_large"
     conn.close()
-    status, _, body = _request(port, "POST", "/api/resolve", None,
-                               headers={"Content-Type": "text/plain", "Content-Length": "2"})
+    status, _, body = _request(
+        port, "POST", "/api/resolve", None, headers={"Content-Type": "text/plain", "Content-Length": "2"}
+    )
     assert status == 415
     status, _, body = _request(port, "POST", "/api/solve", {"case": {}, "layer": "0"})
     assert status == 400 and "layer must be an integer" in json.loads(body)["error"]["message"]

@@ -211,8 +211,10 @@ def _edit_from_cura(tmp_path, chunks, mesh=None):
     (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
     home = tmp_path / "home"
     home.mkdir()
-    proc = subprocess.run(["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
-                          capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin", "HOME": str(home)})
+    proc = subprocess.run(
+        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
+        capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin", "HOME": str(home)},
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
     assert res["pid"], res["message"]

@@ -53,17 +53,22 @@ def test_round_trip_keeps_every_field():
     assert text.startswith("# made on part.stl\nversion = 1\n")
     assert _same(parse(text), lc)
     # the defaults stay defaults: a minimal case gains only the explicit material and frame
-    small = parse('version = 1\n[[supports]]\nwhere = { side = "x_min", within = 1.0 }\nfix = ["x", "y"]\n'
-                  '[[loads]]\nwhere = { side = "x_max", within = 1.0 }\nforce = [1.0, 0.0, 0.0]\n')
+    small = parse(
+        'version = 1\n[[supports]]\nwhere = { side = "x_min", within = 1.0 }\nfix = ["x", "y"]\n'
+        '[[loads]]\nwhere = { side = "x_max", within = 1.0 }\nforce = [1.0, 0.0, 0.0]\n'
+    )
     assert _same(parse(to_toml(small)), small)
     assert "[toolpath]" not in to_toml(small)
 
 
 def test_comments_name_what_each_selector_picked():
-    lc = parse('version = 1\n[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.5 }\n'
-               'fix = ["x", "y"]\n[[loads]]\nname = "pin"\nwhere = { hole_near = [125.0, 105.0], radius = 1.0 }\n'
-               'force = [1000.0, 0.0, 0.0]\n[[loads]]\nname = "miss"\nwhere = { x_min = 500.0 }\n'
-               'force = [1.0, 0.0, 0.0]\n', "c.toml")
+    lc = parse(
+        'version = 1\n[[supports]]\nname = "clamp"\nwhere = { side = "x_min", within = 0.5 }\n'
+        'fix = ["x", "y"]\n[[loads]]\nname = "pin"\nwhere = { hole_near = [125.0, 105.0], radius = 1.0 }\n'
+        'force = [1000.0, 0.0, 0.0]\n[[loads]]\nname = "miss"\nwhere = { x_min = 500.0 }\n'
+        "force = [1.0, 0.0, 0.0]\n",
+        "c.toml",
+    )
     body = Body.from_layers("spec", [(0.0, 2.0, SPECIMEN)])
     rb = resolve_body(lc, body, check=False)
     picks = {s.name: describe_pick(s, rb.analysis) for s in rb.selections}

@@ -1,6 +1,10 @@
 // loadpath load-case editor: the page.  Our own code, no libraries, no request outside this server.
 // The case is held as the TOML file's tables ({version, frame, material, supports, loads, toolpath});
 // the server evaluates it with loadpath's own selector code and answers what each selector picks.
+// One file of about 670 lines on purpose: the page loads exactly one script of its own (the
+// Content-Security-Policy allows nothing else, and there is no bundler); its sections are set-up,
+// drawing and picking, the item forms, material and [toolpath], the server's answers, load
+// arrows, box drag, and solve/save.
 "use strict";
 
 const SVGNS = "http://www.w3.org/2000/svg";
@@ -73,7 +77,7 @@ function span() {
 }
 
 function fitView() {
-  const b = S.part.bounds, p = 0.22 * span() + 2;
+  const b = S.part.bounds, p = 0.15 * span() + 2;  // room for load arrows (0.18 span long)
   const svg = $("svg");
   svg.setAttribute("viewBox", `${b[0] - p} ${-(b[3] + p)} ${b[2] - b[0] + 2 * p} ${b[3] - b[1] + 2 * p}`);
   svg.setAttribute("preserveAspectRatio", "xMidYMid meet");

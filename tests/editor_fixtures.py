@@ -1,4 +1,6 @@
-"""The load-case editor's fixtures (``from editor_fixtures import *`` in its test modules): the real ``loadpath edit`` command and real headless Chromium.
+"""The load-case editor's fixtures: the real ``loadpath edit`` command and real headless Chromium.
+
+Registered by the last line of ``tests/conftest.py``.
 
 ``editor(part, case)`` starts ``loadpath edit PART --loadcase CASE --no-browser --port 0`` as a child
 process and returns its URL; ``browser`` is Debian's Chromium driven by chromedriver through
@@ -13,11 +15,12 @@ import sys
 import time
 from pathlib import Path
 
-import conftest as root  # tests/conftest.py: require_tool, IN_CI
+import conftest as root  # tests/conftest.py, which imports this module at its end
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
 LOADPATH = Path(sys.executable).with_name("loadpath")
+
+__all__ = ["editor", "chromium", "browser"]
 
 
 class Editor:
@@ -27,7 +30,9 @@ class Editor:
         self.part, self.case = Path(part), Path(case)
         self.proc = subprocess.Popen(
             [str(LOADPATH), "edit", str(part), "--loadcase", str(case), "--no-browser", "--port", str(port)],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
         )
         line = self.proc.stdout.readline()
         m = re.search(r"editor at (http://127\.0\.0\.1:(\d+)/)", line)
@@ -82,9 +87,18 @@ def chromium():
 
     opts = Options()
     opts.binary_location = "/usr/bin/chromium"
-    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-              "--window-size=1280,800", "--no-first-run", "--disable-extensions",
-              "--disable-background-networking", "--disable-component-update", "--disable-sync"):
+    for a in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--window-size=1280,800",
+        "--no-first-run",
+        "--disable-extensions",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+    ):
         opts.add_argument(a)
     drv = webdriver.Chrome(options=opts, service=Service("/usr/bin/chromedriver"))
     drv.set_script_timeout(30)
@@ -105,8 +119,10 @@ def browser(chromium, request, tmp_path):
 
 
 def set_viewport(drv, width: int, height: int) -> None:
-    drv.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
-                        {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False})
+    drv.execute_cdp_cmd(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
+    )
 
 
 def wait_for(drv, script: str, timeout: float = 30.0, what: str = ""):
