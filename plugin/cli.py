@@ -30,6 +30,7 @@ COMMANDS = {
     "compare": "loadpath.plugin.commands.compare",
     "batch": "loadpath.plugin.commands.batch",
     "serve": "loadpath.plugin.commands.serve",
+    "edit": "loadpath.plugin.commands.edit",
 }
 
 

@@ -39,15 +39,11 @@ from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
 
+from loadpath.plugin.localhttp import HOST, check_host_origin, read_json_body
 from loadpath.plugin.service_job import RequestError, check_request, child, confine
 
 __all__ = ["ServiceConfig", "Service", "default_cache_dir", "RequestError", "confine"]
-
-HOST = "127.0.0.1"
-_LOOPBACK = {"127.0.0.1", "localhost", "::1"}
-
 
 def default_cache_dir() -> Path:
     """``$XDG_CACHE_HOME/loadpath/serve`` (default ``~/.cache/loadpath/serve``)."""
@@ -252,14 +248,7 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _check_origin(self) -> None:
         """Refuse requests addressed to another host name (DNS rebinding) or sent by a web page."""
-        host = urlsplit("//" + (self.headers.get("Host") or "")).hostname
-        if host not in _LOOPBACK:
-            raise RequestError(
-                403, "forbidden", f"Host {self.headers.get('Host')!r} is not this machine's loopback"
-            )
-        origin = self.headers.get("Origin")
-        if origin is not None and urlsplit(origin).hostname not in _LOOPBACK:
-            raise RequestError(403, "forbidden", f"requests from web pages ({origin}) are not accepted")
+        check_host_origin(self.headers)
 
     def do_GET(self) -> None:  # noqa: N802 (http.server's name)
         try:
@@ -277,27 +266,9 @@ class _Handler(BaseHTTPRequestHandler):
                     },
                 )
             elif self.path == "/v1/schema":
-                from loadpath.plugin.settings import SCHEMA
+                from loadpath.plugin.settings import SCHEMA, field_json
 
-                self._send(
-                    200,
-                    {
-                        "ok": True,
-                        "settings": {
-                            f.name: {
-                                "type": f.kind,
-                                "default": list(f.default) if isinstance(f.default, tuple) else f.default,
-                                "unit": f.unit,
-                                "help": f.help,
-                                "choices": list(f.choices),
-                                "minimum": f.minimum,
-                                "maximum": f.maximum,
-                                "group": f.group,
-                            }
-                            for f in SCHEMA
-                        },
-                    },
-                )
+                self._send(200, {"ok": True, "settings": {f.name: field_json(f) for f in SCHEMA}})
             else:
                 raise RequestError(
                     404, "not_found", f"no {self.path}; use GET /v1/health, GET /v1/schema or POST /v1/run"
@@ -342,29 +313,15 @@ class _Handler(BaseHTTPRequestHandler):
         self._check_origin()
         if self.path != "/v1/run":
             raise RequestError(404, "not_found", f"no POST {self.path}; use POST /v1/run")
-        ctype = (self.headers.get("Content-Type") or "").split(";")[0].strip().lower()
-        if ctype != "application/json":
-            raise RequestError(
-                415, "unsupported_media_type", "send the request as Content-Type: application/json"
-            )
-        length = self.headers.get("Content-Length")
-        if length is None or not length.isdigit():
-            raise RequestError(411, "length_required", "give the body's Content-Length")
-        limit = int(svc.config.max_request_mb * 1e6)
-        if int(length) > limit:
-            self.close_connection = True
-            raise RequestError(
-                413,
-                "too_large",
-                f"the request has {int(length) / 1e6:.1f} MB, more than the "
-                f"{svc.config.max_request_mb:g} MB allowed (loadpath serve --max-mb)",
-            )
-        body = self.rfile.read(int(length))
-        self._body_read = True
         try:
-            req = json.loads(body)
-        except (ValueError, UnicodeDecodeError) as exc:
-            raise RequestError(400, "bad_request", f"the body is not valid JSON ({exc})") from None
+            limit = svc.config.max_request_mb
+            req = read_json_body(self.headers, self.rfile, limit, "loadpath serve --max-mb")
+        except RequestError as exc:
+            if exc.status == 413:
+                self.close_connection = True
+            self._body_read = exc.status == 400  # a body that is not JSON was read
+            raise
+        self._body_read = True
         answer = svc.run(check_request(req), t0 + svc.config.timeout)
         return {"ok": True, **answer}
 

@@ -47,6 +47,7 @@ from loadpath.plugin.slicers import (
 __all__ = [
     "Field",
     "SCHEMA",
+    "field_json",
     "Settings",
     "REPLACE_KINDS",
     "ENGINES",
@@ -214,6 +215,20 @@ SCHEMA: tuple[Field, ...] = (
         group="machine",
     ),
 )
+
+
+def field_json(f: Field) -> dict[str, Any]:
+    """Return a schema field as JSON (what ``GET /v1/schema`` and the load-case editor show)."""
+    return {
+        "type": f.kind,
+        "default": list(f.default) if isinstance(f.default, tuple) else f.default,
+        "unit": f.unit,
+        "help": f.help,
+        "choices": list(f.choices),
+        "minimum": f.minimum,
+        "maximum": f.maximum,
+        "group": f.group,
+    }
 _FIELDS = {f.name: f for f in SCHEMA}
 
 

@@ -4,19 +4,20 @@
 #
 # System tools the tests drive (Debian 12 package names, see ../shared/docs/real-tools.md):
 #   prusa-slicer (2.5), cura-engine (4.13), cura (CuraEngine's machine definitions and the Python
-#   modules of Cura's plugin API), calculix-ccx (the FEA cross-check), python3-venv, and the X/GL
+#   modules of Cura's plugin API), calculix-ccx (the FEA cross-check), chromium and chromium-driver
+#   (the load-case editor's page, driven headless by selenium), python3-venv, and the X/GL
 #   libraries the gmsh wheel's libgmsh.so links against even when headless.
 # Without root (or off Debian) the tools are not installed; tests that need them then skip with a
 # message, except in CI (CI=true), where they fail.
 set -eu
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES="prusa-slicer cura-engine cura calculix-ccx python3-venv python3-pip \
+APT_PACKAGES="prusa-slicer cura-engine cura calculix-ccx chromium chromium-driver python3-venv python3-pip \
 libglu1-mesa libgl1 libxrender1 libxcursor1 libxfixes3 libxext6 libxft2 libfontconfig1 \
 libxinerama1 libx11-6 libgomp1 libopengl0 libglx0"
 
 need_apt() {
-  for exe in prusa-slicer CuraEngine ccx; do
+  for exe in prusa-slicer CuraEngine ccx chromium chromedriver; do
     command -v "$exe" >/dev/null 2>&1 || return 0
   done
   [ -d /usr/lib/cura/plugins/PostProcessingPlugin ] || return 0

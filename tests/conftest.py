@@ -21,6 +21,8 @@ TOOLS = {
     "CuraEngine": "cura-engine",
     "ccx": "calculix-ccx",
     "cura": "cura",  # Cura's Python modules and machine definitions
+    "chromium": "chromium",  # the load-case editor's browser tests
+    "chromedriver": "chromium-driver",
 }
 
 CURA_PLUGINS = Path("/usr/lib/cura/plugins")
@@ -51,4 +53,5 @@ def repo_root() -> Path:
     return REPO
 
 
+from editor_fixtures import *  # noqa: E402,F401,F403  the load-case editor: loadpath edit + Chromium
 from fixtures import *  # noqa: E402,F401,F403  shared real-slicer fixtures (tests/fixtures.py)

@@ -2,7 +2,7 @@
 
 ``read(path)`` / ``parse(text)`` give a :class:`LoadCase`; ``resolve(loadcase, bodies)`` applies it
 to :class:`Body` stacks of slabs and gives one :class:`ResolvedBody` per body, ready for
-``loadpath.fea``.
+``loadpath.fea``; ``to_toml(loadcase)`` writes one back.
 """
 
 from loadpath.body import Body, Slab, merge_slabs, outline_difference
@@ -19,8 +19,9 @@ from loadpath.loadcase.model import (
     ToolpathOptions,
 )
 from loadpath.loadcase.parse import from_dict, parse, read
-from loadpath.loadcase.resolve import ResolvedBody, resolve, resolve_body
+from loadpath.loadcase.resolve import ResolvedBody, empty_selections, resolve, resolve_body
 from loadpath.loadcase.select import Selection, exposed_faces, select
+from loadpath.loadcase.write import describe_pick, selector_toml, to_toml
 
 __all__ = [
     "read",
@@ -46,4 +47,8 @@ __all__ = [
     "select",
     "exposed_faces",
     "ResolvedBody",
+    "empty_selections",
+    "to_toml",
+    "selector_toml",
+    "describe_pick",
 ]

@@ -21,7 +21,7 @@ from loadpath.loadcase.model import HoleSelector, Load, LoadCase, Support
 from loadpath.loadcase.select import Selection, nearest_hole, select
 from shapely.geometry.base import BaseGeometry
 
-__all__ = ["ResolvedBody", "resolve", "resolve_body"]
+__all__ = ["ResolvedBody", "resolve", "resolve_body", "empty_selections"]
 
 
 @dataclass(frozen=True)
@@ -164,12 +164,17 @@ def resolve(
 
 
 def resolve_body(
-    loadcase: LoadCase, body: Body, analysis: str | None = None, origin: np.ndarray | None = None
+    loadcase: LoadCase,
+    body: Body,
+    analysis: str | None = None,
+    origin: np.ndarray | None = None,
+    check: bool = True,
 ) -> ResolvedBody:
     """Apply a load case to one body (see :func:`resolve`).
 
     ``origin`` overrides the frame's origin (a coarser stack for the mesh keeps the selectors where
-    the part's own frame put them).
+    the part's own frame put them).  ``check = False`` returns selections that pick nothing instead
+    of raising (the load-case editor lists every one with :func:`empty_selections`).
     """
     merged = merge_slabs(body)
     if origin is None:
@@ -190,10 +195,24 @@ def resolve_body(
         kind, reason = "3d", "a selector picks only top or bottom faces"
     else:
         kind, reason = "2d", "one region over the height and an in-plane load case: plane stress"
-    for sel in sels:
-        if sel.measure(kind) <= _tiny(merged):  # picks as thin as the selectors' tolerance are empty
-            raise LoadCaseError(_empty_message(loadcase, merged, sel))
-    return ResolvedBody(merged, loadcase, sups, loads, kind, reason, layers=body, origin=origin)
+    rb = ResolvedBody(merged, loadcase, sups, loads, kind, reason, layers=body, origin=origin)
+    if check:
+        empty = empty_selections(rb)
+        if empty:
+            raise LoadCaseError(empty[0][1])
+    return rb
+
+
+def empty_selections(rb: ResolvedBody) -> list[tuple[Selection, str]]:
+    """Return the selections of a resolved body that pick nothing, each with the error ``run`` gives.
+
+    A pick as thin as the selectors' tolerance counts as nothing.
+    """
+    return [
+        (sel, _empty_message(rb.loadcase, rb.body, sel))
+        for sel in rb.selections
+        if sel.measure(rb.analysis) <= _tiny(rb.body)
+    ]
 
 
 def _tiny(body: Body) -> float:

@@ -1,6 +1,7 @@
 # Copyright (c) loadpath contributors. MIT licence.
-"""Extensions > Loadpath infill: choose the load case, engine, spacing and K; process the G-code
-when it is saved; show the last run's report.
+"""Extensions > Loadpath infill: choose or edit the load case, engine, spacing and K; process the
+G-code when it is saved; show the last run's report.  *Edit load case...* opens ``loadpath edit``
+in the browser on the plate's last G-code (or, before slicing, its meshes as STL).
 
 A thin shell: the work is done by ``loadpath_runner`` (standard library, out of process). The
 settings are kept in Cura's preferences (``loadpath/...``), which the Modify G-Code script
@@ -66,11 +67,13 @@ class LoadpathInfill(Extension):
         self._app = app
         self.setMenuName(TITLE)
         self.addMenuItem("Choose load case...", self.chooseLoadCase)
+        self.addMenuItem("Edit load case...", self.editLoadCase)
         self.addMenuItem("Toolpath options (engine, spacing, K)...", self.editOptions)
         self.addMenuItem("Process G-code when saving...", self.chooseOnSave)
         self.addMenuItem("loadpath command...", self.chooseCommand)
         self.addMenuItem("Show last report", self.showLastReport)
         self._message = None
+        self._editor = None
         self.lastMessage = ""
         if app is not None:
             prefs = app.getPreferences()
@@ -104,6 +107,47 @@ class LoadpathInfill(Extension):
         if path:
             self.setPref("loadcase", path)
             self._show("Load case: " + path)
+
+    def editLoadCase(self):
+        """Open the load-case editor on the plate: its last G-code, else its meshes as an STL."""
+        folder = os.path.join(self.reportRoot(), "edit")
+        case = self.pref("loadcase") or os.path.join(folder, "loadcase.toml")
+        try:
+            chunks = self._plateChunks()
+            part = runner.edit_part(folder, chunks, None if chunks else self._plateTriangles())
+            if self._editor is not None and self._editor.poll() is None:
+                self._editor.terminate()  # one editor at a time
+            log = os.path.join(folder, "editor.log")
+            self._editor = runner.start_editor(self.pref("command"), part, case, log)
+        except (runner.RunnerError, OSError) as exc:
+            self._show("Cannot open the load-case editor: " + str(exc))
+            return
+        self.setPref("loadcase", case)
+        what = "the last G-code" if part.endswith(".gcode") else "the plate's meshes (STL, frame = part)"
+        self._show(f"The load-case editor opens in your browser on {what}; Save writes {case}, "
+                   "the load case used when the G-code is processed.")
+
+    def _plateChunks(self):
+        scene = self._app.getController().getScene()
+        gcode_dict = getattr(scene, "gcode_dict", None) or {}
+        data = gcode_dict.get(self._app.getMultiBuildPlateModel().activeBuildPlate)
+        return list(data) if data else None
+
+    def _plateTriangles(self):
+        """The printable meshes on the plate in slicer axes (Cura's y is up: (x, y, z) -> (x, -z, y))."""
+        from UM.Scene.Iterator.DepthFirstIterator import DepthFirstIterator
+
+        tris = []
+        scene = self._app.getController().getScene()
+        for node in DepthFirstIterator(scene.getRoot()):
+            if not node.callDecoration("isSliceable") or node.getMeshData() is None:
+                continue
+            mesh = node.getMeshData()
+            v = node.getMeshDataTransformedVertices()  # same order as the mesh's own vertices
+            idx = mesh.getIndices() if mesh.hasIndices() else [(i, i + 1, i + 2) for i in range(0, len(v), 3)]
+            for f in idx:
+                tris.append([(float(v[k][0]), -float(v[k][2]), float(v[k][1])) for k in f])
+        return tris
 
     def editOptions(self):
         spec = runner.schema()

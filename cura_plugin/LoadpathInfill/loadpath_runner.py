@@ -38,6 +38,9 @@ __all__ = [
     "options_from",
     "stack_settings",
     "find_command",
+    "write_stl",
+    "edit_part",
+    "start_editor",
     "join_chunks",
     "split_chunks",
     "process_chunks",
@@ -476,6 +479,49 @@ def _via_service(chunks, loadcase, options, cura_settings, timeout, report_root,
         report_dir,
         time.monotonic() - t0,
     )
+
+
+def write_stl(path, triangles):
+    """Write a binary STL of ``triangles`` (sequence of three (x, y, z) corners, mm, z up)."""
+    import struct
+
+    with open(path, "wb") as fh:
+        fh.write(b"loadpath: Cura build plate".ljust(80, b" "))
+        fh.write(struct.pack("<I", len(triangles)))
+        for a, b, c in triangles:
+            fh.write(struct.pack("<12fH", 0.0, 0.0, 0.0, *a, *b, *c, 0))
+    return path
+
+
+def edit_part(folder, chunks=None, triangles=None):
+    """The file ``loadpath edit`` opens for a plate: its last G-code (chunks), else its meshes as STL."""
+    _ensure(folder)
+    if chunks:
+        path = os.path.join(folder, "plate.gcode")
+        with open(path, "w", encoding="utf-8", newline="") as fh:
+            fh.write(join_chunks(chunks)[0])
+        return path
+    if triangles:
+        return write_stl(os.path.join(folder, "plate.stl"), triangles)
+    raise RunnerError("the build plate is empty: add the part (and slice it for its real layers) first")
+
+
+def start_editor(command, part, loadcase, log_path):
+    """Start ``loadpath edit PART --loadcase CASE`` in the background; it opens the browser itself.
+
+    Returns the process; its first line in ``log_path`` is the editor's address.
+    """
+    argv = [find_command(command), "edit", part, "--loadcase", loadcase]
+    log = open(log_path, "w", encoding="utf-8")  # noqa: SIM115 (the child keeps writing to it)
+    kwargs = {"stdout": log, "stderr": subprocess.STDOUT, "stdin": subprocess.DEVNULL}
+    if sys.platform == "win32":
+        kwargs["creationflags"] = subprocess.CREATE_NEW_PROCESS_GROUP
+    else:
+        kwargs["start_new_session"] = True
+    try:
+        return subprocess.Popen(argv, **kwargs)
+    finally:
+        log.close()
 
 
 def _ensure(folder):

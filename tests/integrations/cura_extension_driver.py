@@ -41,7 +41,8 @@ def main(job_path):
 
     prefs = Preferences()
     write_started = Signal(type=Signal.Direct)
-    scene = types.SimpleNamespace(gcode_dict={0: list(job["chunks"])})
+    scene = types.SimpleNamespace(gcode_dict={0: list(job["chunks"])} if job["chunks"] else {},
+                                  getRoot=lambda: _plate(job.get("mesh")))
     app = types.SimpleNamespace(
         getPreferences=lambda: prefs,
         getOutputDeviceManager=lambda: types.SimpleNamespace(writeStarted=write_started),
@@ -54,6 +55,12 @@ def main(job_path):
 
     for key, value in job["preferences"].items():  # what the menu's dialogs store
         prefs.setValue("loadpath/" + key, value)
+    if job.get("edit"):  # Extensions > Loadpath infill > Edit load case...
+        ext.editLoadCase()
+        with open(job["out"], "w", encoding="utf-8") as fh:
+            json.dump({"message": ext.lastMessage, "pid": ext._editor.pid if ext._editor else None,
+                       "loadcase": prefs.getValue("loadpath/loadcase"), "items": ext.getMenuItemList()}, fh)
+        return
     write_started.emit(None)  # a save
     first = list(scene.gcode_dict[0])
     saved_message = ext.lastMessage
@@ -75,6 +82,24 @@ def main(job_path):
             },
             fh,
         )
+
+
+def _plate(mesh):
+    """A scene root holding one sliceable node with the given mesh (Cura's axes, y up)."""
+    import numpy
+    from cura.Scene.SliceableObjectDecorator import SliceableObjectDecorator
+    from UM.Mesh.MeshBuilder import MeshBuilder
+    from UM.Scene.SceneNode import SceneNode
+
+    root = SceneNode()
+    if mesh:
+        node = SceneNode(parent=root)
+        mb = MeshBuilder()
+        mb.setVertices(numpy.asarray(mesh["vertices"], dtype=numpy.float32))
+        mb.setIndices(numpy.asarray(mesh["faces"], dtype=numpy.int32))
+        node.setMeshData(mb.build())
+        node.addDecorator(SliceableObjectDecorator())
+    return root
 
 
 if __name__ == "__main__":

@@ -186,7 +186,7 @@ def test_extensions_menu_processes_on_save_and_shows_the_report(sliced, tmp_path
     assert proc.returncode == 0, proc.stderr[-3000:]
     res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
     assert res["compatible"] and res["sdk"] == "7.9.0" and res["qt"] == "PyQt5.QtCore"
-    assert res["menu"] == "Loadpath infill" and "Show last report" in res["items"] and len(res["items"]) == 5
+    assert res["menu"] == "Loadpath infill" and "Show last report" in res["items"] and len(res["items"]) == 6
     assert res["plugin_dir_searched"]  # so Modify G-Code finds scripts/LoadpathScript.py
     new = res["chunks"]
     assert res["saved_message"].startswith("Stress-aligned infill written"), res["saved_message"]
@@ -195,3 +195,65 @@ def test_extensions_menu_processes_on_save_and_shows_the_report(sliced, tmp_path
     assert "infill replaced" in res["report_message"] and "beta" in res["report_message"], res[
         "report_message"
     ]
+
+
+def _edit_from_cura(tmp_path, chunks, mesh=None):
+    """Extensions > Loadpath infill > Edit load case... in the plugin loaded as Uranium loads it;
+    returns the editor's /api/start answer and the driver's result, and stops the editor."""
+    import os
+    import re
+    import signal
+    import time
+    import urllib.request
+
+    job = {"plugin_dir": str(SCRIPTS.parent), "chunks": chunks, "mesh": mesh, "edit": True,
+           "preferences": {"command": str(VENV_BIN / "loadpath")}, "out": str(tmp_path / "r.json")}
+    (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
+    home = tmp_path / "home"
+    home.mkdir()
+    proc = subprocess.run(
+        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
+        capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin", "HOME": str(home)},
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    assert res["pid"], res["message"]
+    try:
+        (log,) = [q for q in home.rglob("editor.log") if q.parent.parts[-2:] == ("loadpath", "edit")]
+        deadline = time.monotonic() + 120
+        url = None
+        while url is None and time.monotonic() < deadline:
+            m = re.search(r"editor at (http://127\.0\.0\.1:\d+/)", Path(log).read_text(encoding="utf-8"))
+            url = m.group(1) if m else time.sleep(0.2)
+        assert url, Path(log).read_text(encoding="utf-8")
+        with urllib.request.urlopen(url + "api/start", timeout=30) as r:
+            start = json.loads(r.read())
+    finally:
+        os.killpg(res["pid"], signal.SIGTERM)  # the editor this test started (its own session)
+    return res, start
+
+
+def test_edit_load_case_hands_the_last_gcode_to_loadpath_edit(sliced, tmp_path):
+    require_tool("cura")
+    chunks = cura_chunks(sliced("cura", "bracket", "mixed").read_text(encoding="utf-8"))
+    res, start = _edit_from_cura(tmp_path, chunks)
+    assert "Edit load case..." in res["items"]
+    assert "opens in your browser on the last G-code" in res["message"]
+    assert start["part"]["kind"] == "gcode" and start["part"]["name"] == "plate.gcode"
+    assert start["save_path"] == res["loadcase"] and res["loadcase"].endswith("loadcase.toml")
+    assert sum(len(o["holes"]) for o in start["part"]["layers"][0]["objects"]) == 1  # the bracket's bolt hole
+
+
+def test_edit_load_case_before_slicing_hands_the_plates_meshes_as_stl(test_stls, tmp_path):
+    require_tool("cura")
+    import trimesh
+
+    (stl,) = test_stls("bracket")
+    m = trimesh.load(stl, force="mesh")
+    v = m.vertices[:, [0, 2, 1]] * [1.0, 1.0, -1.0]  # slicer axes (z up) -> Cura's scene axes (y up)
+    res, start = _edit_from_cura(tmp_path, [], {"vertices": v.tolist(), "faces": m.faces.tolist()})
+    assert "the plate's meshes (STL, frame = part)" in res["message"]
+    assert start["part"]["kind"] == "stl" and start["frame"] == "part"
+    b = start["part"]["bounds"]
+    assert b[2] - b[0] == pytest.approx(60.0, abs=1e-3) and b[3] - b[1] == pytest.approx(40.0, abs=1e-3)
+    assert sum(len(o["holes"]) for o in start["part"]["layers"][0]["objects"]) == 1
