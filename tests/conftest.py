@@ -52,3 +52,9 @@ def repo_root() -> Path:
 
 
 from fixtures import *  # noqa: E402,F401,F403  shared real-slicer fixtures (tests/fixtures.py)
+
+
+@pytest.fixture(autouse=True)
+def _state_home(tmp_path_factory, monkeypatch):
+    """Every run appends its verdict to ``$XDG_STATE_HOME/loadpath/runs.log``: never the user's own."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path_factory.getbasetemp() / "state"))
