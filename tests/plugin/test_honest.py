@@ -86,3 +86,138 @@ def test_reprocessing_is_refused_unless_forced(shelf, capsys):
     assert sha(out) == once
     assert main(["run", str(out), "--loadcase", str(case), "--in-place", "--force", *FAST]) == 0
     assert sha(out) != once
+
+
+def _boom(*_a, **_k):
+    raise ValueError("forced failure")
+
+
+def _run(g, case, *extra):
+    return main(["run", str(g), "--loadcase", str(case), *FAST, *extra])
+
+
+@pytest.mark.parametrize(
+    ("target", "in_place"),
+    [("loadpath.pipeline.splice", True), ("loadpath.pipeline.check_output", False)],
+    ids=["splice-in-place", "check-to-output"],
+)
+def test_a_failure_before_the_write_leaves_every_file_as_the_message_says(
+    shelf, capsys, monkeypatch, target, in_place
+):
+    folder, g, case = shelf
+    before = sha(g)
+    out = folder / "out.gcode"
+    monkeypatch.setattr(target, _boom)
+    rc = _run(g, case, *(["--in-place"] if in_place else ["-o", str(out)]))
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1 and len(err) == 1, err
+    assert "internal error (ValueError: forced failure)" in err[0]
+    assert sha(g) == before and not out.exists()
+    if in_place:
+        assert err[0].endswith(f"the G-code {str(g)!r} is untouched")
+    else:
+        assert err[0].endswith(f"the input {str(g)!r} is untouched and {str(out)!r} was not written")
+    assert sorted(p.name for p in folder.iterdir()) == ["case.toml", "shelf.gcode"]  # no temporary left
+
+
+def test_a_failing_rename_is_reported_as_nothing_written(shelf, capsys, monkeypatch):
+    import os
+
+    folder, g, case = shelf
+    before = sha(g)
+
+    def refuse(a, b):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", refuse)
+    assert _run(g, case, "--in-place") == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "No space left on device" in err[0] and err[0].endswith("is untouched")
+    assert sha(g) == before and sorted(p.name for p in folder.iterdir()) == ["case.toml", "shelf.gcode"]
+
+
+def test_report_failures_never_fail_the_run_and_say_the_gcode_was_written(shelf, capsys, monkeypatch):
+    folder, g, case = shelf
+    before = sha(g)
+    # the report's data (metrics) fails: before the write, a warning; the G-code is still written
+    monkeypatch.setattr("loadpath.report.layers._metrics", _boom)
+    assert _run(g, case, "--in-place", "--report", str(folder / "rep")) == 0
+    err = capsys.readouterr().err
+    assert "warning: report: layers" in err and "have no figures or metrics (ValueError: forced failure)" in err
+    assert sha(g) != before and "untouched" not in err
+    assert "No figures or metrics" in (folder / "rep" / "index.html").read_text("utf-8")
+    # the report's files cannot be written (after the G-code): a warning saying the G-code was written
+    monkeypatch.undo()
+    g2 = folder / "again.gcode"
+    g2.write_bytes(Path(shelf[1].parent / "shelf.gcode").read_bytes())  # already processed: --force
+    blocked = folder / "blocked"
+    blocked.write_text("a file where the report folder should go", encoding="utf-8")
+    assert _run(g2, case, "-o", str(folder / "o.gcode"), "--report", str(blocked), "--force") == 0
+    err = capsys.readouterr().err
+    assert f"the report could not be written to {str(blocked)!r}" in err
+    assert f"the G-code {str(folder / 'o.gcode')!r} was written" in err and (folder / "o.gcode").is_file()
+
+
+@pytest.mark.parametrize("in_place", [True, False], ids=["in-place", "to-output"])
+def test_on_failure_keep_says_what_it_kept(shelf, capsys, monkeypatch, in_place):
+    folder, g, case = shelf
+    before = sha(g)
+    out = folder / "out.gcode"
+    monkeypatch.setattr("loadpath.pipeline.splice", _boom)
+    rc = _run(g, case, "--on-failure", "keep", *(["--in-place"] if in_place else ["-o", str(out)]))
+    err = capsys.readouterr().err
+    assert rc == 0 and sha(g) == before
+    if in_place:
+        assert f"kept the slicer's G-code: internal error (ValueError: forced failure)" in err
+        assert f"the slicer's G-code {str(g)!r} is untouched" in err and not out.exists()
+    else:
+        assert sha(out) == before
+        assert f"{str(out)!r} is a copy of the slicer's G-code; the input is untouched" in err
+    assert "nothing replaced (failed: internal error (ValueError: forced failure)" in err
+
+
+def test_prusaslicer_hook_verdict_and_failure(shelf, capsys, monkeypatch):
+    import prusaslicer_postproc as hook
+
+    folder, g, case = shelf
+    before = sha(g)
+    monkeypatch.setattr("loadpath.pipeline.splice", _boom)
+    assert hook.main(["--loadcase", str(case), *FAST, str(g)], env={}) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("loadpath-prusaslicer: internal error")
+    assert err[0].endswith("is untouched") and sha(g) == before
+    monkeypatch.undo()
+    assert hook.main(["--loadcase", str(case), *FAST, str(g)], env={}) == 0
+    err = capsys.readouterr().err
+    (line,) = [ln for ln in err.splitlines() if ln.startswith("loadpath 0")]
+    assert g.read_text("utf-8").splitlines()[1] == "; loadpath: " + line
+    # processed once: the hook refuses a second time, in one line
+    assert hook.main(["--loadcase", str(case), *FAST, str(g)], env={}) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "already processed by loadpath" in err[0] and "--force" in err[0]
+
+
+def test_batch_shows_the_verdict_and_every_warning(shelf, monkeypatch):
+    from loadpath.plugin import batch
+
+    folder, g, case = shelf
+    out = folder / "out"
+    out.mkdir()
+    (task,) = batch.plan([str(g)], case, out, cli={"engine": "streamlines"}, metrics=False)
+    res = batch.process(task)
+    assert res.status == "ok" and res.verdict.startswith("replaced Solid infill")
+    table = batch.table([res])
+    assert res.verdict in table and "verdict" in table.splitlines()[0]
+    # a failing file: no output, and the message says so
+    monkeypatch.setattr("loadpath.pipeline.check_output", _boom)
+    (task2,) = batch.plan([str(g)], case, folder / "out2", cli={"engine": "streamlines"}, metrics=False)
+    (folder / "out2").mkdir()
+    res2 = batch.process(task2)
+    assert res2.status == "failed" and res2.output is None and not (folder / "out2" / g.name).exists()
+    assert res2.message.endswith("was not written")
+    # an already processed file is refused in batch too
+    monkeypatch.undo()
+    (task3,) = batch.plan([str(out / g.name)], case, folder / "out3", cli={"engine": "streamlines"}, metrics=False)
+    (folder / "out3").mkdir()
+    res3 = batch.process(task3)
+    assert res3.status == "failed" and "already processed by loadpath" in res3.message
