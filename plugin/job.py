@@ -20,6 +20,7 @@ import dataclasses
 import os
 import secrets
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -241,7 +242,9 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     result = JobResult(output=out)
     on_failure = str(request.cli.get("on_failure") or "fail")
     try:
-        result = _run(request, inp, out, result, progress)
+        with warnings.catch_warnings(record=True) as caught:
+            result = _run(request, inp, out, result, progress, caught)
+        result.warnings.extend(own_warnings(caught))
         if result.verdict is not None:
             w = _log(f"{result.verdict.line()} [{inp}]")
             if w:
@@ -278,6 +281,23 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     )
     _log(f"{result.verdict.line()} [{inp}]")
     return result
+
+
+def own_warnings(caught: list) -> list[str]:
+    """Python / numpy warnings recorded during a run as one-line warnings of ours (each once); clears them.
+
+    No library warning reaches the user's stderr as Python prints it (file, line, source line):
+    a numerical warning is a check the code missed, so it says where and asks for a report.
+    """
+    seen: dict[tuple, str] = {}
+    for w in caught:
+        key = (w.category.__name__, str(w.message), w.filename, w.lineno)
+        where = f"{Path(w.filename).parent.name}/{Path(w.filename).name}:{w.lineno}"
+        seen.setdefault(
+            key, f"{w.category.__name__} in {where}: {' '.join(str(w.message).split())} (please report this)"
+        )
+    caught.clear()
+    return list(seen.values())
 
 
 def already_processed(program) -> tuple[str, str] | None:
@@ -328,6 +348,7 @@ def _run(
     out: Path,
     result: JobResult,
     progress: Callable[[str, int, int], None] | None,
+    caught: list | None = None,
 ) -> JobResult:
     from loadpath import gcode, loadcase, pipeline
     from loadpath import verdict as verdict_mod
@@ -391,6 +412,7 @@ def _run(
         report = build_report(pres, s, times, source=inp.name)
         result.warnings.extend(report.warnings)
         times["report"] = time.perf_counter() - t
+    result.warnings.extend(own_warnings(caught if caught is not None else []))
     v = verdict_mod.build(
         pres,
         s.engine,

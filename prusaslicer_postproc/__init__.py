@@ -81,6 +81,9 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
         0 on success (or a failure kept with ``--on-failure keep``), 1 on a failure, 2 on a usage error.
     """
     args_in = list(sys.argv[1:] if argv is None else argv)
+    if any(a in ("-h", "--help") for a in args_in):
+        build_parser().print_help()
+        return 0
     if not args_in or args_in[-1].startswith("-"):
         return _fail(
             "no G-code path: PrusaSlicer appends it as the last argument; put "

@@ -335,8 +335,8 @@ def layer_report(
         numbers["print_s_old"] = float(sum(r.seconds_old for r in reps))
         numbers["print_s_new"] = float(sum(r.seconds_new for r in reps))
         numbers["retractions_new"] = int(sum(r.n_retracts for r in reps))
-    numbers["alignment_mean_old"] = float(np.nanmean(cos_old)) if len(cos_old) else float("nan")
-    numbers["alignment_mean_new"] = float(np.nanmean(cos_new)) if len(cos_new) else float("nan")
+    numbers["alignment_mean_old"] = _finite_mean(cos_old)
+    numbers["alignment_mean_new"] = _finite_mean(cos_new)
     hist = ""
     if with_metrics:
         old_paths = paths_of(old_moves, pitch)
@@ -352,6 +352,12 @@ def layer_report(
             xlabel="distance to the nearest neighbouring path / pitch",
         )
     return LayerReport(title, numbers["layers"], numbers, figure, detail, hist)
+
+
+def _finite_mean(v: np.ndarray) -> float:
+    """Mean of the finite values, NaN when there is none (``np.nanmean`` warns "Mean of empty slice")."""
+    v = v[np.isfinite(v)]
+    return float(v.mean()) if len(v) else float("nan")
 
 
 def _printed(paths) -> list[Path]:

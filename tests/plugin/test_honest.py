@@ -73,11 +73,25 @@ def test_cut_out_bracket_in_place_with_report(shelf, capsys):
     assert page.index(line.replace("'", "&#x27;")) < page.index("<h2>Warnings")
 
 
-def test_reprocessing_is_refused_unless_forced(shelf, capsys):
+def test_reprocessing_is_refused_unless_forced(shelf, capsys, monkeypatch):
+    import numpy as np
+    from loadpath import verdict
+
     folder, g, case = shelf
     out = folder / "once.gcode"
+    total = verdict.total_print_seconds
+
+    def warns(data):  # a numpy warning inside the run becomes one warning line of ours
+        np.nanmean(np.full(3, np.nan))
+        return total(data)
+
+    monkeypatch.setattr(verdict, "total_print_seconds", warns)
     assert main(["run", str(g), "--loadcase", str(case), "-o", str(out), *FAST]) == 0
-    capsys.readouterr()
+    monkeypatch.undo()
+    err = capsys.readouterr().err.splitlines()
+    ours = [ln for ln in err if "Mean of empty slice" in ln]
+    assert len(ours) == 1 and ours[0].startswith("loadpath: warning: RuntimeWarning in plugin/test_honest.py:")
+    assert not any("RuntimeWarning:" in ln for ln in err)  # Python's own format never reaches stderr
     once = sha(out)
     assert main(["run", str(out), "--loadcase", str(case), "--in-place", *FAST]) == 1
     err = capsys.readouterr().err.strip().splitlines()
@@ -221,3 +235,23 @@ def test_batch_shows_the_verdict_and_every_warning(shelf, monkeypatch):
     (folder / "out3").mkdir()
     res3 = batch.process(task3)
     assert res3.status == "failed" and "already processed by loadpath" in res3.message
+
+
+def test_hook_help_and_menus_named_in_messages_exist(capsys):
+    import re
+    import subprocess
+    import sys
+
+    proc = subprocess.run(
+        [str(Path(sys.executable).with_name("loadpath-prusaslicer")), "--help"], capture_output=True, text=True
+    )
+    assert proc.returncode == 0 and proc.stdout.startswith("usage: loadpath-prusaslicer") and not proc.stderr
+    plugin = Path(__file__).resolve().parents[2] / "cura_plugin" / "LoadpathInfill"
+    items = re.findall(r'addMenuItem\("([^"]+)"', (plugin / "LoadpathInfill.py").read_text("utf-8"))
+    assert len(items) >= 4
+    named = []
+    for f in plugin.rglob("*.py"):
+        named += re.findall(r"Extensions > Loadpath infill > ([^\"')]+)", f.read_text("utf-8"))
+    assert named
+    for text in named:  # a message may break the item's name over two string literals
+        assert any(item.startswith(text.strip()) or text.startswith(item) for item in items), (text, items)
