@@ -429,8 +429,13 @@ def _run(
         report.finish(v)
 
     t = time.perf_counter()
+    if pres.changed:  # the verdict as the file's second line, an insertion the splice result records
+        text = _with_header(pres.data, verdict_mod.header_line(v))
+        edits = tuple(sorted((*pres.splice.edits, (1, 1, 1))))
+        pres = dataclasses.replace(pres, data=text, splice=dataclasses.replace(pres.splice, data=text, edits=edits))
+        result.pipeline = pres
     data = (
-        gcode.encode_like(container, _with_header(pres.data, verdict_mod.header_line(v)))
+        gcode.encode_like(container, pres.data)
         if pres.changed
         else program.to_bytes()
         if container is None

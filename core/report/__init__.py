@@ -71,11 +71,35 @@ class Report:
     layers: list[LayerReport] = field(default_factory=list, repr=False)
     settings: Any = field(default=None, repr=False)
 
+    analyses: dict[str, Any] = field(default_factory=dict, repr=False)
+
     def finish(self, verdict: Any = None) -> Report:
-        """Render ``index.html`` and ``metrics.json`` with the run's verdict on top (in memory)."""
+        """Render the part views, ``index.html`` and ``metrics.json`` with the verdict on top (in memory).
+
+        A part view that cannot be drawn adds a warning to :attr:`warnings` (after the verdict
+        counted them) and a note on the page.
+        """
+        from loadpath.report.part import part_figure
+
         self.data["verdict"] = verdict.as_dict() if verdict is not None else None
+        change = (verdict.extra or {}).get("stiffness") if verdict is not None else None
+        bodies = {b.name: b for b in change.bodies} if change is not None else {}
+        views = []
+        for k, (name, an) in enumerate(self.analyses.items()):
+            try:
+                svg = part_figure(an.resolved, bodies.get(name))
+            except Exception as exc:  # a picture must not cost the user the G-code
+                why = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+                self.warnings.append(f"report: no part view of {name!r} ({why})")
+                views.append(f"<p>No part view of {html.escape(name)}: {html.escape(why)}</p>")
+                continue
+            self.files[f"part-{k + 1}.svg"] = svg
+            views.append(svg)
+        self.data["warnings"] = self.data.get("warnings", []) + [
+            w for w in self.warnings if w not in self.data.get("warnings", [])
+        ]
         self.files["metrics.json"] = json.dumps(self.data, indent=1, default=_json)
-        self.files["index.html"] = _html(self.data, self.layers, self.settings, verdict)
+        self.files["index.html"] = _html(self.data, self.layers, self.settings, verdict, views)
         return self
 
     def write(self, directory: Path) -> Path:
@@ -156,6 +180,7 @@ def build_report(
         "blocks": [dict(vars(b)) for b in (result.splice.blocks if result.splice else ())],
     }
     rep.data, rep.layers, rep.settings = data, layers, settings
+    rep.analyses = dict(result.analyses or {})
     return rep
 
 
@@ -167,7 +192,34 @@ def _json(o: Any) -> Any:
     return str(o)
 
 
-def _html(data: dict, layers: list[LayerReport], settings, verdict: Any = None) -> str:
+def _per_part(verdict: Any) -> str:
+    """The verdict's figures as a table of the whole part."""
+    e = html.escape
+    if verdict is None or not verdict.changed:
+        return ""
+
+    def pct(v):
+        return "–" if v is None or not math.isfinite(v) else f"{100 * v:+.1f} %"
+
+    rows = [
+        ("layers replaced", f"{len(verdict.layers)} ({', '.join(verdict.kinds)})"),
+        (f"predicted stiffness, absolute ({verdict.model})", pct(verdict.stiffness)),
+        (f"predicted stiffness, same mass ({verdict.model})", pct(verdict.stiffness_same_mass)),
+        ("predicted failure load", pct(verdict.failure_load) if verdict.failure_load is not None else "not modelled"),
+        (
+            "print time (kinematic estimate)",
+            f"{verdict.time_change_s / 60:+.1f} min"
+            + (f" ({verdict.time_change_pct:+.1f} %)" if verdict.time_change_pct is not None else ""),
+        ),
+        ("mass", f"{verdict.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00")),
+    ]
+    body = "".join(f"<tr><td>{e(a)}</td><td>{e(b)}</td></tr>" for a, b in rows)
+    return f"<h2>Per part: what changed</h2><table><tr><th>whole part</th><th>change</th></tr>{body}</table>"
+
+
+def _html(
+    data: dict, layers: list[LayerReport], settings, verdict: Any = None, views: list[str] | None = None
+) -> str:
     e = html.escape
     rows = "".join(f"<tr><td>{e(k)}</td><td>{v:.3f}</td></tr>" for k, v in data["times_s"].items())
     sett = ""
@@ -189,6 +241,12 @@ def _html(data: dict, layers: list[LayerReport], settings, verdict: Any = None) 
         f"{len(layers)} distinct layer(s); print time change (kinematic estimate) "
         f"{data['print_time_change_s']:+.0f} s; "
         f"{'infill replaced' if data['changed'] else 'file unchanged'}.</p>",
+        _per_part(verdict),
+        *(
+            ["<h2>The load case on the part, and where it gained</h2>", *views]
+            if views
+            else []
+        ),
         f"<h2>Warnings</h2><ul>{warn}</ul>",
         f"<h2>Time per stage (s)</h2><table>{rows}</table>",
         "<details><summary>Settings and where they came from</summary>"
@@ -232,7 +290,9 @@ def _html(data: dict, layers: list[LayerReport], settings, verdict: Any = None) 
             "<p>Close-up around the largest hole, else the most stressed point "
             "(colour = alignment |s . p|):</p>",
             lr.detail,
-            f"<table><tr><th>metric</th><th>slicer</th><th>loadpath</th></tr>{mrows}</table>",
+            "<p>Metrics per layer: these layers' replaced region only (the whole part is in the "
+            "table on top).</p>",
+            f"<table><tr><th>metric (per layer)</th><th>slicer</th><th>loadpath</th></tr>{mrows}</table>",
             lr.hist,
             "</section>",
         ]

@@ -22,6 +22,10 @@ from loadpath.toolpath import Path
 
 __all__ = ["LayerReport", "layer_report", "segments_of", "paths_of"]
 
+_THIN = 0.35
+"""Drawn width of a path in the whole-layer figure, as a share of its bead: neighbouring paths stay
+apart at any zoom of the (vector) figure."""
+
 
 @dataclass
 class LayerReport:
@@ -290,12 +294,12 @@ def layer_report(
                 "stress field: followed principal direction, colour |s| / scale "
                 f"(principal = {job_result.job.principal})"
             )
-        elif name == "old":
-            c.segments(oa, ob, np.nan_to_num(cos_old), ow)
-            label = "the slicer's paths, colour = alignment |s . p|"
+        elif name == "old":  # centre lines a third of the bead wide: beads would merge into one colour
+            c.segments(oa, ob, np.nan_to_num(cos_old), _THIN * ow)
+            label = "the slicer's paths (centre lines; zoom in), colour = alignment |s . p|"
         else:
-            c.segments(na, nb, np.nan_to_num(cos_new), nw)
-            label = "loadpath's paths, colour = alignment |s . p|"
+            c.segments(na, nb, np.nan_to_num(cos_new), _THIN * nw)
+            label = "loadpath's paths (centre lines; zoom in), colour = alignment |s . p|"
         c.text(c.pad + 4, c.pad + 14, label, 13)
         panels.append(c)
     total_h = sum(p.height for p in panels)
