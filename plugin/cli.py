@@ -23,6 +23,7 @@ COMMANDS = {
     "compare": "loadpath.plugin.commands.compare",
     "batch": "loadpath.plugin.commands.batch",
     "serve": "loadpath.plugin.commands.serve",
+    "profile": "loadpath.plugin.commands.profile",
 }
 
 

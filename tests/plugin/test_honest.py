@@ -255,3 +255,32 @@ def test_hook_help_and_menus_named_in_messages_exist(capsys):
     assert named
     for text in named:  # a message may break the item's name over two string literals
         assert any(item.startswith(text.strip()) or text.startswith(item) for item in items), (text, items)
+
+
+def test_profile_flattens_a_vendor_preset_prusaslicer_slices_with(tmp_path, capsys):
+    import subprocess
+
+    from conftest import require_tool
+    from slicing import flatten_prusa_presets, shelf_bracket_mesh, write_stl
+
+    require_tool("prusa-slicer")
+    ini = tmp_path / "mk3s.ini"
+    assert main(["profile", "-o", str(ini)]) == 0
+    keys = dict(ln.split(" = ", 1) for ln in ini.read_text("utf-8").splitlines())
+    # the same keys the test slicer's flattener gives the three MK3S presets (one file instead of three)
+    merged = {k: v for flat in flatten_prusa_presets().values() for k, v in flat.items()}
+    assert keys == merged and keys["printer_model"] == "MK3S"
+    stl = write_stl(shelf_bracket_mesh(), tmp_path / "shelf.stl")
+    out = tmp_path / "shelf.gcode"
+    subprocess.run(
+        ["prusa-slicer", "--export-gcode", "--load", str(ini), "--output", str(out), str(stl)],
+        check=True,
+        capture_output=True,
+        timeout=300,
+    )
+    text = out.read_text("utf-8")
+    assert "; printer_model = MK3S" in text and "; filament_settings_id" in text
+    capsys.readouterr()
+    assert main(["profile", "--printer", "Original Prusa i3 MK3SS", "-o", str(ini)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "did you mean 'Original Prusa i3 MK3'" in err[0]
