@@ -60,6 +60,8 @@ class Task:
     metrics : bool
         Compute beta and coverage (the report's metrics, about a second per distinct layer).
     slicer_settings : Path or None
+    force : bool
+        Process files loadpath already processed (refused otherwise).
     """
 
     input: Path
@@ -69,6 +71,7 @@ class Task:
     report: Path | None = None
     metrics: bool = True
     slicer_settings: Path | None = None
+    force: bool = False
 
 
 @dataclass
@@ -88,6 +91,10 @@ class FileResult:
     output : str or None
     message : str
         The error, or the first warning.
+    verdict : str
+        The run's verdict line (:mod:`loadpath.verdict`) without its ``loadpath X on DATE:`` head.
+    warnings : list of str
+        Every warning of the run.
     """
 
     file: str
@@ -97,6 +104,8 @@ class FileResult:
     coverage: float | None = None
     output: str | None = None
     message: str = ""
+    verdict: str = ""
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def failed(self) -> bool:
@@ -144,6 +153,7 @@ def plan(
     report_dir: Path | None = None,
     metrics: bool = True,
     slicer_settings: Path | None = None,
+    force: bool = False,
 ) -> list[Task]:
     """Make the tasks: outputs named like ``loadpath run`` without ``-o``, or the input's name in ``out_dir``.
 
@@ -175,7 +185,7 @@ def plan(
             )
         seen[key] = inp
         rep = Path(report_dir) / inp.name.rsplit(".", 1)[0] if report_dir is not None else None
-        tasks.append(Task(inp, out, Path(loadcase), cli, rep, metrics, slicer_settings))
+        tasks.append(Task(inp, out, Path(loadcase), cli, rep, metrics, slicer_settings, force))
     return tasks
 
 
@@ -219,6 +229,7 @@ def process(task: Task) -> FileResult:
             report=report,
             cli=dict(task.cli),
             slicer_settings=task.slicer_settings,
+            force=task.force,
         )
         res = run_job(req)
         beta = cov = None
@@ -236,6 +247,8 @@ def process(task: Task) -> FileResult:
             cov,
             str(res.output) if res.written else None,
             message,
+            res.verdict.line().split(": ", 1)[-1] if res.verdict is not None else "",
+            list(res.warnings),
         )
     except LoadpathError as exc:
         return FileResult(str(task.input), "failed", time.perf_counter() - t0, message=str(exc))
@@ -317,14 +330,20 @@ def _num(v: float | None, fmt: str) -> str:
 
 
 def table(results: Iterable[FileResult]) -> str:
-    """Format the summary: one row per file (file, status, time, beta, coverage), then the totals."""
+    """Format the summary: one row per file, then the totals, the failures and every warning.
+
+    Columns: file, status, time, beta, coverage, warnings (count), verdict (what was replaced and
+    gained, :mod:`loadpath.verdict`).
+    """
     rows = list(results)
     width = max([len("file")] + [len(r.file) for r in rows])
-    lines = [f"{'file':<{width}}  {'status':<9}  {'time s':>7}  {'beta':>6}  {'coverage':>8}"]
+    lines = [
+        f"{'file':<{width}}  {'status':<9}  {'time s':>7}  {'beta':>6}  {'coverage':>8}  {'warn':>4}  verdict"
+    ]
     for r in rows:
         lines.append(
             f"{r.file:<{width}}  {r.status:<9}  {r.seconds:7.1f}  {_num(r.beta, '6.3f'):>6}  "
-            f"{_num(r.coverage, '8.3f'):>8}"
+            f"{_num(r.coverage, '8.3f'):>8}  {len(r.warnings):>4}  {r.verdict or '-'}"
         )
     failed = [r for r in rows if r.failed]
     lines.append(
@@ -332,8 +351,10 @@ def table(results: Iterable[FileResult]) -> str:
         f"{sum(r.status == 'unchanged' for r in rows)} unchanged, {sum(r.status == 'kept' for r in rows)} "
         f"kept, {len(failed)} failed"
     )
-    for r in failed + [r for r in rows if r.status == "kept"]:
+    for r in failed:
         lines.append(f"{r.file}: {r.message}")
+    for r in rows:  # every warning, not only the first (a kept failure is one of them)
+        lines.extend(f"{r.file}: warning: {' '.join(w.split())}" for w in r.warnings)
     return "\n".join(lines)
 
 

@@ -31,6 +31,7 @@ COMMANDS = {
     "batch": "loadpath.plugin.commands.batch",
     "serve": "loadpath.plugin.commands.serve",
     "edit": "loadpath.plugin.commands.edit",
+    "profile": "loadpath.plugin.commands.profile",
 }
 
 

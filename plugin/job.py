@@ -16,9 +16,11 @@ output when the output is another file).  Binary G-code is written back as binar
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import secrets
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,6 +60,10 @@ class JobRequest:
     analyze : callable or None
         Replaces :func:`loadpath.fea.analyze` (see :func:`loadpath.pipeline.run`); the local service
         passes one that caches FEA results.
+    force : bool
+        Process a file loadpath already processed (refused otherwise: its header says so).
+    predict : bool
+        Predict the stiffness change for the verdict (two solves per body on the run's mesh).
     """
 
     input: Path
@@ -69,6 +75,8 @@ class JobRequest:
     slicer_settings: Path | None = None
     env: Mapping[str, str] | None = None
     analyze: Callable[..., Any] | None = None
+    force: bool = False
+    predict: bool = True
 
 
 @dataclass
@@ -92,6 +100,9 @@ class JobResult:
         Per stage: parse, geometry, loadcase, fea, paths, splice, check, write, report.
     report : Path or None
         The report's HTML page.
+    verdict : Verdict or None
+        What the run did and gained (:mod:`loadpath.verdict`); also for a failure kept with
+        ``on_failure = "keep"``.
     """
 
     output: Path
@@ -103,6 +114,7 @@ class JobResult:
     settings: Any = None
     times: dict[str, float] = field(default_factory=dict)
     report: Path | None = None
+    verdict: Any = None
 
 
 def default_output(path: Path) -> Path:
@@ -189,8 +201,41 @@ def infer_cura_filament(program, geo) -> float | None:
     return d
 
 
+def fate(inp: Path, out: Path, written: bool) -> str:
+    """What became of the input and the output, in words, for a message."""
+    if written:
+        return f"{str(out)!r} was written" + ("" if out == inp else f"; the input {str(inp)!r} is untouched")
+    if out == inp:
+        return f"the G-code {str(inp)!r} is untouched"
+    return f"the input {str(inp)!r} is untouched and {str(out)!r} was not written"
+
+
+def state_folder(env: Mapping[str, str] | None = None) -> Path:
+    """``$XDG_STATE_HOME/loadpath`` (default ``~/.local/state/loadpath``): where the run log goes."""
+    env = os.environ if env is None else env
+    base = env.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    return Path(base) / "loadpath"
+
+
+def _log(line: str) -> str | None:
+    """Append one line to the run log; a warning when it cannot be written (None when it was)."""
+    folder = state_folder()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(folder / "runs.log", "a", encoding="utf-8") as fh:
+            fh.write(line.rstrip("\n") + "\n")
+    except OSError as exc:
+        return f"the run log {str(folder / 'runs.log')!r} could not be written ({exc.strerror or exc})"
+    return None
+
+
 def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | None = None) -> JobResult:
     """Run one job (see the module docstring).
+
+    Everything that can fail (parse, engines, splice, check, verdict, the report's data and
+    figures) runs before the output is renamed into place; only the report's files and the run
+    log are written after it, and their failure is a warning that says the G-code was written.
+    Every failure message ends with what became of the input and the output (:func:`fate`).
 
     Raises
     ------
@@ -203,23 +248,44 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     on_failure = str(request.cli.get("on_failure") or "fail")
     _check_paths(inp, out, request.in_place)  # before any work; never turned into "kept"
     try:
-        return _run(request, inp, out, result, progress)
+        with warnings.catch_warnings(record=True) as caught:
+            result = _run(request, inp, out, result, progress, caught)
+        result.warnings.extend(own_warnings(caught))
+        if result.verdict is not None:
+            w = _log(f"{result.verdict.line()} [{inp}]")
+            if w:
+                result.warnings.append(w)
+        return result
     except LoadpathError as exc:
-        error = str(exc)
+        error = str(exc).rstrip(". ")
     except MemoryError:
         error = "out of memory; close other programs or process a smaller file"
-    except Exception as exc:  # a bug: still one line, and the input stays untouched
+    except Exception as exc:  # a bug: still one line, saying what became of the files
         error = (
-            f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); the input is untouched; "
+            f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); "
             "please report this with the G-code and load case"
         )
-    if on_failure != "keep" and (result.settings is None or result.settings.on_failure != "keep"):
-        raise LoadpathError(error)
+    keep = on_failure == "keep" or (result.settings is not None and result.settings.on_failure == "keep")
+    if not keep:
+        _log(f"loadpath failed: {error}; {fate(inp, out, result.written)} [{inp}]")
+        raise LoadpathError(f"{error}; {fate(inp, out, result.written)}")
+    from loadpath import verdict as verdict_mod
+
     result.error = error
-    result.warnings.append(f"kept the slicer's G-code unchanged: {error}")
-    if not same_file(out, inp) and inp.is_file():
+    if not same_file(out, inp) and inp.is_file() and not result.written:
         write_atomic(out, read_regular(inp), mode_like=inp)
         result.written = True
+        kept = f"{str(out)!r} is a copy of the slicer's G-code; the input is untouched"
+    elif result.written:
+        kept = fate(inp, out, True)
+    else:
+        kept = f"the slicer's G-code {str(inp)!r} is untouched"
+    result.warnings.append(f"kept the slicer's G-code: {error}; {kept}")
+    result.changed = False
+    result.verdict = verdict_mod.build(
+        None, str(request.cli.get("engine") or "?"), 1.75, len(result.warnings), note=f"failed: {error}"
+    )
+    _log(f"{result.verdict.line()} [{inp}]")
     return result
 
 
@@ -235,20 +301,86 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
         raise SettingsError(why)
 
 
+def own_warnings(caught: list) -> list[str]:
+    """Python / numpy warnings recorded during a run as one-line warnings of ours (each once); clears them.
+
+    No library warning reaches the user's stderr as Python prints it (file, line, source line):
+    a numerical warning is a check the code missed, so it says where and asks for a report.
+    """
+    seen: dict[tuple, str] = {}
+    for w in caught:
+        key = (w.category.__name__, str(w.message), w.filename, w.lineno)
+        where = f"{Path(w.filename).parent.name}/{Path(w.filename).name}:{w.lineno}"
+        seen.setdefault(
+            key, f"{w.category.__name__} in {where}: {' '.join(str(w.message).split())} (please report this)"
+        )
+    caught.clear()
+    return list(seen.values())
+
+
+def already_processed(program) -> tuple[str, str] | None:
+    """``(version, date)`` when the program's first lines carry loadpath's header comment."""
+    from loadpath.verdict import find_header
+
+    head = "\n".join(program.line(i) for i in range(min(program.n_lines, 64)))
+    return find_header(head.encode("utf-8", "replace"))
+
+
+def _with_header(data: bytes, line: str) -> bytes:
+    """Insert ``line`` as the second line of the G-code text (the slicer's own first line stays first)."""
+    nl = b"\r\n" if b"\r\n" in data[:4096] else b"\n"
+    i = data.find(b"\n")
+    cut = 0 if i < 0 else i + 1
+    return data[:cut] + line.encode("utf-8") + nl + data[cut:]
+
+
+def _prediction(pres, s, warnings: list[str]):
+    """The predicted stiffness change (None with a warning when the model cannot give one)."""
+    from loadpath.errors import LoadpathError as _Err
+    from loadpath.stiffness.change import new_deposits, predicted_change
+
+    import math
+
+    farea = math.pi * s.filament_diameter**2 / 4
+    volumes = {b.block: b.filament_new * farea for b in pres.splice.blocks}
+    codes = {o.name: o.code for o in pres.geometry.objects}
+    try:
+        return predicted_change(
+            pres.analyses, pres.program, codes, set(volumes), new_deposits(pres.jobs, volumes), s.filament_diameter
+        )
+    except (_Err, ValueError, FloatingPointError, np_error()) as exc:
+        warnings.append(f"no stiffness prediction ({type(exc).__name__}: {' '.join(str(exc).split())})")
+        return None
+
+
+def np_error() -> type[Exception]:
+    """numpy's linear-algebra error (imported lazily)."""
+    import numpy as np
+
+    return np.linalg.LinAlgError
+
+
 def _run(
     request: JobRequest,
     inp: Path,
     out: Path,
     result: JobResult,
     progress: Callable[[str, int, int], None] | None,
+    caught: list | None = None,
 ) -> JobResult:
     from loadpath import gcode, loadcase, pipeline
+    from loadpath import verdict as verdict_mod
     from loadpath.pipeline.paths import default_workers
 
     times = result.times
     t = time.perf_counter()
     lc = loadcase.read(request.loadcase)
     program, container = gcode.read_container(inp)
+    done = already_processed(program)
+    if done is not None and not request.force:
+        raise SettingsError(
+            f"already processed by loadpath {done[0]} on {done[1]}; run it on the slicer's file, or pass --force"
+        )
     cura = settings_mod.read_cura_settings(request.slicer_settings) if request.slicer_settings else None
     s = settings_mod.resolve(
         program, env=request.env, cura_settings=cura, toolpath=lc.toolpath, cli=request.cli
@@ -283,7 +415,41 @@ def _run(
     result.warnings.extend(pres.warnings)
     result.changed = pres.changed
 
+    # the verdict (cheap but for the stiffness prediction) and the report are made before the
+    # output is written: a failure of either costs nothing on disk
     t = time.perf_counter()
+    stiff = _prediction(pres, s, result.warnings) if pres.changed and request.predict else None
+    times["verdict"] = time.perf_counter() - t
+    report = None
+    if request.report is not None:
+        from loadpath.report import build_report
+
+        t = time.perf_counter()
+        report = build_report(pres, s, times, source=inp.name)
+        result.warnings.extend(report.warnings)
+        times["report"] = time.perf_counter() - t
+    result.warnings.extend(own_warnings(caught if caught is not None else []))
+    v = verdict_mod.build(
+        pres,
+        s.engine,
+        s.filament_diameter,
+        len(result.warnings),
+        stiffness=stiff,
+        note="" if stiff is not None or not request.predict else "model failed; see the warnings",
+        total_seconds=verdict_mod.total_print_seconds(pres.data) if pres.changed else None,
+    )
+    if not request.predict and pres.changed:
+        v = dataclasses.replace(v, note="not asked for")
+    result.verdict = v
+    if report is not None:
+        report.finish(v)
+
+    t = time.perf_counter()
+    if pres.changed:  # the verdict as the file's second line, an insertion the splice result records
+        text = _with_header(pres.data, verdict_mod.header_line(v))
+        edits = tuple(sorted((*pres.splice.edits, (1, 1, 1))))
+        pres = dataclasses.replace(pres, data=text, splice=dataclasses.replace(pres.splice, data=text, edits=edits))
+        result.pipeline = pres
     data = (
         gcode.encode_like(container, pres.data)
         if pres.changed
@@ -295,10 +461,12 @@ def _run(
         write_atomic(out, data, mode_like=inp)
         result.written = True
     times["write"] = time.perf_counter() - t
-    if request.report is not None:
-        from loadpath.report import write_report
-
-        t = time.perf_counter()
-        result.report = write_report(Path(request.report), pres, s, times, source=inp.name)
-        times["report"] = time.perf_counter() - t
+    if report is not None:
+        try:
+            result.report = report.write(Path(request.report))
+        except OSError as exc:
+            result.warnings.append(
+                f"the report could not be written to {str(request.report)!r} ({exc.strerror or exc}); "
+                f"the G-code {str(out)!r} was written"
+            )
     return result

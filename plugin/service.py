@@ -5,9 +5,9 @@ Endpoints (the README documents the JSON in full)::
     GET  /v1/health   {"ok": true, "version": ..., "running": n, "waiting": n, "fea_cache_entries": n}
     GET  /v1/schema   the settings a request may give ({"settings": {name: {type, default, unit, ...}}})
     POST /v1/run      {"gcode" | "gcode_base64", "loadcase", "settings"?, "slicer_settings"?,
-                       "slicer_env"?, "name"?, "report"?}
+                       "slicer_env"?, "name"?, "report"?, "force"?}
                       -> {"ok": true, "gcode" | "gcode_base64", "changed", "warnings", "metrics",
-                          "summary", "fea_cached", "times", "settings"}
+                          "summary", "verdict", "fea_cached", "times", "settings"}
 
 Errors are ``{"ok": false, "error": {"code": ..., "message": ...}}`` with an HTTP status: 400
 ``bad_request``, 403 ``forbidden`` (a Host or Origin that is not loopback), 404 ``not_found``, 411

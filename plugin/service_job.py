@@ -76,7 +76,17 @@ def check_request(req: Any) -> dict[str, Any]:
         )
     extra = sorted(
         set(req)
-        - {"gcode", "gcode_base64", "loadcase", "settings", "slicer_settings", "slicer_env", "name", "report"}
+        - {
+            "gcode",
+            "gcode_base64",
+            "loadcase",
+            "settings",
+            "slicer_settings",
+            "slicer_env",
+            "name",
+            "report",
+            "force",
+        }
     )
     if extra:
         raise RequestError(400, "bad_request", f"unknown field(s) {', '.join(extra)}")
@@ -125,6 +135,7 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
             slicer_settings=slicer,
             env=env or None,
             analyze=cache,
+            force=req.get("force") is True,
         )
     )
     data = out.read_bytes() if out.is_file() else inp.read_bytes()
@@ -142,6 +153,7 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
         "settings": result.settings.as_dict() if result.settings is not None else {},
         "metrics": metrics,
         "summary": {"beta": beta, "coverage": cov},
+        "verdict": result.verdict.as_dict() if result.verdict is not None else None,
     }
     if binary:
         answer["gcode_base64"] = base64.b64encode(data).decode("ascii")

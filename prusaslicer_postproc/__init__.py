@@ -53,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="write an HTML report and metrics.json into DIR",
     )
+    from loadpath.plugin.commands.run import add_force
+
+    add_force(parser)
     settings.add_cli_options(parser)
     return parser
 
@@ -78,6 +81,9 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
         0 on success (or a failure kept with ``--on-failure keep``), 1 on a failure, 2 on a usage error.
     """
     args_in = list(sys.argv[1:] if argv is None else argv)
+    if any(a in ("-h", "--help") for a in args_in):
+        build_parser().print_help()
+        return 0
     if not args_in or args_in[-1].startswith("-"):
         return _fail(
             "no G-code path: PrusaSlicer appends it as the last argument; put "
@@ -104,14 +110,17 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
             cli=settings.cli_values(args),
             env=dict(os.environ if env is None else env),
             slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None,
+            force=args.force,
         )
         result = run_job(request)
     except LoadpathError as exc:
-        return _fail(f"{exc} (the G-code was left unchanged)")
+        return _fail(str(exc))  # run_job says what became of the file
     except KeyboardInterrupt:
         return _fail("interrupted; the G-code was left unchanged", 130)
     for warning in result.warnings:
         sys.stderr.write(f"{PROG}: warning: {' '.join(warning.split())}\n")
+    if result.verdict is not None:  # PrusaSlicer shows stderr only on failure: the log has it too
+        sys.stderr.write(result.verdict.line() + "\n")
     return 0
 
 

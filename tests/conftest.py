@@ -55,3 +55,9 @@ def repo_root() -> Path:
 
 from editor_fixtures import *  # noqa: E402,F401,F403  the load-case editor: loadpath edit + Chromium
 from fixtures import *  # noqa: E402,F401,F403  shared real-slicer fixtures (tests/fixtures.py)
+
+
+@pytest.fixture(autouse=True)
+def _state_home(tmp_path_factory, monkeypatch):
+    """Every run appends its verdict to ``$XDG_STATE_HOME/loadpath/runs.log``: never the user's own."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path_factory.getbasetemp() / "state"))

@@ -29,6 +29,7 @@ import pytest
 import slicing
 
 __all__ = [
+    "without_verdict",
     "slice_cache",
     "sliced",
     "test_stls",
@@ -45,6 +46,17 @@ __all__ = [
     "cura_tower",
     "cura_two_objects",
 ]
+
+def without_verdict(data: bytes) -> bytes:
+    """G-code without loadpath's ``; loadpath: ...`` header line, which carries the minute of the run.
+
+    Two runs of the same job give the same file but for that line (when a minute boundary falls
+    between them).
+    """
+    import re
+
+    return re.sub(rb"(?m)^; loadpath: [^\n]*\n", b"", data)
+
 
 _SETTINGS = {
     "prusa": {"mixed": slicing.PRUSA_MIXED, "solid": slicing.PRUSA_SOLID, "example": slicing.PRUSA_EXAMPLE},

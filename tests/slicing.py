@@ -51,6 +51,7 @@ __all__ = [
     "two_islands_mesh",
     "bracket_mesh",
     "tower_mesh",
+    "shelf_bracket_mesh",
     "tower_layers",
     "PARTS",
     "write_stl",
@@ -157,6 +158,22 @@ def bracket_mesh(
     return _at_origin(_to_trimesh(solid))
 
 
+def shelf_bracket_mesh(
+    legs: tuple[float, float] = (120.0, 100.0), cut_out: float = 50.0, thickness: float = 3.0
+) -> trimesh.Trimesh:
+    """A triangular shelf bracket (right angle at the origin) with a round lightening cut-out.
+
+    The cut-out (``cut_out`` mm across) is larger than the report's close-up window (about 30 mm),
+    which once put the whole window inside the hole.
+    """
+    import manifold3d as mf
+
+    lx, ly = legs
+    cs = mf.CrossSection([[(0, 0), (lx, 0), (0, ly)]])
+    hole = mf.CrossSection.circle(cut_out / 2, 96).translate((0.29 * lx, 0.3 * ly))
+    return _at_origin(_to_trimesh(mf.Manifold.extrude(cs - hole, thickness)))
+
+
 def tower_mesh(
     size: tuple[float, float] = (30.0, 20.0),
     height: float = 24.0,
@@ -202,6 +219,7 @@ PARTS = {
     "two_islands": two_islands_mesh,
     "bracket": bracket_mesh,
     "tower": tower_mesh,
+    "shelf": shelf_bracket_mesh,
 }
 
 

@@ -145,18 +145,21 @@ class HoleSelector(Selector):
     Attributes
     ----------
     near : (2,) tuple of float, mm
-    radius : float, mm
-        ``> 0``.
+    radius : float or None, mm
+        ``> 0``; None (``radius`` not given): the nearest hole, if the point lies within the hole's
+        own diameter of it (the larger side of its bounding box).
     """
 
     near: tuple[float, float]
-    radius: float
+    radius: float | None = None
 
     @property
     def uses_z(self) -> bool:  # noqa: D102
         return False
 
     def describe(self) -> str:  # noqa: D102
+        if self.radius is None:
+            return f"hole_near = [{self.near[0]}, {self.near[1]}]"
         return f"hole_near = [{self.near[0]}, {self.near[1]}], radius = {self.radius}"
 
 

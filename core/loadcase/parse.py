@@ -320,11 +320,13 @@ def _selector(c: _Ctx, value: Any, where: str) -> Selector:
         return SideSelector(side=side, within=within)
     if keys & {"hole_near", "radius"}:
         c.keys(t, ("hole_near", "radius"), where)
-        if "hole_near" not in t or "radius" not in t:
+        if "hole_near" not in t:
             raise c.fail(
-                f"{where} needs both hole_near and radius, e.g. {{ hole_near = [75.0, 18.0], radius = 5.0 }}"
+                f"{where} gives radius without hole_near, e.g. {{ hole_near = [75.0, 18.0], radius = 5.0 }}"
             )
         near = c.vector(t["hole_near"], f"{where}.hole_near", 2, "mm")
+        if "radius" not in t:  # the nearest hole within its own diameter of the point
+            return HoleSelector(near=(near[0], near[1]), radius=None)
         radius = c.number(t["radius"], f"{where}.radius", "mm")
         if radius <= 0:
             raise c.fail(f"{where}.radius = {radius} must be > 0 mm")

@@ -234,9 +234,34 @@ def _empty_message(lc: LoadCase, body: Body, sel: Selection) -> str:
     frame = (
         ' (selector coordinates are relative to its minimum corner: frame = "part")'
         if lc.frame == "part"
-        else ""
+        else _frame_hint(sel.selector, body)
     )
     return (
         f"{lc.source}: {what} selects no boundary of object {body.name!r}{extra}; "
         f"part bounding box is {body.describe_bounds()}{frame}"
+    )
+
+
+def _frame_hint(selector, body: Body) -> str:
+    """A hint to use ``frame = "part"`` when bed coordinates miss the part by more than its size.
+
+    Selector coordinates measured from the part's own corner (a CAD drawing) land near the bed's
+    origin, far from a part the slicer placed mid-bed.
+    """
+    lo, hi = (np.asarray(b, dtype=float) for b in body.bounds)
+    if isinstance(selector, HoleSelector):
+        a = b = np.array([selector.near[0], selector.near[1], 0.5 * (lo[2] + hi[2])])
+    elif hasattr(selector, "lower") and hasattr(selector, "upper"):
+        a, b = np.asarray(selector.lower, dtype=float), np.asarray(selector.upper, dtype=float)
+    else:
+        return ""
+    with np.errstate(invalid="ignore"):
+        gap = np.maximum(0.0, np.maximum(a - hi, lo - b))
+    gap = np.where(np.isfinite(gap), gap, 0.0)
+    miss, size = float(np.hypot(*gap[:2])), float(np.max(hi[:2] - lo[:2]))
+    if miss <= size:
+        return ""
+    return (
+        f"; the selector is {miss:.0f} mm off a part {size:.0f} mm across: if its coordinates are "
+        'measured from the part\'s own corner, put frame = "part" at the top of the load case'
     )

@@ -226,7 +226,13 @@ def _select_hole(sel: HoleSelector, body: Body, origin: np.ndarray, name: str, r
     lateral = []
     for s in body.slabs:
         ring, d = nearest_hole(s.outline, near)
-        if ring is not None and d <= sel.radius:
+        if ring is None:
+            continue
+        limit = sel.radius
+        if limit is None:  # the hole's own diameter
+            x0, y0, x1, y1 = ring.bounds
+            limit = max(x1 - x0, y1 - y0)
+        if d <= limit:
             holes.append((s.z0, s.z1, ring))
             lateral.append((s.z0, s.z1, MultiLineString([LineString(ring.coords)])))
     return Selection(name, role, sel, None, None, tuple(holes), tuple(lateral), ())

@@ -22,6 +22,7 @@ from __future__ import annotations
 import html
 import json
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +30,7 @@ from loadpath import __version__
 from loadpath.report.layers import LayerReport, layer_report
 from loadpath.report.svg import colorbar
 
-__all__ = ["write_report", "LayerReport", "layer_report"]
+__all__ = ["write_report", "build_report", "Report", "LayerReport", "layer_report"]
 
 _METRIC_ROWS = (
     ("beta", "alignment beta (paper Eq. 14)", "{:.4f}"),
@@ -52,15 +53,78 @@ def _num(v: Any, f: str) -> str:
     return f.format(v)
 
 
+@dataclass
+class Report:
+    """A report built in memory, before anything is written (so the run can still fail cleanly).
+
+    Attributes
+    ----------
+    files : dict of str -> str
+        File name -> text (``index.html``, ``metrics.json``, the SVG figures).
+    warnings : list of str
+        What could not be drawn or computed (the report never fails a run).
+    """
+
+    files: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    data: dict[str, Any] = field(default_factory=dict, repr=False)
+    layers: list[LayerReport] = field(default_factory=list, repr=False)
+    settings: Any = field(default=None, repr=False)
+
+    analyses: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def finish(self, verdict: Any = None) -> Report:
+        """Render the part views, ``index.html`` and ``metrics.json`` with the verdict on top (in memory).
+
+        A part view that cannot be drawn adds a warning to :attr:`warnings` (after the verdict
+        counted them) and a note on the page.
+        """
+        from loadpath.report.part import part_figure
+
+        self.data["verdict"] = verdict.as_dict() if verdict is not None else None
+        change = (verdict.extra or {}).get("stiffness") if verdict is not None else None
+        bodies = {b.name: b for b in change.bodies} if change is not None else {}
+        views = []
+        for k, (name, an) in enumerate(self.analyses.items()):
+            try:
+                svg = part_figure(an.resolved, bodies.get(name))
+            except Exception as exc:  # a picture must not cost the user the G-code
+                why = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+                self.warnings.append(f"report: no part view of {name!r} ({why})")
+                views.append(f"<p>No part view of {html.escape(name)}: {html.escape(why)}</p>")
+                continue
+            self.files[f"part-{k + 1}.svg"] = svg
+            views.append(svg)
+        self.data["warnings"] = self.data.get("warnings", []) + [
+            w for w in self.warnings if w not in self.data.get("warnings", [])
+        ]
+        self.files["metrics.json"] = json.dumps(self.data, indent=1, default=_json)
+        self.files["index.html"] = _html(self.data, self.layers, self.settings, verdict, views)
+        return self
+
+    def write(self, directory: Path) -> Path:
+        """Write the files into ``directory`` (created); returns ``index.html``.  Raises OSError."""
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        for name, text in self.files.items():
+            (directory / name).write_text(text, encoding="utf-8")
+        return directory / "index.html"
+
+
 def write_report(
     directory: Path, result, settings, times: dict[str, float], source: str = "", with_metrics: bool = True
 ) -> Path:
-    """Write the report of a pipeline result (see the module docstring).
+    """Build and write the report (see :func:`build_report`); returns ``index.html``."""
+    return build_report(result, settings, times, source, with_metrics).finish().write(directory)
+
+
+def build_report(
+    result, settings, times: dict[str, float], source: str = "", with_metrics: bool = True
+) -> Report:
+    """Build the report of a pipeline result in memory (see the module docstring).
 
     Parameters
     ----------
-    directory : Path
-        Created if needed.
     result : loadpath.pipeline.PipelineResult
     settings : loadpath.plugin.settings.Settings
     times : dict of str -> float, s
@@ -68,25 +132,31 @@ def write_report(
         Input file name.
     with_metrics : bool
         Compute the metrics (a second or so per distinct layer).
-
     Returns
     -------
-    Path
-        ``index.html``.
+    Report
+        Call :meth:`Report.finish` (with the run's verdict) before :meth:`Report.write`.
+        A layer whose figures or metrics fail is reported by a warning and a note on the page,
+        never by an exception: the report never fails a run.
     """
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    rep = Report()
     farea = math.pi * settings.filament_diameter**2 / 4
     layers: list[LayerReport] = []
     for k, jr in enumerate(result.jobs):
         unit = jr.units[0]
         nums = ", ".join(str(u.layer + 1) for u in jr.units)
         title = f"{unit.object}, {unit.kind} infill, layers {nums} (z = {unit.z:g} mm)"
-        lr = layer_report(
-            jr, result.program, result.output, result.splice, jr.job.input.field, title, farea, with_metrics
-        )
-        (directory / f"layer-{k + 1}.svg").write_text(lr.figure, encoding="utf-8")
-        (directory / f"layer-{k + 1}-detail.svg").write_text(lr.detail, encoding="utf-8")
+        try:
+            lr = layer_report(
+                jr, result.program, result.output, result.splice, jr.job.input.field, title, farea, with_metrics
+            )
+        except Exception as exc:  # a figure that cannot be drawn must not cost the user the G-code
+            why = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+            rep.warnings.append(f"report: layers {nums} have no figures or metrics ({why})")
+            lr = LayerReport(title, [u.layer + 1 for u in jr.units], {"error": why})
+        else:
+            rep.files[f"layer-{k + 1}.svg"] = lr.figure
+            rep.files[f"layer-{k + 1}-detail.svg"] = lr.detail
         layers.append(lr)
     data = {
         "loadpath": __version__,
@@ -94,7 +164,8 @@ def write_report(
         "dialect": result.program.dialect.name,
         "changed": result.changed,
         "passthrough": result.passthrough,
-        "warnings": list(result.warnings),
+        "verdict": None,
+        "warnings": list(result.warnings) + rep.warnings,
         "times_s": {k: float(v) for k, v in times.items()},
         "settings": settings.as_dict() if settings is not None else {},
         "settings_sources": dict(settings.sources) if settings is not None else {},
@@ -108,10 +179,9 @@ def write_report(
         "layers": [lr.numbers for lr in layers],
         "blocks": [dict(vars(b)) for b in (result.splice.blocks if result.splice else ())],
     }
-    (directory / "metrics.json").write_text(json.dumps(data, indent=1, default=_json), encoding="utf-8")
-    page = directory / "index.html"
-    page.write_text(_html(data, layers, settings), encoding="utf-8")
-    return page
+    rep.data, rep.layers, rep.settings = data, layers, settings
+    rep.analyses = dict(result.analyses or {})
+    return rep
 
 
 def _json(o: Any) -> Any:
@@ -122,7 +192,34 @@ def _json(o: Any) -> Any:
     return str(o)
 
 
-def _html(data: dict, layers: list[LayerReport], settings) -> str:
+def _per_part(verdict: Any) -> str:
+    """The verdict's figures as a table of the whole part."""
+    e = html.escape
+    if verdict is None or not verdict.changed:
+        return ""
+
+    def pct(v):
+        return "–" if v is None or not math.isfinite(v) else f"{100 * v:+.1f} %"
+
+    rows = [
+        ("layers replaced", f"{len(verdict.layers)} ({', '.join(verdict.kinds)})"),
+        (f"predicted stiffness, absolute ({verdict.model})", pct(verdict.stiffness)),
+        (f"predicted stiffness, same mass ({verdict.model})", pct(verdict.stiffness_same_mass)),
+        ("predicted failure load", pct(verdict.failure_load) if verdict.failure_load is not None else "not modelled"),
+        (
+            "print time (kinematic estimate)",
+            f"{verdict.time_change_s / 60:+.1f} min"
+            + (f" ({verdict.time_change_pct:+.1f} %)" if verdict.time_change_pct is not None else ""),
+        ),
+        ("mass", f"{verdict.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00")),
+    ]
+    body = "".join(f"<tr><td>{e(a)}</td><td>{e(b)}</td></tr>" for a, b in rows)
+    return f"<h2>Per part: what changed</h2><table><tr><th>whole part</th><th>change</th></tr>{body}</table>"
+
+
+def _html(
+    data: dict, layers: list[LayerReport], settings, verdict: Any = None, views: list[str] | None = None
+) -> str:
     e = html.escape
     rows = "".join(f"<tr><td>{e(k)}</td><td>{v:.3f}</td></tr>" for k, v in data["times_s"].items())
     sett = ""
@@ -139,10 +236,17 @@ def _html(data: dict, layers: list[LayerReport], settings) -> str:
         "text-align:right}td:first-child,th:first-child{text-align:left}"
         "details{margin:0.5em 0}section{margin-top:2em;border-top:2px solid #ddd}</style></head><body>",
         f"<h1>loadpath report: {e(data['source'])}</h1>",
+        (f"<p class='verdict'><b>{e(verdict.line())}</b></p>" if verdict is not None else ""),
         f"<p>{e(data['dialect'])}; engine <b>{e(str(data['settings'].get('engine')))}</b>; "
         f"{len(layers)} distinct layer(s); print time change (kinematic estimate) "
         f"{data['print_time_change_s']:+.0f} s; "
         f"{'infill replaced' if data['changed'] else 'file unchanged'}.</p>",
+        _per_part(verdict),
+        *(
+            ["<h2>The load case on the part, and where it gained</h2>", *views]
+            if views
+            else []
+        ),
         f"<h2>Warnings</h2><ul>{warn}</ul>",
         f"<h2>Time per stage (s)</h2><table>{rows}</table>",
         "<details><summary>Settings and where they came from</summary>"
@@ -152,6 +256,12 @@ def _html(data: dict, layers: list[LayerReport], settings) -> str:
     ]
     for lr in layers:
         n = lr.numbers
+        if "error" in n:
+            parts.append(
+                f"<section><h2>{e(lr.title)}</h2><p>No figures or metrics for these layers: "
+                f"{e(n['error'])}</p></section>"
+            )
+            continue
         old, new = n.get("old", {}), n.get("new", {})
         mrows = "".join(
             f"<tr><td>{e(label)}</td><td>{_num(old.get(key), f)}</td><td>{_num(new.get(key), f)}</td></tr>"
@@ -180,7 +290,9 @@ def _html(data: dict, layers: list[LayerReport], settings) -> str:
             "<p>Close-up around the largest hole, else the most stressed point "
             "(colour = alignment |s . p|):</p>",
             lr.detail,
-            f"<table><tr><th>metric</th><th>slicer</th><th>loadpath</th></tr>{mrows}</table>",
+            "<p>Metrics per layer: these layers' replaced region only (the whole part is in the "
+            "table on top).</p>",
+            f"<table><tr><th>metric (per layer)</th><th>slicer</th><th>loadpath</th></tr>{mrows}</table>",
             lr.hist,
             "</section>",
         ]

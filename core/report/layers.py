@@ -22,6 +22,10 @@ from loadpath.toolpath import Path
 
 __all__ = ["LayerReport", "layer_report", "segments_of", "paths_of"]
 
+_THIN = 0.35
+"""Drawn width of a path in the whole-layer figure, as a share of its bead: neighbouring paths stay
+apart at any zoom of the (vector) figure."""
+
 
 @dataclass
 class LayerReport:
@@ -111,6 +115,8 @@ def _field_ticks(
 
     Coloured by ``|s| / scale`` (or all ``stroke``), ``0.18 step`` wide (or ``width_px``).
     """
+    if region.is_empty or not step > 0:
+        return
     x0, y0, x1, y1 = region.bounds
     gx, gy = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
     pts = np.column_stack([gx.ravel(), gy.ravel()])
@@ -151,6 +157,51 @@ def clip_segments(a: np.ndarray, b: np.ndarray, box: tuple[float, float, float, 
     return (a + t0[:, None] * d)[keep], (a + t1[:, None] * d)[keep], keep
 
 
+def _most_stressed(field_: StressField, pts: np.ndarray) -> np.ndarray | None:
+    """The point of ``pts`` where ``|s|`` is largest (None when the field is valid at none)."""
+    if len(pts) == 0:
+        return None
+    smp = field_.sample(pts)
+    mass = np.where(smp.valid, np.nan_to_num(smp.mass, nan=-np.inf), -np.inf)
+    return pts[int(np.argmax(mass))] if np.isfinite(mass.max()) else pts[len(pts) // 2]
+
+
+def _detail_centre(region, field_: StressField, ww: float, wh: float) -> np.ndarray:
+    """Centre of the close-up window (``ww`` x ``wh`` mm): always a point with material in view.
+
+    The largest hole when one is small enough to sit inside the window with its wall around it;
+    a hole larger than the window (a lightening cut-out) would put the whole window inside the
+    hole, so then the most stressed point of its edge.  Without a hole, the most stressed point of
+    the region away from its ends (supports and loads sit there); a region too thin for that, or
+    several islands with nothing in between, falls back to a point inside the largest island.
+    """
+    polys = [p for p in getattr(region, "geoms", [region]) if not p.is_empty]
+    holes = [shapely.Polygon(r) for p in polys for r in p.interiors]
+    if holes:
+        hole = max(holes, key=lambda h: h.area)
+        hx0, hy0, hx1, hy1 = hole.bounds
+        if hx1 - hx0 < 0.8 * ww and hy1 - hy0 < 0.8 * wh:
+            return np.asarray(hole.centroid.coords[0])
+        ring = hole.exterior
+        pts = np.asarray([ring.interpolate(t, normalized=True).coords[0] for t in np.linspace(0, 1, 73)[:-1]])
+        inner = np.asarray(hole.buffer(-1e-3).representative_point().coords[0]) if hole.area > 0 else pts[0]
+        # sample just inside the material: a point on the ring is on the region's boundary
+        out = pts + 0.5 * (pts - inner) / np.maximum(np.hypot(*(pts - inner).T), 1e-9)[:, None]
+        inside = shapely.contains_xy(region, out[:, 0], out[:, 1])
+        c = _most_stressed(field_, out[inside] if inside.any() else out)
+        if c is not None:
+            return c
+    x0, y0, x1, y1 = region.bounds
+    gx, gy = np.meshgrid(np.linspace(x0, x1, 60)[6:-6], np.linspace(y0, y1, 60)[6:-6])
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    pts = pts[shapely.contains_xy(region, pts[:, 0], pts[:, 1])]
+    c = _most_stressed(field_, pts)
+    if c is not None:
+        return c
+    biggest = max(polys, key=lambda p: p.area) if polys else region
+    return np.asarray(biggest.representative_point().coords[0])
+
+
 def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, width: int = 960) -> str:
     """Draw the slicer's and the new paths side by side, zoomed on the region's largest hole.
 
@@ -162,21 +213,9 @@ def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, w
     """
     x0, y0, x1, y1 = region.bounds
     big = max(x1 - x0, y1 - y0)
-    holes = [r for p in getattr(region, "geoms", [region]) for r in p.interiors]
-    if holes:  # stress concentrates at holes: show the largest
-        big_hole = max(holes, key=lambda r: shapely.Polygon(r).area)
-        c = np.asarray(shapely.Polygon(big_hole).centroid.coords[0])
-    else:  # the most stressed point away from the ends (supports and loads sit there)
-        gx, gy = np.meshgrid(np.linspace(x0, x1, 60)[6:-6], np.linspace(y0, y1, 60)[6:-6])
-        pts = np.column_stack([gx.ravel(), gy.ravel()])
-        pts = pts[shapely.contains_xy(region, pts[:, 0], pts[:, 1])]
-        c = (
-            pts[int(np.argmax(field_.sample(pts).mass))]
-            if len(pts)
-            else np.array([(x0 + x1) / 2, (y0 + y1) / 2])
-        )
     ww = min(x1 - x0, max(25 * pitch, 0.2 * big))
     wh = min(y1 - y0, 0.7 * ww)
+    c = _detail_centre(region, field_, ww, wh)
     bx0 = float(np.clip(c[0] - ww / 2, x0, x1 - ww))
     by0 = float(np.clip(c[1] - wh / 2, y0, y1 - wh))
     bounds = (bx0, by0, bx0 + ww, by0 + wh)
@@ -255,12 +294,12 @@ def layer_report(
                 "stress field: followed principal direction, colour |s| / scale "
                 f"(principal = {job_result.job.principal})"
             )
-        elif name == "old":
-            c.segments(oa, ob, np.nan_to_num(cos_old), ow)
-            label = "the slicer's paths, colour = alignment |s . p|"
+        elif name == "old":  # centre lines a third of the bead wide: beads would merge into one colour
+            c.segments(oa, ob, np.nan_to_num(cos_old), _THIN * ow)
+            label = "the slicer's paths (centre lines; zoom in), colour = alignment |s . p|"
         else:
-            c.segments(na, nb, np.nan_to_num(cos_new), nw)
-            label = "loadpath's paths, colour = alignment |s . p|"
+            c.segments(na, nb, np.nan_to_num(cos_new), _THIN * nw)
+            label = "loadpath's paths (centre lines; zoom in), colour = alignment |s . p|"
         c.text(c.pad + 4, c.pad + 14, label, 13)
         panels.append(c)
     total_h = sum(p.height for p in panels)
@@ -300,8 +339,8 @@ def layer_report(
         numbers["print_s_old"] = float(sum(r.seconds_old for r in reps))
         numbers["print_s_new"] = float(sum(r.seconds_new for r in reps))
         numbers["retractions_new"] = int(sum(r.n_retracts for r in reps))
-    numbers["alignment_mean_old"] = float(np.nanmean(cos_old)) if len(cos_old) else float("nan")
-    numbers["alignment_mean_new"] = float(np.nanmean(cos_new)) if len(cos_new) else float("nan")
+    numbers["alignment_mean_old"] = _finite_mean(cos_old)
+    numbers["alignment_mean_new"] = _finite_mean(cos_new)
     hist = ""
     if with_metrics:
         old_paths = paths_of(old_moves, pitch)
@@ -317,6 +356,12 @@ def layer_report(
             xlabel="distance to the nearest neighbouring path / pitch",
         )
     return LayerReport(title, numbers["layers"], numbers, figure, detail, hist)
+
+
+def _finite_mean(v: np.ndarray) -> float:
+    """Mean of the finite values, NaN when there is none (``np.nanmean`` warns "Mean of empty slice")."""
+    v = v[np.isfinite(v)]
+    return float(v.mean()) if len(v) else float("nan")
 
 
 def _printed(paths) -> list[Path]:

@@ -238,13 +238,15 @@ class LoadpathInfill(Extension):
         if outcome.ok:
             gcode_dict[plate] = outcome.chunks
             text = f"Stress-aligned infill written in {outcome.seconds:.0f} s."
+            if outcome.verdict:
+                text += "\n" + outcome.verdict
             if outcome.warnings:
                 text += "\n" + "\n".join("warning: " + w for w in outcome.warnings[:5])
             self._show(text, report=outcome.report_dir)
         else:
             data[0] = runner.error_comment(outcome.message) + data[0]
             Logger.log("e", "loadpath: %s", outcome.message)
-            self._show("Loadpath failed, the G-code is saved unchanged: " + outcome.message)
+            self._show("Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): " + outcome.message)
 
     def _show(self, text, report=None):
         self.lastMessage = text

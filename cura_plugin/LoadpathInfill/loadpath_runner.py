@@ -19,6 +19,7 @@ chunk joining, running the command or the service, the report summary).
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -147,10 +148,11 @@ class Outcome:
 
     Attributes: ``ok``; ``chunks`` (the new chunk list, or the input when not ok); ``message`` (one
     line for the user); ``warnings`` (lines); ``report_dir`` (folder of the last report or None);
-    ``seconds``.
+    ``seconds``; ``verdict`` (loadpath's one-line summary of what it replaced and gained, or "").
     """
 
-    def __init__(self, ok, chunks, message="", warnings=(), report_dir=None, seconds=0.0):
+    def __init__(self, ok, chunks, message="", warnings=(), report_dir=None, seconds=0.0, verdict=""):
+        self.verdict = verdict
         self.ok = ok
         self.chunks = chunks
         self.message = message
@@ -296,13 +298,26 @@ def find_command(configured=""):
             return candidate
     raise RunnerError(
         "the 'loadpath' command was not found: install loadpath in a virtual environment and set "
-        "its full path in Extensions > Loadpath infill > Settings (or the script's 'loadpath "
+        "its full path in Extensions > Loadpath infill > loadpath command... (or the script's 'loadpath "
         "command')"
     )
 
 
+_VERDICT = re.compile(r"^loadpath \S+ on \S+: ")
+
+
+def verdict_line(text):
+    """loadpath's verdict line in a run's stderr ("" when there is none)."""
+    found = [ln.strip() for ln in text.splitlines() if _VERDICT.match(ln.strip())]
+    return found[-1] if found else ""
+
+
 def _last_line(text):
-    lines = [ln.strip() for ln in text.splitlines() if ln.strip() and ": warning:" not in ln]
+    lines = [
+        ln.strip()
+        for ln in text.splitlines()
+        if ln.strip() and ": warning:" not in ln and not _VERDICT.match(ln.strip())
+    ]
     if not lines:
         return ""
     line = lines[-1]
@@ -370,7 +385,7 @@ def process_chunks(
         if not chunks:
             raise RunnerError("Cura gave no G-code to process; slice first")
         if not loadcase:
-            raise RunnerError("no load case chosen: Extensions > Loadpath infill > Choose load case")
+            raise RunnerError("no load case chosen: Extensions > Loadpath infill > Choose load case...")
         loadcase = os.path.expanduser(str(loadcase))
         if not os.path.isfile(loadcase):
             raise RunnerError(
@@ -416,7 +431,13 @@ def process_chunks(
             shutil.rmtree(work, ignore_errors=True)
         new[0] += PROCESSED + "\n"
         return Outcome(
-            True, new, "stress-aligned infill written", warnings, report_dir, time.monotonic() - t0
+            True,
+            new,
+            "stress-aligned infill written",
+            warnings,
+            report_dir,
+            time.monotonic() - t0,
+            verdict_line(err),
         )
     except RunnerError as exc:
         return Outcome(False, chunks, str(exc), (), None, time.monotonic() - t0)
@@ -478,6 +499,7 @@ def _via_service(chunks, loadcase, options, cura_settings, timeout, report_root,
         answer.get("warnings", []),
         report_dir,
         time.monotonic() - t0,
+        (answer.get("verdict") or {}).get("line", ""),
     )
 
 

@@ -3,7 +3,8 @@
 Inputs are folders (their .gcode/.bgcode files), files or quoted glob patterns; earlier outputs
 (*.loadpath.gcode) are skipped.  Outputs are named like `loadpath run` without -o (IN.loadpath.gcode
 next to each input) or keep the input's name inside --out DIR.  A progress bar is shown on a
-terminal and a summary table (file, status, time, beta, coverage) is printed at the end.  One
+terminal and a summary table (file, status, time, beta, coverage, warnings, verdict) is printed at
+the end, then every file's warnings.  One
 failing file does not stop the others; the exit status is 1 when any file failed, else 0.  With
 --cluster tcp://host:8786 the files are processed on a Dask cluster (its workers need loadpath
 installed, not the files).
@@ -50,6 +51,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="process on the Dask cluster with this scheduler (pip install 'loadpath[cluster]')",
     )
+    from loadpath.plugin.commands.run import add_force
+
+    add_force(parser)
     settings.add_cli_options(parser)
     # --jobs here is the number of files at once; each file's engine workers stay at 1 (--set jobs=N)
     parser.add_argument(
@@ -82,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         args.report,
         args.metrics,
         Path(args.slicer_settings) if args.slicer_settings else None,
+        args.force,
     )
     bar = batch.BatchProgress()
     try:

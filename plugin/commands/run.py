@@ -15,7 +15,7 @@ from pathlib import Path
 
 HELP = "reprocess one G-code file with stress-aligned infill"
 
-__all__ = ["HELP", "add_args", "run", "Progress", "execute"]
+__all__ = ["HELP", "add_args", "add_force", "run", "Progress", "execute"]
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -42,7 +42,17 @@ def add_args(parser: argparse.ArgumentParser) -> None:
         help="write an HTML report and metrics.json into DIR",
     )
     parser.add_argument("--in-place", action="store_true", help="rewrite the input file itself (atomically)")
+    add_force(parser)
     settings.add_cli_options(parser)
+
+
+def add_force(parser: argparse.ArgumentParser) -> None:
+    """``--force``: process a file loadpath already wrote (refused otherwise)."""
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="process a file loadpath already processed (its header says so; refused otherwise)",
+    )
 
 
 class Progress:
@@ -94,6 +104,8 @@ def execute(request, quiet: bool = False):
         bar.close()
     for w in result.warnings:
         print(f"loadpath: warning: {w}", file=sys.stderr)
+    if result.verdict is not None:  # on a terminal or not: hooks, logs and scripts see it too
+        print(result.verdict.line(), file=sys.stderr)
     return result
 
 
@@ -114,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
         report=args.report,
         cli=cli,
         slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None,
+        force=args.force,
     )
     result = execute(req)
     if result.error is None and result.written and sys.stderr.isatty():

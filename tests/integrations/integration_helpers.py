@@ -16,6 +16,8 @@ import re
 import sys
 from pathlib import Path
 
+from fixtures import without_verdict
+
 from loadpath import gcode
 from loadpath.plugin.job import JobRequest, run_job
 from loadpath.splice.verify import check_splice
@@ -73,7 +75,10 @@ def reference(original: Path, case: Path, out: Path, cli: dict | None = None, **
 
 def assert_spliced(original: Path, output: bytes, ref) -> None:
     """``output`` is the reference's output and passes the splicer's checks against ``original``."""
-    assert output == Path(ref.output).read_bytes(), "the shell's output differs from the same run in-process"
+    assert without_verdict(output) == without_verdict(Path(ref.output).read_bytes()), (
+        "the shell's output differs from the same run in-process"
+    )
+    assert output.count(b"\n; loadpath: loadpath ") == 1, "no verdict line in the header"
     prog = gcode.read(original)
     out = gcode.parse(output, strict=False)
     pres = ref.pipeline

@@ -143,3 +143,26 @@ def test_bad_bodies():
         Slab(1.0, 1.0, box(0, 0, 1, 1))
     with pytest.raises(GeometryError, match=r"part outline is empty"):
         Slab(0.0, 1.0, box(0, 0, 1, 1).difference(box(-1, -1, 2, 2)))
+
+
+def test_a_selector_far_off_the_part_suggests_frame_part():
+    # the specimen sits at x 50..200, y 87..123: a box measured from the part's corner (x >= 290)
+    # misses by 90 mm, less than the part's 150 mm: no hint; x_min = 400 misses by 200 mm: the hint
+    near = _case(CLAMP, '[[loads]]\nname = "pull"\nwhere = { x_min = 290.0 }\nforce = [1, 0, 0]')
+    with pytest.raises(LoadCaseError) as exc:
+        resolve(parse(near, "case.toml"), [Body.from_layers("spec", _layers(SPECIMEN))])
+    assert "frame" not in str(exc.value)
+    far = _case(CLAMP, '[[loads]]\nname = "pull"\nwhere = { x_min = 400.0 }\nforce = [1, 0, 0]')
+    with pytest.raises(LoadCaseError, match=r"200 mm off a part 150 mm across: .*put frame = \"part\""):
+        resolve(parse(far, "case.toml"), [Body.from_layers("spec", _layers(SPECIMEN))])
+
+
+def test_hole_near_without_radius_takes_the_nearest_hole_within_its_diameter():
+    two = box(0, 0, 100, 40).difference(Point(30, 20).buffer(4)).difference(Point(70, 20).buffer(2))
+    pin = '[[loads]]\nname = "pin"\nwhere = { hole_near = [75.0, 20.0] }\nforce = [0, -50, 0]'
+    (rb,) = resolve(parse(_case(CLAMP, pin)), [Body.from_layers("b", _layers(two))])
+    ((_, _, ring),) = rb.loads[0][1].holes  # 3 mm from the 4 mm hole at (70, 20): within its diameter
+    assert Point(ring.coords[0]).distance(Point(70, 20)) == pytest.approx(2.0, abs=1e-6)
+    far = pin.replace("[75.0, 20.0]", "[77.0, 20.0]")  # 5 mm from a 4 mm hole: none
+    with pytest.raises(LoadCaseError, match=r"hole_near = \[77\.0, 20\.0\]\) selects no boundary"):
+        resolve(parse(_case(CLAMP, far)), [Body.from_layers("b", _layers(two))])

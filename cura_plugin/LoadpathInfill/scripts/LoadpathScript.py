@@ -102,10 +102,15 @@ class LoadpathScript(Script):
             service_url=get("service_url") or "",
         )
         if not outcome.ok:
-            self.tell_user("Loadpath failed, the G-code is unchanged: " + outcome.message)
+            self.tell_user(
+                "Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): "
+                + outcome.message
+            )
             data = list(data)
             data[0] = r.error_comment(outcome.message) + data[0]
             return data
         for warning in outcome.warnings:
             self.tell_user(warning, "Loadpath infill: warning")
+        if outcome.verdict:
+            self.tell_user(outcome.verdict)
         return outcome.chunks

@@ -1,0 +1,218 @@
+"""A run's verdict: what was replaced and what it gained, in one line every front end shows.
+
+:func:`build` makes a :class:`Verdict` from a pipeline result; :meth:`Verdict.line` is the text the
+command line prints on stderr, the G-code carries as a ``; loadpath: ...`` header comment, the log
+file, the Cura plugin's message, the service's answer and the batch table show.  Everything here is
+arithmetic on what the run already has (splice reports, the print-time estimate of the file), except
+the predicted stiffness change (:func:`loadpath.stiffness.change.predicted_change`: two solves per
+body on the run's own mesh), which a caller may leave out.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import asdict, dataclass, field
+from datetime import datetime, timezone
+from typing import Any
+
+from loadpath import __version__
+
+__all__ = ["Verdict", "build", "HEADER_PREFIX", "header_line", "find_header", "total_print_seconds"]
+
+HEADER_PREFIX = "; loadpath: "
+"""How the verdict starts in the G-code header (and how a processed file is recognised)."""
+
+_HEADER_RE = re.compile(r"^; loadpath: loadpath (\S+) on (\S+?):")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What a run did and gained.
+
+    Attributes
+    ----------
+    version : str
+        loadpath's version.
+    date : str
+        UTC time of the run, ISO 8601 (``2026-12-01T22:10Z``).
+    changed : bool
+        Some infill was replaced.
+    layers : tuple of int
+        1-based layers with replaced blocks.
+    kinds : tuple of str
+        Slicer features replaced (``"Internal infill"``, ``"Solid infill"``, ...).
+    engine : str
+    stiffness : float or None
+        Predicted stiffness change, absolute (``+0.08``: 8 % stiffer); None: not predicted.
+    stiffness_same_mass : float or None
+        The same per gram of material.
+    failure_load : float or None
+        Predicted failure-load change (None: not modelled).
+    model : str
+        What the prediction covers (``"stiffness only"``).
+    time_change_s : float
+        Print-time change (the splicer's kinematic estimate), s.
+    time_change_pct : float or None
+        Against the slicer's own estimate of the whole print (None when the file has none).
+    mass_change_g : float
+    warnings : int
+    note : str
+        Why nothing was replaced, or what the prediction could not do.
+    """
+
+    version: str
+    date: str
+    changed: bool
+    layers: tuple[int, ...] = ()
+    kinds: tuple[str, ...] = ()
+    engine: str = ""
+    stiffness: float | None = None
+    stiffness_same_mass: float | None = None
+    failure_load: float | None = None
+    model: str = "stiffness only"
+    time_change_s: float = 0.0
+    time_change_pct: float | None = None
+    mass_change_g: float = 0.0
+    warnings: int = 0
+    note: str = ""
+    extra: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def line(self) -> str:
+        """The one-line summary (no newline)."""
+        head = f"loadpath {self.version} on {self.date}: "
+        w = f"{self.warnings} warning{'s' * (self.warnings != 1)}"
+        if not self.changed:
+            return head + f"nothing replaced ({self.note or 'no infill to replace'}); the G-code is the slicer's; {w}"
+        parts = [f"replaced {', '.join(self.kinds)} on {_layers(self.layers)} with {self.engine}"]
+        if self.stiffness is not None and math.isfinite(self.stiffness):
+            fl = (
+                f", failure load {_pct(self.failure_load)}"
+                if self.failure_load is not None
+                else ""
+            )
+            parts.append(
+                f"predicted stiffness {_pct(self.stiffness)} absolute, {_pct(self.stiffness_same_mass)} at the "
+                f"same mass{fl} ({self.model})"
+            )
+        else:
+            parts.append(f"stiffness not predicted ({self.note or 'no model result'})")
+        pct = f" ({self.time_change_pct:+.1f} %)" if self.time_change_pct is not None else ""
+        parts.append(f"print time {self.time_change_s / 60:+.1f} min{pct}")
+        parts.append(f"mass {self.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00"))
+        parts.append(w)
+        return head + "; ".join(parts)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready fields plus ``line``."""
+        d = asdict(self)
+        d.pop("extra")
+        d["layers"], d["kinds"] = list(self.layers), list(self.kinds)
+        d["line"] = self.line()
+        return d
+
+
+def _pct(v: float | None) -> str:
+    return "?" if v is None or not math.isfinite(v) else f"{100 * v:+.1f} %"
+
+
+def _layers(layers: tuple[int, ...]) -> str:
+    if not layers:
+        return "no layers"
+    n = len(layers)
+    span = f"{layers[0]}" if n == 1 else f"{layers[0]}-{layers[-1]}"
+    return f"{n} layer{'s' * (n != 1)} ({span})"
+
+
+_TIME_RE = re.compile(rb"^; estimated printing time \(normal mode\) = (.+?)\s*$", re.M)
+_CURA_TIME_RE = re.compile(rb"^;TIME:([0-9.]+)\s*$", re.M)
+
+
+def total_print_seconds(data: bytes) -> float | None:
+    """The slicer's own estimate of the whole print from a text file's first or last 64 kB, s."""
+    from loadpath.gcode.splice import parse_duration
+
+    for chunk in (data[-65536:], data[:65536]):
+        m = _TIME_RE.search(chunk)
+        if m:
+            return parse_duration(m.group(1).decode("ascii", "replace"))
+        m = _CURA_TIME_RE.search(chunk)
+        if m:
+            return float(m.group(1))
+    return None
+
+
+def build(
+    result,
+    engine: str,
+    filament_diameter: float,
+    warnings: int,
+    density: float = 1.24,
+    stiffness: Any = None,
+    note: str = "",
+    total_seconds: float | None = None,
+) -> Verdict:
+    """Make the verdict of a pipeline result.
+
+    Parameters
+    ----------
+    result : loadpath.pipeline.PipelineResult or None
+        None: the run failed and the slicer's G-code was kept (``note`` says why).
+    engine : str
+    filament_diameter : float, mm
+    warnings : int
+        How many warnings the run printed.
+    density : float, g/cm³
+        Of the filament (PLA's 1.24 by default).
+    stiffness : StiffnessChange or None
+        :func:`loadpath.stiffness.change.predicted_change`'s result.
+    note : str
+        Why nothing was replaced, or why the stiffness is missing.
+    total_seconds : float, optional
+        The slicer's estimate of the whole print, for the per-cent change.
+    """
+    date = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%MZ")
+    if result is None or not result.changed:
+        why = note or (result.passthrough if result is not None and result.passthrough else "")
+        return Verdict(__version__, date, False, engine=engine, warnings=warnings, note=why)
+    blocks = result.splice.blocks
+    layers = tuple(sorted({b.layer + 1 for b in blocks}))
+    kinds = tuple(dict.fromkeys(b.feature for b in blocks))
+    farea = math.pi * filament_diameter**2 / 4
+    dmass = sum(b.filament_new - b.filament_old for b in blocks) * farea * density * 1e-3
+    dt = float(result.splice.seconds_delta)
+    pct = 100.0 * dt / total_seconds if total_seconds else None
+    return Verdict(
+        __version__,
+        date,
+        True,
+        layers,
+        kinds,
+        engine,
+        None if stiffness is None else float(stiffness.absolute),
+        None if stiffness is None else float(stiffness.same_mass),
+        None if stiffness is None else stiffness.failure_load,
+        "stiffness only" if stiffness is None else stiffness.label,
+        dt,
+        pct,
+        float(dmass),
+        warnings,
+        note,
+        {"stiffness": stiffness},
+    )
+
+
+def header_line(verdict: Verdict) -> str:
+    """The verdict as the G-code comment (no newline)."""
+    return HEADER_PREFIX + verdict.line()
+
+
+def find_header(data: bytes, limit: int = 65536) -> tuple[str, str] | None:
+    """``(version, date)`` of loadpath's own header comment in a file's first ``limit`` bytes, or None."""
+    head = data[:limit]
+    i = head.find(HEADER_PREFIX.encode())
+    if i < 0:
+        return None
+    line = head[i : head.find(b"\n", i) if b"\n" in head[i:] else len(head)].decode("utf-8", "replace")
+    m = _HEADER_RE.match(line)
+    return (m.group(1), m.group(2)) if m else ("?", "an unknown date")
