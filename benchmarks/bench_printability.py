@@ -10,7 +10,8 @@ Parts (this benchmark's own; the acceptance parts are kept elsewhere), 2 top / 2
 ``bar``      tension bar 90 x 18 x 2.4 mm with a 5 mm hole, clamped at x_min, pulled at x_max;
 ``beam``     cantilever 80 x 12 x 2.4 mm, clamped at x_min, 200 N down at x_max;
 ``bracket``  L-bracket 50 x 36 x 2.4 mm, 12 mm legs, 5 mm bolt hole; clamped at y_max, 300 N down at x_max;
-``islands``  two 36 x 16 x 2.4 mm plates 8 mm apart (one object, two islands), pulled along x;
+``islands``  two 36 x 16 x 2.4 mm plates 8 mm apart (one object, two islands), each clamped at y_min
+             and pulled at y_max;
 ``gyroid``   the bar at 30 % gyroid, sparse infill replaced.
 
 Each part is sliced by the real PrusaSlicer 2.5 (MK3S presets: ``retract_before_travel = 1``,
@@ -63,6 +64,16 @@ name = "tip"
 where = { side = "x_max", within = 3.0 }
 force = [0.0, -200.0, 0.0]
 """
+ACROSS = """version = 1
+[[supports]]
+name = "clamp"
+where = { side = "y_min", within = 3.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "pull"
+where = { side = "y_max", within = 3.0 }
+force = [0.0, 1000.0, 0.0]
+"""
 BRACKET = """version = 1
 [[supports]]
 name = "wall"
@@ -81,7 +92,7 @@ def _parts() -> dict[str, tuple[trimesh.Trimesh, str]]:
         "bar": (slicing.ohs_mesh(90.0, 18.0, T, 5.0), PULL),
         "beam": (beam, BEND),
         "bracket": (slicing.bracket_mesh((50.0, 36.0), 12.0, T, 5.0), BRACKET),
-        "islands": (slicing.two_islands_mesh((36.0, 16.0), 8.0, T), PULL),
+        "islands": (slicing.two_islands_mesh((36.0, 16.0), 8.0, T), ACROSS),
         "gyroid": (slicing.ohs_mesh(90.0, 18.0, T, 5.0), PULL),
     }
 
