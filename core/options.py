@@ -169,6 +169,13 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         "",
         "every other layer of a run of identical layers lies half a pitch over (laid again by the engine)",
     ),
+    Field(
+        "link",
+        "bool",
+        True,
+        "",
+        "link each layer's paths end to end into continuous runs (hairpins and links along the edge)",
+    ),
 )
 """The toolpath options, in the order the help lists them."""
 

@@ -403,6 +403,7 @@ def _run(
         principal=s.principal,
         replace=tuple(s.replace),
         stagger=s.stagger,
+        link=s.link,
         workers=s.jobs or default_workers(),
         check=s.check,
     )

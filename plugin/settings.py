@@ -203,6 +203,14 @@ SCHEMA: tuple[Field, ...] = (
         maximum=1.0,
         group="machine",
     ),
+    Field(
+        "avoid_crossing_perimeters",
+        "bool",
+        False,
+        "",
+        "route travels inside the region instead of across the perimeters (Cura: combing)",
+        group="machine",
+    ),
     Field("use_firmware_retraction", "bool", False, "", "G10/G11 retraction", group="machine"),
     Field(
         "max_volumetric_speed",
@@ -252,6 +260,7 @@ class Settings:
     match_volume: bool = True
     max_correction: float = 0.15
     stagger: bool = True
+    link: bool = True
     jobs: int = 0
     on_failure: str = "fail"
     check: bool = True
@@ -272,6 +281,7 @@ class Settings:
     wipe: bool = False
     retract_before_wipe: float = 0.0
     use_firmware_retraction: bool = False
+    avoid_crossing_perimeters: bool = False
     max_volumetric_speed: float = 0.0
     sources: Mapping[str, str] = field(default_factory=dict, compare=False)
 
@@ -453,6 +463,7 @@ def splice_options(s: Settings):
         wipe=s.wipe,
         before_wipe=s.retract_before_wipe,
         firmware=s.use_firmware_retraction,
+        avoid_crossing=s.avoid_crossing_perimeters,
     )
     plan = PlanOptions(
         nozzle_diameter=s.nozzle_diameter,

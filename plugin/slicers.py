@@ -56,6 +56,7 @@ _PRUSA_KEYS = {  # Settings field -> PrusaSlicer option, then OrcaSlicer's / Bam
         "only_retract_when_crossing_perimeters",
         "reduce_infill_retraction",
     ),
+    "avoid_crossing_perimeters": ("avoid_crossing_perimeters", "reduce_crossing_wall"),
     "wipe": ("wipe",),
     "retract_before_wipe": ("retract_before_wipe",),
     "use_firmware_retraction": ("use_firmware_retraction",),
@@ -204,6 +205,7 @@ def from_cura_settings(cura: Mapping[str, Any]) -> dict[str, Any]:
     combing = str(cura.get("retraction_combing", "")).strip().lower()
     if combing:
         out["only_retract_when_crossing_perimeters"] = combing != "off"
+        out["avoid_crossing_perimeters"] = combing != "off"
     if "relative_extrusion" in cura:
         pass  # the E mode is read from the file itself
     out["wipe"] = False
@@ -254,4 +256,25 @@ def infer_from_moves(program) -> dict[str, Any]:
         if fz:
             out["travel_speed_z"] = fz / 60.0
     out["wipe"] = bool(np.any(m["wipe"] & (m["e"] < 0)))
+    combing = _combs(program)
+    if combing is not None:
+        out["only_retract_when_crossing_perimeters"] = combing
+        out["avoid_crossing_perimeters"] = combing
     return {k: v for k, v in out.items() if v is not None}
+
+
+def _combs(program, long: float = 3.0, least: int = 20) -> bool | None:
+    """Whether the file combs: most of its travels of ``long`` mm or more, between two extrusions of
+    one layer, are made without a retraction (Cura's combing; CuraEngine 4.13 retracts 0-11 times in
+    a file with thousands of travels).  None when it has fewer than ``least`` such travels.
+    """
+    m = program.moves
+    xy = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])
+    t = np.flatnonzero(m["travel"] & (m["layer"] >= 0) & (xy >= long))
+    if len(t) < least:
+        return None
+    held = program.state.retracted[m["line"][t]] > 1e-9
+    fw = getattr(program.state, "fw_retracted", None)
+    if fw is not None:
+        held |= np.asarray(fw[m["line"][t]], dtype=bool)
+    return bool(np.mean(held) < 0.3)

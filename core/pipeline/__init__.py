@@ -43,6 +43,7 @@ import numpy as np
 import shapely
 from loadpath import options
 from loadpath.engines import Machine
+from loadpath.engines.linking import link_paths
 from loadpath.errors import SpliceError
 from loadpath.gcode import Program, parse
 from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger
@@ -93,6 +94,9 @@ class PipelineOptions:
     overlap : bool
         Grow each unit's region by the slicer's own infill-perimeter overlap before the engine
         fills it (:func:`loadpath.pipeline.units.with_overlap`).
+    link : bool
+        Link each job's paths (and its staggered copy) end to end into continuous runs
+        (:mod:`loadpath.engines.linking`), whatever the engine.
     """
 
     engine: str = options.field("engine").default
@@ -105,6 +109,7 @@ class PipelineOptions:
     check: bool = True
     volume_tol: float = 0.03
     overlap: bool = True
+    link: bool = options.field("link").default
 
     def __post_init__(self) -> None:
         # the toolpath options' own checks (loadpath.options), so a caller that builds these
@@ -136,6 +141,12 @@ class JobResult:
         Whether the engine laid the staggered copy itself (the swarm or the streamlines' default
         mode, from seeds half a pitch on: :func:`loadpath.pipeline.paths.lays_phase`) rather than
         the paths being shifted sideways (:func:`loadpath.pipeline.paths.stagger`).
+    printed : tuple of Path
+        The paths as printed on the first layer (simplified, linked into runs); empty when they
+        are the engine's.
+    links : dict
+        What the linking did (:func:`loadpath.engines.linking.link_paths` stats, first layer and
+        staggered copy summed), empty when off.
     """
 
     job: Job
@@ -145,6 +156,8 @@ class JobResult:
     staggered: list[bool]
     shifted: tuple[Path, ...] = ()
     shifted_by_engine: bool = False
+    printed: tuple[Path, ...] = ()
+    links: dict = field(default_factory=dict)
 
     @property
     def layers(self) -> list[int]:
@@ -423,7 +436,18 @@ def _fills(
     for ji, (job, (tp, secs)) in enumerate(zip(jobs, results, strict=True)):
         members = [units[i] for i in job.units]
         by_engine = ji in shifted_paths and bool(shifted_paths[ji].paths)
-        base = _simplified(tp.paths, plan)
+        link_stats: dict = {}
+
+        def linked(ps: tuple[Path, ...]) -> tuple[Path, ...]:
+            if not options.link or len(ps) < 2:
+                return ps
+            runs, st = link_paths(ps, job.unit.fill_region, job.unit.pitch)
+            for k, v in st.items():
+                if isinstance(v, (int, float)):
+                    link_stats[k] = link_stats.get(k, 0) + v
+            return runs
+
+        base = linked(_simplified(tp.paths, plan))
         shifted = None
         flags = []
         for k, u in enumerate(sorted(members, key=lambda m: m.layer)):
@@ -431,9 +455,11 @@ def _fills(
             if use_shift and shifted is None:
                 u0 = job.unit
                 if by_engine:
-                    shifted = _simplified(shifted_paths[ji].paths, plan)
+                    shifted = linked(_simplified(shifted_paths[ji].paths, plan))
                 else:
-                    shifted = _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
+                    shifted = linked(
+                        _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
+                    )
             paths = shifted if use_shift else base
             if not u.fill_region.equals(job.unit.fill_region):
                 paths = clip_to(paths, u.fill_region, 2.0 * u.pitch)
@@ -451,6 +477,8 @@ def _fills(
                 flags,
                 shifted or (),
                 shifted is not None and by_engine,
+                base if options.link else (),
+                link_stats,
             )
         )
     fills = []

@@ -11,7 +11,9 @@ Steps
    drop vertices closer than ``min_segment`` to the previous one (G-code prints 3 decimals; a
    segment must carry a visible amount of E).
 2. Order the paths greedily: from the current nozzle position, the nearest free path end next,
-   reversing the path when its far end is nearer (what slicers do for infill).
+   reversing the path when its far end is nearer (what slicers do for infill); then 2-opt
+   shortens the travel further (:func:`order_paths`).  The first path starts where the nozzle
+   is (the seam follows the previous block or layer).
 3. Join consecutive paths into one chain with a printed **link** when the gap is at most
    ``link_max`` and the straight link lies inside the replace region (PrusaSlicer links its
    rectilinear lines the same way); otherwise the splicer travels.
@@ -287,8 +289,15 @@ def simplify(
     return list(zip(np.split(pts[keep], bounds), np.split(pit[keep], bounds), strict=True))
 
 
-def order_paths(paths: Sequence[tuple[Points2, Floats]], start: Points2) -> list[tuple[Points2, Floats]]:
-    """Greedy nearest-neighbour print order from ``start`` (paths reversed where that is nearer).
+def order_paths(
+    paths: Sequence[tuple[Points2, Floats]], start: Points2, passes: int = 4, max_2opt: int = 300
+) -> list[tuple[Points2, Floats]]:
+    """Print order from ``start``: greedy nearest neighbour, then 2-opt (paths reversed where nearer).
+
+    The greedy order takes the nearest free path end next (what slicers do for infill); 2-opt then
+    reverses any stretch of the order (each path in it turned round) that shortens the travel
+    ``end(k - 1) -> start(k)`` summed, the first travel from the nozzle included, for up to
+    ``passes`` passes (orders of more than ``max_2opt`` paths keep the greedy one).
 
     Parameters
     ----------
@@ -303,7 +312,7 @@ def order_paths(paths: Sequence[tuple[Points2, Floats]], start: Points2) -> list
     tails = np.array([p[0][-1] for p in paths])
     free = np.ones(m, dtype=bool)
     pos = np.asarray(start, dtype=float)
-    out = []
+    seq: list[tuple[int, bool]] = []
     for _ in range(m):
         dh = np.where(free, np.hypot(*(heads - pos).T), np.inf)
         dt = np.where(free, np.hypot(*(tails - pos).T), np.inf)
@@ -313,12 +322,46 @@ def order_paths(paths: Sequence[tuple[Points2, Floats]], start: Points2) -> list
         else:
             k, rev = it, True
         free[k] = False
+        seq.append((k, rev))
+        pos = heads[k] if rev else tails[k]
+    if 2 < m <= max_2opt:
+        seq = _two_opt(seq, heads, tails, np.asarray(start, dtype=float), passes)
+    out = []
+    for k, rev in seq:
         pts, pitch = paths[k]
-        if rev:
-            pts, pitch = pts[::-1], pitch[::-1]
-        out.append((pts, pitch))
-        pos = pts[-1]
+        out.append((pts[::-1], pitch[::-1]) if rev else (pts, pitch))
     return out
+
+
+def _two_opt(
+    seq: list[tuple[int, bool]], heads: Points2, tails: Points2, start: Points2, passes: int
+) -> list[tuple[int, bool]]:
+    """2-opt on an open tour of oriented paths from a fixed start (see :func:`order_paths`)."""
+    idx = np.array([k for k, _ in seq])
+    rev = np.array([r for _, r in seq])
+    for _ in range(passes):
+        improved = False
+        for i in range(len(idx) - 1):
+            s_pt = np.where(rev[:, None], tails[idx], heads[idx])  # where each path starts
+            e_pt = np.where(rev[:, None], heads[idx], tails[idx])  # and ends
+            before = start if i == 0 else e_pt[i - 1]
+            j = np.arange(i + 1, len(idx))
+            old = np.hypot(*(s_pt[i] - before)) + np.where(
+                j + 1 < len(idx), np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - e_pt[j]).T), 0.0
+            )
+            new = np.hypot(*(e_pt[j] - before).T) + np.where(
+                j + 1 < len(idx), np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - s_pt[i]).T), 0.0
+            )
+            gain = old - new
+            best = int(np.argmax(gain))
+            if gain[best] > 1e-6:
+                jj = int(j[best])
+                idx[i : jj + 1] = idx[i : jj + 1][::-1]
+                rev[i : jj + 1] = ~rev[i : jj + 1][::-1]
+                improved = True
+        if not improved:
+            break
+    return [(int(k), bool(r)) for k, r in zip(idx, rev, strict=True)]
 
 
 def _segment_values(v: Floats) -> Floats:

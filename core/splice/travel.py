@@ -5,9 +5,16 @@ No travel leaves the replace region primed.
 Rules (PrusaSlicer's ``GCode::needs_retraction`` and ``Wipe``, Cura's combing/min-travel, as far as
 a post-processor can apply them; ``slicer-conventions.md`` §5):
 
-- a travel that leaves the region (its straight segment is not inside it) always retracts;
+- with ``avoid_crossing_perimeters`` (PrusaSlicer) or combing (Cura, and wherever
+  ``only_retract_when_crossing_perimeters`` / ``reduce_infill_retraction`` is on), a travel whose
+  straight segment leaves the region is routed inside it: along the region's edge around each
+  piece it would cross (:func:`route`); a travel that cannot be routed (another island) stays
+  straight;
+- a travel that leaves the region (not routed) always retracts, however short (PrusaSlicer would
+  not retract one under ``retract_before_travel``; the splicer never leaves the region primed);
 - inside the region, a travel retracts when it is longer than ``retract_before_travel``, unless
-  ``only_retract_when_crossing_perimeters`` (Cura: combing) is on;
+  ``only_retract_when_crossing_perimeters`` (Cura: combing; Orca / Bambu:
+  ``reduce_infill_retraction``) is on;
 - a retraction wipes first when ``wipe`` is on: it moves back along the path just printed, at
   0.8 x travel speed, for as long as the retraction takes at ``retract_speed``, pulling 95 % of the
   length (what is left, and the ``retract_before_wipe`` part, are E-only moves) -- verified on
@@ -36,6 +43,7 @@ __all__ = [
     "unretract",
     "wipe_back",
     "wipe_points",
+    "route",
 ]
 
 
@@ -69,6 +77,8 @@ class Retraction:
         ``retract_before_wipe`` as a fraction (0..1).
     firmware : bool
         ``use_firmware_retraction``: ``G10`` / ``G11``.
+    avoid_crossing : bool
+        ``avoid_crossing_perimeters`` [combing]: route travels inside the region.
     """
 
     length: float = 0.8
@@ -82,6 +92,7 @@ class Retraction:
     wipe: bool = False
     before_wipe: float = 0.0
     firmware: bool = False
+    avoid_crossing: bool = False
 
 
 @dataclass(frozen=True)
@@ -123,12 +134,75 @@ class TravelState:
             shapely.prepare(self.region)
         self.n_travels = 0
         self.n_retracts = 0
+        self._rings: list | None = None
+
+    @property
+    def rings(self) -> list:
+        """The region's boundary rings (for routing), computed on first use."""
+        if self._rings is None:
+            self._rings = [] if self.region is None else list(shapely.get_parts(shapely.get_parts(self.region.boundary)))
+        return self._rings
 
 
 def _inside(st: TravelState, a: Points2, b: Points2) -> bool:
     if st.region is None:
         return True
     return bool(st.region.covers(LineString([a, b])))
+
+
+def route(st: TravelState, a: Points2, b: Points2) -> Points2 | None:
+    """A travel from ``a`` to ``b`` inside the region: the straight segment, with each piece that leaves
+    the region replaced by the shorter way round the edge it crosses; ``(k, 2)`` points after ``a``
+    (ending with ``b``), or None when that is not possible (another island, several edges).
+    """
+    from shapely.ops import substring
+
+    line = LineString([a, b])
+    if st.region is None or st.region.covers(line):
+        return np.asarray(b, dtype=float)[None]
+    outside = shapely.get_parts(line.difference(st.region))
+    if len(outside) == 0:
+        return np.asarray(b, dtype=float)[None]
+    pts: list[np.ndarray] = []
+    pos_on_line = []
+    for piece in outside:
+        c = shapely.get_coordinates(piece)
+        if len(c) < 2:
+            continue
+        t0, t1 = line.project(shapely.points(c[0])), line.project(shapely.points(c[-1]))
+        pos_on_line.append((min(t0, t1), c[0] if t0 <= t1 else c[-1], c[-1] if t0 <= t1 else c[0]))
+    pos_on_line.sort(key=lambda x: x[0])
+    for _, p, q in pos_on_line:
+        pp, qp = shapely.points(p), shapely.points(q)
+        d = np.array([ring.distance(pp) + ring.distance(qp) for ring in st.rings])
+        if not len(d) or d.min() > 0.01:
+            return None
+        ring = st.rings[int(np.argmin(d))]
+        total = ring.length
+        sp, sq = ring.project(pp), ring.project(qp)
+        fwd = (sq - sp) % total
+        if fwd <= total - fwd:
+            start, length, flip = sp, fwd, False
+        else:
+            start, length, flip = sq, total - fwd, True
+        end = start + length
+        if end <= total:
+            walk = shapely.get_coordinates(substring(ring, start, end))
+        else:
+            walk = np.vstack(
+                [
+                    shapely.get_coordinates(substring(ring, start, total)),
+                    shapely.get_coordinates(substring(ring, 0.0, end - total))[1:],
+                ]
+            )
+        pts.append(walk[::-1] if flip else walk)
+    pts.append(np.asarray(b, dtype=float)[None])
+    full = np.vstack([np.asarray(a, dtype=float)[None], *pts])
+    keep = np.r_[True, np.hypot(*np.diff(full, axis=0).T) > 1e-6]
+    full = full[keep]
+    if len(full) < 2 or not st.region.covers(LineString(full)):
+        return None
+    return full[1:]
 
 
 def wipe_points(chain_pts: Points2, distance: float) -> Points2:
@@ -222,12 +296,20 @@ def travel(
     st.n_travels += 1
     primed = w.retracted <= 1e-9 and not st.fw
     own = False
-    if primed and d > 1e-9:
-        r = st.motion.retraction
+    r = st.motion.retraction
+    way = np.asarray(target, dtype=float)[None]
+    if d > 1e-9:
         inside = _inside(st, here, target)
-        if not inside or (d > r.before_travel and not r.only_when_crossing):
+        if not inside and (r.avoid_crossing or r.only_when_crossing):
+            routed = route(st, here, target)
+            if routed is not None:
+                way, inside = routed, True
+                d = float(np.sum(np.hypot(*np.diff(np.vstack([here[None], way]), axis=0).T)))
+        if primed and (not inside or (d > r.before_travel and not r.only_when_crossing)):
             retract(w, st, last)
             own = True
-    w.travel(float(target[0]), float(target[1]), f or st.motion.travel_f, z)
+    for k, (x, y) in enumerate(way):
+        last_leg = k == len(way) - 1
+        w.travel(float(x), float(y), f or st.motion.travel_f, z if last_leg else None)
     if own:
         unretract(w, st)

@@ -21,7 +21,7 @@ import numpy as np
 import shapely
 from loadpath.errors import LoadpathError
 from loadpath.loadcase import Body, merge_slabs
-from loadpath.loadcase.body import polygons_of
+from loadpath.body import polygons_of
 from shapely.geometry import LineString, MultiLineString, Polygon
 
 __all__ = [

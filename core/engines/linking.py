@@ -1,0 +1,438 @@
+"""Continuous runs: a layer's paths linked end to end the way a slicer links its infill lines.
+
+A shared finishing stage for every engine's output (the pipeline applies it to each job's paths, to
+the staggered copies and to every principal direction; :func:`link_paths`).  The engines return
+hundreds of separate paths per layer; printed one by one, each costs a travel and, on PrusaSlicer's
+``retract_before_travel = 1`` mm, a retraction (issue 19: 12-59x the slicer's retractions).  A
+slicer's rectilinear infill is a few zig-zags: each line's end is linked to its neighbour's by a
+printed piece along the infill domain's edge.
+
+Two kinds of link join the end of one path to the end of another (never two ends of one path):
+
+hairpin / bridge
+    the straight segment between two ends (neighbours that end side by side, or fronts that meet
+    head-on);
+boundary link
+    when the straight segment leaves the region or comes too close to another path, and both ends
+    lie near the domain's edge: the piece of the edge between the two ends, taken at the ends'
+    own inset (the slicer's zig-zag connection), from one end to the other.
+
+A link is accepted when
+
+* it is at most ``max_link`` pitches long;
+* it leaves each end forward or sideways (at most ``max_turn`` degrees off the end's own
+  direction), so it never doubles back over the path it starts from;
+* it lies inside the region and keeps ``clearance`` pitches from every other path (sampled every
+  quarter pitch; so it crosses nothing) and from every link accepted before it;
+
+shortest links first, each end once, never closing a loop (union-find), so the result is chains.
+Each link is printed with the pitch of its ends (interpolated along it): the flow of the local
+pitch.  Short pieces that cost a travel and add little are dropped first (:func:`drop_fragments`).
+
+The runs are returned in no particular order: the splicer orders them (nearest neighbour from the
+nozzle, then 2-opt; :func:`loadpath.splice.plan.order_paths`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from loadpath._typing import Points2, Region
+from loadpath.toolpath import Path
+from scipy.spatial import cKDTree
+
+__all__ = ["LinkOptions", "link_paths", "drop_fragments", "pieces"]
+
+
+@dataclass(frozen=True)
+class LinkOptions:
+    """How paths are linked into runs (module docstring).
+
+    Attributes
+    ----------
+    max_link : float
+        Longest straight link, in nominal pitches.
+    max_edge_link : float
+        Longest boundary link, in nominal pitches (ends that meet the edge at a slant lie several
+        pitches apart along it).
+    max_long_link : float
+        Longest straight link of the second pass (ends left free by the first), in pitches: such a
+        link runs only through what no path covers (the clearance), e.g. across a void.
+    max_turn : float, degrees
+        Largest angle between an end's outward direction and the link leaving it.
+    clearance : float
+        Smallest distance of a link to other paths and links, in pitches.
+    edge_reach : float
+        An end within this many pitches of the region's edge may take a boundary link.
+    min_fragment : float
+        Runs shorter than this many pitches are dropped when most of their bead lies on others'
+        (:func:`drop_fragments`); 0: keep every run.
+    fragment_share : float
+        A short run is dropped when less than this share of its bead covers what no other bead does.
+    """
+
+    max_link: float = 3.0
+    max_edge_link: float = 12.0
+    max_long_link: float = 8.0
+    max_turn: float = 135.0
+    clearance: float = 0.5
+    edge_reach: float = 1.2
+    min_fragment: float = 3.0
+    fragment_share: float = 0.5
+
+
+def _root(parent: list[int], i: int) -> int:
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+def _samples(points: Points2, step: float) -> Points2:
+    """Points along a polyline at most ``step`` apart (vertices included)."""
+    d = np.hypot(*np.diff(points, axis=0).T)
+    n = np.maximum(1, np.ceil(d / step).astype(np.int64))
+    rep = np.repeat(np.arange(len(d)), n)
+    k = np.arange(len(rep)) - np.repeat(np.cumsum(n) - n, n)
+    t = (k / n[rep])[:, None]
+    out = points[rep] + t * (points[rep + 1] - points[rep])
+    return np.vstack([out, points[-1:]])
+
+
+def _ring_link(
+    region: Region, a: Points2, b: Points2, inset: float, limit: float, cache: dict | None = None
+) -> Points2 | None:
+    """The edge of ``region`` shrunk by ``inset``, from ``a`` to ``b`` the shorter way, or None.
+
+    Both ends must lie within ``limit / 2`` of the same ring and the piece between their
+    projections must be at most ``limit`` long.
+    """
+    from shapely.ops import substring
+
+    key = round(inset, 2)
+    if cache is not None and key in cache:
+        rings = cache[key]
+    else:
+        inner = region.buffer(-key, quad_segs=4) if key > 1e-6 else region
+        rings = shapely.get_parts(shapely.get_parts(shapely.boundary(inner))) if not inner.is_empty else []
+        if cache is not None:
+            cache[key] = rings
+    if not len(rings):
+        return None
+    pa, pb = shapely.points(a), shapely.points(b)
+    da = shapely.distance(rings, pa)
+    k = int(np.argmin(da))
+    ring = rings[k]
+    if da[k] > 0.5 * limit or float(shapely.distance(ring, pb)) > 0.5 * limit:
+        return None
+    total = float(ring.length)
+    sa, sb = float(ring.project(pa)), float(ring.project(pb))
+    if ring.is_closed:
+        fwd = (sb - sa) % total
+        back = total - fwd
+        if min(fwd, back) > limit:
+            return None
+        start, length, flip = (sa, fwd, False) if fwd <= back else (sb, back, True)
+        end = start + length
+        if end <= total:
+            piece = shapely.get_coordinates(substring(ring, start, end))
+        else:
+            piece = np.vstack(
+                [
+                    shapely.get_coordinates(substring(ring, start, total)),
+                    shapely.get_coordinates(substring(ring, 0.0, end - total))[1:],
+                ]
+            )
+    else:
+        lo, hi = sorted((sa, sb))
+        if hi - lo > limit:
+            return None
+        piece = shapely.get_coordinates(substring(ring, lo, hi))
+        flip = sa > sb
+    if flip:
+        piece = piece[::-1]
+    pts = np.vstack([a[None], piece, b[None]])
+    keep = np.r_[True, np.hypot(*np.diff(pts, axis=0).T) > 1e-6]
+    pts = pts[keep]
+    return pts if len(pts) >= 2 else None
+
+
+def link_paths(
+    paths: Sequence[Path], region: Region, pitch: float, options: LinkOptions = LinkOptions()
+) -> tuple[tuple[Path, ...], dict]:
+    """Link paths end to end into runs (module docstring).
+
+    Parameters
+    ----------
+    paths : sequence of Path
+    region : Polygon or MultiPolygon, mm
+        The replace region: links stay inside it.
+    pitch : float, mm
+        Nominal pitch (unit of the options' lengths).
+    options : LinkOptions
+
+    Returns
+    -------
+    runs : tuple of Path
+        The linked runs (a run's ``kind`` is ``"continuous"`` when any of its paths is).
+    stats : dict
+        ``links``, ``boundary_links``, ``link_mm``, ``paths_in``, ``runs``, ``dropped`` (fragments),
+        and ``links_at`` (per run: the index ranges of its link segments, for :func:`pieces`).
+    """
+    ps = [p for p in paths if len(p.points) >= 2]
+    stats: dict = {"paths_in": len(ps), "links": 0, "boundary_links": 0, "link_mm": 0.0, "dropped": 0}
+    if options.min_fragment > 0:
+        ps, dropped = drop_fragments(ps, options.min_fragment * pitch, options.fragment_share)
+        stats["dropped"] = dropped
+    n = len(ps)
+    if n < 2:
+        stats["runs"] = n
+        return tuple(ps), stats
+    limit = options.max_link * pitch
+    edge_limit = max(options.max_edge_link, options.max_link) * pitch
+    clear = options.clearance * pitch
+    # ends: 2 i = head of path i, 2 i + 1 = its tail; outward direction from a point ~ half a pitch in
+    e_pt = np.empty((2 * n, 2))
+    e_dir = np.empty((2 * n, 2))
+    e_w = np.empty(2 * n)
+    for i, p in enumerate(ps):
+        q = p.points
+        for side, (tip, j) in enumerate(((q[0], 1), (q[-1], len(q) - 2))):
+            cum = np.hypot(*(q - tip).T)
+            far = np.flatnonzero(cum >= 0.5 * pitch)
+            ref = q[far[0] if side == 0 else far[-1]] if len(far) else q[j]
+            v = tip - ref
+            e_pt[2 * i + side] = tip
+            e_dir[2 * i + side] = v / max(float(np.hypot(*v)), 1e-12)
+            e_w[2 * i + side] = p.pitch[0] if side == 0 else p.pitch[-1]
+    # every path densely sampled, for the clearance test
+    samp = [_samples(p.points, 0.25 * pitch) for p in ps]
+    s_pid = np.repeat(np.arange(n), [len(s) for s in samp])
+    tree = cKDTree(np.concatenate(samp))
+    pairs = cKDTree(e_pt).query_pairs(edge_limit, output_type="ndarray")
+    if not len(pairs):
+        stats["runs"] = n
+        return tuple(ps), stats
+    a, b = pairs[:, 0], pairs[:, 1]
+    ok = (a // 2) != (b // 2)
+    a, b = a[ok], b[ok]
+    v = e_pt[b] - e_pt[a]
+    gap = np.hypot(*v.T)
+    u = v / np.maximum(gap, 1e-12)[:, None]
+    cos_t = np.cos(np.radians(options.max_turn))
+    shapely.prepare(region)
+    grown = region.buffer(1e-3)
+    shapely.prepare(grown)
+    edge_d = shapely.distance(region.boundary, shapely.points(e_pt))
+
+    def clear_of_paths(pts: Points2, pa: int, pb: int) -> bool:
+        s = _samples(pts, 0.25 * pitch)
+        hits = tree.query_ball_point(s, clear - 0.125 * pitch)
+        for h in hits:
+            if h and np.any((s_pid[h] != pa) & (s_pid[h] != pb)):
+                return False
+        return True
+
+    straight_dir = (np.sum(e_dir[a] * u, axis=1) >= cos_t) & (np.sum(-e_dir[b] * u, axis=1) >= cos_t)
+    straight_in = np.zeros(len(a), dtype=bool)
+    if straight_dir.any():
+        k = np.flatnonzero(straight_dir)
+        segs = shapely.linestrings(np.stack([e_pt[a[k]], e_pt[b[k]]], axis=1))
+        straight_in[k] = shapely.covers(grown, segs)
+    near_edge = (edge_d[a] <= options.edge_reach * pitch) & (edge_d[b] <= options.edge_reach * pitch)
+    straight_dir &= gap <= limit
+    candidates = np.flatnonzero((straight_dir & straight_in) | near_edge)
+    order = candidates[np.argsort(gap[candidates], kind="stable")]
+
+    ring_cache: dict = {}
+    used = np.zeros(2 * n, dtype=bool)
+    parent = list(range(n))
+    link: dict[int, tuple[int, Points2]] = {}  # end -> (other end, link points from this end)
+    laid: list[Points2] = []
+    laid_tree: list[cKDTree | None] = [None]
+    pending: list[Points2] = []
+
+    def forward(pts: Points2, ea: int, eb: int) -> bool:
+        d0, d1 = pts[1] - pts[0], pts[-2] - pts[-1]
+        n0, n1 = np.hypot(*d0), np.hypot(*d1)
+        return bool(
+            (n0 < 1e-9 or float(e_dir[ea] @ d0) / n0 >= cos_t)
+            and (n1 < 1e-9 or float(e_dir[eb] @ d1) / n1 >= cos_t)
+        )
+
+    def accept(ea: int, eb: int, straight_ok: bool, edge_ok: bool) -> None:
+        if used[ea] or used[eb]:
+            return
+        pa, pb = ea // 2, eb // 2
+        ra, rb = _root(parent, pa), _root(parent, pb)
+        if ra == rb:
+            stats["rejected_loop"] = stats.get("rejected_loop", 0) + 1
+            return
+        pts = None
+        boundary = False
+        if straight_ok:
+            cand = np.vstack([e_pt[ea], e_pt[eb]])
+            if clear_of_paths(cand, pa, pb):
+                pts = cand
+        if pts is None and edge_ok:
+            inset = float(np.clip(0.5 * (edge_d[ea] + edge_d[eb]), 0.0, options.edge_reach * pitch))
+            cand = _ring_link(region, e_pt[ea], e_pt[eb], inset, edge_limit, ring_cache)
+            if (
+                cand is not None
+                and forward(cand, ea, eb)
+                and float(np.sum(np.hypot(*np.diff(cand, axis=0).T))) <= edge_limit
+                and grown.covers(shapely.LineString(cand))
+                and clear_of_paths(cand, pa, pb)
+            ):
+                pts, boundary = cand, True
+        if pts is None:
+            stats["rejected_geometry"] = stats.get("rejected_geometry", 0) + 1
+            return
+        # clear of the links laid so far
+        s = _samples(pts, 0.25 * pitch)
+        if pending:
+            laid.extend(pending)
+            laid_tree[0] = cKDTree(np.concatenate(laid))
+            pending.clear()
+        if laid_tree[0] is not None and any(laid_tree[0].query_ball_point(s, clear - 0.125 * pitch)):
+            stats["rejected_links"] = stats.get("rejected_links", 0) + 1
+            return
+        pending.append(s)
+        used[ea] = used[eb] = True
+        parent[ra] = rb
+        link[ea] = (eb, pts)
+        link[eb] = (ea, pts[::-1])
+        stats["links"] += 1
+        stats["boundary_links"] += int(boundary)
+        stats["link_mm"] += float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+
+    for k in order:
+        accept(int(a[k]), int(b[k]), bool(straight_dir[k] and straight_in[k]), bool(near_edge[k]))
+
+    # second pass: the ends still free, by longer straight links through what is left empty
+    if options.max_long_link > options.max_link:
+        free = np.flatnonzero(~used)
+        if len(free) > 1:
+            fp = cKDTree(e_pt[free]).query_pairs(options.max_long_link * pitch, output_type="ndarray")
+            if len(fp):
+                fa, fb = free[fp[:, 0]], free[fp[:, 1]]
+                keep = (fa // 2) != (fb // 2)
+                fa, fb = fa[keep], fb[keep]
+                fv = e_pt[fb] - e_pt[fa]
+                fg = np.hypot(*fv.T)
+                fu = fv / np.maximum(fg, 1e-12)[:, None]
+                ok = (np.sum(e_dir[fa] * fu, axis=1) >= cos_t) & (np.sum(-e_dir[fb] * fu, axis=1) >= cos_t)
+                fa, fb, fg = fa[ok], fb[ok], fg[ok]
+                if len(fa):
+                    inside = shapely.covers(grown, shapely.linestrings(np.stack([e_pt[fa], e_pt[fb]], axis=1)))
+                    fa, fb, fg = fa[inside], fb[inside], fg[inside]
+                    for k in np.argsort(fg, kind="stable"):
+                        accept(int(fa[k]), int(fb[k]), True, False)
+
+    runs, spans = _walk(ps, link, e_w)
+    stats["runs"] = len(runs)
+    stats["links_at"] = spans
+    return tuple(runs), stats
+
+
+def _walk(ps: list[Path], link: dict[int, tuple[int, Points2]], e_w: np.ndarray) -> tuple[list[Path], list]:
+    """Chains of paths and links, each from a free end (no loops, so one exists)."""
+    n = len(ps)
+    done = np.zeros(n, dtype=bool)
+    runs: list[Path] = []
+    spans: list[list[tuple[int, int]]] = []
+    for i in range(n):
+        if done[i]:
+            continue
+        end = 2 * i  # walk off i's head to find a free end of its chain
+        while end in link:
+            other = link[end][0]
+            end = other ^ 1  # the far end of the next path
+        # ``end`` is free: the chain starts there, entering its path at ``end``
+        pts_c, pit_c, kinds, at = [], [], set(), []
+        count = 0
+        enter = end
+        while True:
+            pi = enter // 2
+            done[pi] = True
+            p = ps[pi]
+            q, w = (p.points, p.pitch) if enter % 2 == 0 else (p.points[::-1], p.pitch[::-1])
+            pts_c.append(q)
+            pit_c.append(w)
+            count += len(q)
+            kinds.add(p.kind)
+            leave = enter ^ 1
+            if leave not in link:
+                break
+            other, lp = link[leave]
+            inner = lp[1:-1]
+            if len(inner):
+                seg = np.hypot(*np.diff(lp, axis=0).T)
+                cum = np.cumsum(seg)[:-1] / max(float(seg.sum()), 1e-12)
+                pts_c.append(inner)
+                pit_c.append(e_w[leave] + cum * (e_w[other] - e_w[leave]))
+            at.append((count - 1, count + len(inner)))  # link segments: vertex count-1 .. next path's first
+            count += len(inner)
+            enter = other
+        pts = np.concatenate(pts_c)
+        pit = np.concatenate(pit_c)
+        keep = np.r_[True, np.hypot(*np.diff(pts, axis=0).T) > 1e-9]
+        if not keep.all():  # a link starting exactly at a vertex: drop the repeat, shift the spans
+            idx = np.cumsum(keep) - 1
+            at = [(int(idx[x]), int(idx[min(y, len(idx) - 1)])) for x, y in at]
+            pts, pit = pts[keep], pit[keep]
+        runs.append(Path(pts, pit, "continuous" if "continuous" in kinds else "fill"))
+        spans.append(at)
+    return runs, spans
+
+
+def pieces(runs: Sequence[Path], spans: Sequence[Sequence[tuple[int, int]]]) -> list[Path]:
+    """Split linked runs back into their paths and their links (each a separate bead).
+
+    For measuring overlap honestly: a metric that unions each path's bead with itself would not
+    count where a link's bead lies on the ends it joins.
+    """
+    out: list[Path] = []
+    for r, at in zip(runs, spans, strict=True):
+        cuts = [0]
+        for x, y in at:
+            cuts += [x, y]
+        cuts.append(len(r.points) - 1)
+        for s, z in zip(cuts[:-1], cuts[1:], strict=True):
+            if z > s:
+                out.append(Path(r.points[s : z + 1], r.pitch[s : z + 1], r.kind))
+    return out
+
+
+def drop_fragments(paths: Sequence[Path], min_length: float, share: float) -> tuple[list[Path], int]:
+    """Drop paths shorter than ``min_length`` whose bead mostly lies on other beads.
+
+    A short path costs a travel (and a retraction) like a long one; it earns it only where it
+    covers what nothing else does.  Its bead (its local pitch wide) is compared with the union of
+    the other beads near it: when less than ``share`` of it is its own, it goes.
+    """
+    ps = list(paths)
+    if not ps:
+        return ps, 0
+    length = np.array([p.length for p in ps])
+    short = np.flatnonzero(length < min_length)
+    if not len(short):
+        return ps, 0
+    lines = shapely.linestrings(np.concatenate([p.points for p in ps]), indices=np.repeat(np.arange(len(ps)), [len(p.points) for p in ps]))
+    radius = np.array([0.5 * float(np.median(p.pitch)) for p in ps])
+    beads = shapely.buffer(lines, radius, quad_segs=4)
+    tree = shapely.STRtree(beads)
+    drop = np.zeros(len(ps), dtype=bool)
+    for i in short:
+        own = beads[i]
+        near = tree.query(own)
+        near = near[(near != i) & ~drop[near]]
+        if not len(near):
+            continue
+        rest = own.difference(shapely.union_all(beads[near]))
+        if rest.area < share * own.area:
+            drop[i] = True
+    return [p for p, d in zip(ps, drop, strict=True) if not d], int(drop.sum())

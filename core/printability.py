@@ -1,0 +1,183 @@
+"""What a stretch of G-code costs at the printer: paths, retractions, travel and print time.
+
+Counted from the moves themselves, the same way for the slicer's lines and for loadpath's, so the
+two can be set side by side (issue 19, ``benchmarks/bench_printability.py``, the report):
+
+paths
+    maximal runs of extruding moves (a travel, a wipe or a retraction ends a run);
+retractions
+    retraction events: an E-only pull (or ``G10``) or a wipe, not directly after another one (a
+    wipe followed by its remaining E-only pull is one retraction);
+travel
+    XY length of the travels (wipes excluded), mm;
+print time
+    a firmware-style estimate: each move is a trapezoid (acceleration ``accel``, mm/s^2) whose entry
+    and exit speeds are limited by the junction to its neighbours -- the speed change a corner may
+    take at once is ``jerk`` (mm/s, Marlin's classic jerk taken on the direction change) -- and by
+    what the acceleration can reach over the moves before and after (a forward and a backward pass,
+    as a firmware planner does).  E-only moves take ``|e| / f``.
+
+The acceleration and jerk come from the file's config when it has them
+(:func:`kinematics_from_config`: PrusaSlicer's ``machine_max_acceleration_extruding``,
+``infill_acceleration``, ``machine_max_jerk_x``), else 1000 mm/s^2 and 8 mm/s (Prusa MK3 firmware
+defaults, Cura's ``prusa_i3_mk3`` definition writes no acceleration control).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+__all__ = ["Kinematics", "Printability", "kinematics_from_config", "measure", "print_time"]
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """The firmware's motion limits used for the time estimate.
+
+    Attributes
+    ----------
+    accel : float, mm/s^2
+    jerk : float, mm/s
+        Largest instantaneous speed change at a junction.
+    """
+
+    accel: float = 1000.0
+    jerk: float = 8.0
+
+
+@dataclass
+class Printability:
+    """Counts of a stretch of moves (module docstring).
+
+    Attributes
+    ----------
+    paths : int
+    retractions : int
+    travel_mm : float
+    print_s : float
+        Kinematic estimate with acceleration and jerk, s.
+    extruded_mm : float
+        Printed length (XY), mm.
+    filament_mm : float
+        Filament pushed by the extrusions, mm.
+    """
+
+    paths: int = 0
+    retractions: int = 0
+    travel_mm: float = 0.0
+    print_s: float = 0.0
+    extruded_mm: float = 0.0
+    filament_mm: float = 0.0
+
+    def __iadd__(self, other: Printability) -> Printability:
+        for k, v in asdict(other).items():
+            setattr(self, k, getattr(self, k) + v)
+        return self
+
+    def as_dict(self) -> dict[str, float]:
+        """Plain numbers (for ``metrics.json``)."""
+        return {k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(self).items()}
+
+
+def _num(config: Mapping[str, str], *keys: str) -> float | None:
+    for k in keys:
+        v = config.get(k)
+        if v is None:
+            continue
+        try:
+            x = float(str(v).split(",")[0].rstrip("%"))
+        except ValueError:
+            continue
+        if x > 0:
+            return x
+    return None
+
+
+def kinematics_from_config(config: Mapping[str, str] | None) -> Kinematics:
+    """Acceleration and jerk of the file's printer (module docstring), else the defaults."""
+    config = config or {}
+    limit = _num(config, "machine_max_acceleration_extruding", "machine_acceleration")
+    accel = _num(config, "infill_acceleration", "sparse_infill_acceleration", "default_acceleration")
+    if accel is None:
+        accel = limit
+    elif limit is not None:
+        accel = min(accel, limit)
+    jerk = _num(config, "machine_max_jerk_x", "machine_max_jerk_xy")
+    return Kinematics(accel or Kinematics.accel, jerk or Kinematics.jerk)
+
+
+def print_time(moves: np.ndarray, kin: Kinematics = Kinematics()) -> float:
+    """Firmware-style time of ``moves`` (``MOVE_DTYPE`` rows in print order), s (module docstring)."""
+    if len(moves) == 0:
+        return 0.0
+    dx = moves["x1"] - moves["x0"]
+    dy = moves["y1"] - moves["y0"]
+    dz = moves["z1"] - moves["z0"]
+    d = np.sqrt(dx * dx + dy * dy + dz * dz)
+    f = np.where(np.isfinite(moves["f"]) & (moves["f"] > 0), moves["f"], np.nan) / 60.0
+    still = d <= 1e-9
+    t_still = np.where(still & np.isfinite(f), np.abs(moves["e"]) / np.where(np.isfinite(f), f, 1.0), 0.0)
+    mv = ~still & np.isfinite(f)
+    d, v, ux, uy, uz = d[mv], f[mv], (dx[mv]), (dy[mv]), (dz[mv])
+    if len(d) == 0:
+        return float(t_still.sum())
+    u = np.column_stack([ux, uy, uz]) / d[:, None]
+    a, jerk = kin.accel, kin.jerk
+    # junction speed limit between move i and i+1 (jerk on the direction change)
+    du = np.linalg.norm(u[1:] - u[:-1], axis=1)
+    vj = np.minimum(np.minimum(v[1:], v[:-1]), jerk / np.maximum(du, 1e-9))
+    vj = np.maximum(vj, np.minimum(jerk / 2.0, np.minimum(v[1:], v[:-1])))
+    # entry speed of each move: start and end at rest-ish (jerk / 2)
+    n = len(d)
+    entry = np.empty(n + 1)
+    entry[0] = min(jerk / 2.0, v[0])
+    entry[1:n] = vj
+    entry[n] = min(jerk / 2.0, v[-1])
+    ad2 = 2.0 * a * d
+    for i in range(n):  # forward: what acceleration can reach
+        lim = np.sqrt(entry[i] ** 2 + ad2[i])
+        if entry[i + 1] > lim:
+            entry[i + 1] = lim
+    for i in range(n - 1, -1, -1):  # backward: what deceleration allows
+        lim = np.sqrt(entry[i + 1] ** 2 + ad2[i])
+        if entry[i] > lim:
+            entry[i] = lim
+    v0, v1 = entry[:-1], entry[1:]
+    # trapezoid: accelerate v0 -> vp, cruise, decelerate vp -> v1
+    vp = np.minimum(v, np.sqrt((ad2 + v0**2 + v1**2) / 2.0))
+    s_acc = (vp**2 - v0**2) / (2 * a)
+    s_dec = (vp**2 - v1**2) / (2 * a)
+    s_cru = np.maximum(d - s_acc - s_dec, 0.0)
+    t = (vp - v0) / a + (vp - v1) / a + s_cru / np.maximum(vp, 1e-9)
+    return float(t.sum() + t_still.sum())
+
+
+def measure(moves: np.ndarray, kin: Kinematics = Kinematics()) -> Printability:
+    """Count paths, retractions, travel and time of ``moves`` (module docstring)."""
+    out = Printability()
+    if len(moves) == 0:
+        return out
+    ext = moves["extrude"]
+    prev_ext = np.r_[False, ext[:-1]]
+    out.paths = int(np.sum(ext & ~prev_ext))
+    pull = moves["retract"] | (moves["wipe"] & (moves["e"] <= 0))
+    prev_pull = np.r_[False, pull[:-1]]
+    out.retractions = int(np.sum(pull & ~prev_pull))
+    xy = np.hypot(moves["x1"] - moves["x0"], moves["y1"] - moves["y0"])
+    out.travel_mm = float(np.sum(xy[moves["travel"]]))
+    out.extruded_mm = float(np.sum(xy[ext]))
+    out.filament_mm = float(np.sum(moves["e"][ext]))
+    out.print_s = print_time(moves, kin)
+    return out
+
+
+def measure_lines(program, ranges: Iterable[tuple[int, int]], kin: Kinematics | None = None) -> Printability:
+    """:func:`measure` over the moves of the line ranges ``[a, z)`` of ``program``, summed."""
+    kin = kin or kinematics_from_config(program.config)
+    out = Printability()
+    for a, z in ranges:
+        out += measure(program.moves[program.move_rows(a, z)], kin)
+    return out
