@@ -46,7 +46,7 @@ STACK: tuple[tuple[str, ...], ...] = (
     ("loadpath.engines.swarm", "loadpath.engines.streamlines"),
     ("loadpath.splice",),
     ("loadpath.pipeline",),
-    ("loadpath.report",),
+    ("loadpath.report", "loadpath.verdict"),  # what a run says: its report and its one-line verdict
     ("loadpath.plugin", "loadpath.prusaslicer_postproc", "loadpath.examples"),
 )
 ENGINES = ("loadpath.engines.swarm", "loadpath.engines.streamlines")
