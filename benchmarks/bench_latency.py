@@ -131,7 +131,8 @@ def bench(name, stl, settings, folder: Path, repeats: int, extra: list[str], tim
     row["size_in_mb"] = gcode.stat().st_size / 1e6
     row["size_out_mb"] = out.stat().st_size / 1e6
     for _ in range(repeats):
-        w, m = _run(other, case, folder / f"{name}.speeds.loadpath.gcode", folder / f"cache-{name}-0", extra, timeout)
+        again = folder / f"{name}.speeds.loadpath.gcode"
+        w, m = _run(other, case, again, folder / f"cache-{name}-0", extra, timeout)
         repeat.append(w)
         rss.append(m)
     row["first_s"], row["first_s_all"] = statistics.median(first), first
@@ -159,7 +160,10 @@ def _targets(rows: list[dict]) -> list[str]:
     for r in rows:
         s = r["prusaslicer_s"]
         f, p = r["first_s"] / s, r["repeat_s"] / s
-        lines.append(f"{r['part']}: first run {f:.1f}x <= 3x {verdict(f <= 3)}; repeated {p:.1f}x <= 1.5x {verdict(p <= 1.5)}")
+        lines.append(
+            f"{r['part']}: first run {f:.1f}x <= 3x {verdict(f <= 3)}; "
+            f"repeated {p:.1f}x <= 1.5x {verdict(p <= 1.5)}"
+        )
         if r["part"] in SOLID_PARTS:
             o = r["size_out_mb"] / r["size_in_mb"]
             lines.append(f"{r['part']}: output {o:.2f}x the input <= 1.5x {verdict(o <= 1.5)}")

@@ -53,8 +53,10 @@ class JobRequest:
     env : mapping or None
         Environment to read ``SLIC3R_*`` from (the PrusaSlicer hook passes ``os.environ``).
     analyze : callable or None
-        Replaces :func:`loadpath.fea.analyze` (see :func:`loadpath.pipeline.run`); the local service
-        passes one that caches FEA results.
+        Replaces :func:`loadpath.fea.analyze` (see :func:`loadpath.pipeline.run`).
+    cache : loadpath.cache.Cache or None
+        The cache of analyses and paths (the local service passes its own); None: the user's
+        (:func:`loadpath.cache.default_folder`) unless the setting ``cache`` is off.
     """
 
     input: Path
@@ -66,6 +68,7 @@ class JobRequest:
     slicer_settings: Path | None = None
     env: Mapping[str, str] | None = None
     analyze: Callable[..., Any] | None = None
+    cache: Any = None
 
 
 @dataclass
@@ -89,6 +92,8 @@ class JobResult:
         Per stage: parse, geometry, loadcase, fea, paths, splice, check, write, report.
     report : Path or None
         The report's HTML page.
+    cache : loadpath.cache.Cache or None
+        The cache the run used (its ``stats`` count hits and misses).
     """
 
     output: Path
@@ -100,6 +105,7 @@ class JobResult:
     settings: Any = None
     times: dict[str, float] = field(default_factory=dict)
     report: Path | None = None
+    cache: Any = None
 
 
 def default_output(path: Path) -> Path:
@@ -258,9 +264,15 @@ def _run(
         workers=s.jobs or default_workers(),
         check=s.check,
     )
+    cache = None
+    if s.cache:
+        from loadpath.cache import Cache
+
+        cache = request.cache if request.cache is not None else Cache()
+    result.cache = cache
     pres = pipeline.run(
         program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura,
-        analyze=request.analyze,
+        analyze=request.analyze, cache=cache,
     )
     result.pipeline = pres
     times.update(pres.times)

@@ -52,3 +52,12 @@ def repo_root() -> Path:
 
 
 from fixtures import *  # noqa: E402,F401,F403  shared real-slicer fixtures (tests/fixtures.py)
+
+
+@pytest.fixture(autouse=True)
+def _own_result_cache(tmp_path_factory, monkeypatch):
+    """Each test runs loadpath on its own empty result cache (loadpath.cache), never the user's.
+
+    A test then measures its own run, and the cache tests fill and read theirs on purpose.
+    """
+    monkeypatch.setenv("LOADPATH_CACHE_DIR", str(tmp_path_factory.mktemp("loadpath-cache")))
