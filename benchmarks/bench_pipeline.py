@@ -57,10 +57,12 @@ CASE = GRIP_PULL
 STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "write")
 
 
-def _child(cmd: list[str], timeout: float | None = None) -> tuple[float, float, int, str]:
+def _child(
+    cmd: list[str], timeout: float | None = None, env: dict[str, str] | None = None
+) -> tuple[float, float, int, str]:
     """Run a command; (wall s, peak RSS MB, exit status, stderr tail).  Killed after ``timeout`` s."""
     t = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     deadline = None if timeout is None else t + timeout
     while True:
         pid, status, usage = os.wait4(proc.pid, os.WNOHANG)

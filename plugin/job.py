@@ -58,8 +58,10 @@ class JobRequest:
     env : mapping or None
         Environment to read ``SLIC3R_*`` from (the PrusaSlicer hook passes ``os.environ``).
     analyze : callable or None
-        Replaces :func:`loadpath.fea.analyze` (see :func:`loadpath.pipeline.run`); the local service
-        passes one that caches FEA results.
+        Replaces :func:`loadpath.fea.analyze` (see :func:`loadpath.pipeline.run`).
+    cache : loadpath.cache.Cache or None
+        The cache of analyses and paths (the local service passes its own); None: the user's
+        (:func:`loadpath.cache.default_folder`) unless the setting ``cache`` is off.
     force : bool
         Process a file loadpath already processed (refused otherwise: its header says so).
     predict : bool
@@ -77,6 +79,7 @@ class JobRequest:
     analyze: Callable[..., Any] | None = None
     force: bool = False
     predict: bool = True
+    cache: Any = None
 
 
 @dataclass
@@ -103,6 +106,8 @@ class JobResult:
     verdict : Verdict or None
         What the run did and gained (:mod:`loadpath.verdict`); also for a failure kept with
         ``on_failure = "keep"``.
+    cache : loadpath.cache.Cache or None
+        The cache the run used (its ``stats`` count hits and misses).
     """
 
     output: Path
@@ -115,6 +120,7 @@ class JobResult:
     times: dict[str, float] = field(default_factory=dict)
     report: Path | None = None
     verdict: Any = None
+    cache: Any = None
 
 
 def default_output(path: Path) -> Path:
@@ -407,9 +413,15 @@ def _run(
         workers=s.jobs or default_workers(),
         check=s.check,
     )
+    cache = None
+    if s.cache:
+        from loadpath.cache import Cache
+
+        cache = request.cache if request.cache is not None else Cache()
+    result.cache = cache
     pres = pipeline.run(
         program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura,
-        analyze=request.analyze,
+        analyze=request.analyze, cache=cache,
     )
     result.pipeline = pres
     times.update(pres.times)

@@ -20,8 +20,9 @@ points there too).  The request body is bounded (``max_request_mb``), at most ``
 once and ``queue`` more wait (others get 503 at once), and each request has a deadline: its job runs
 in a child process that is killed when the deadline passes (504).
 
-FEA cache: :mod:`loadpath.plugin.fea_cache` keeps each solved stress analysis per part outline and
-load case, so re-slicing with other print settings does not solve again.  Each request runs in a
+Cache: :mod:`loadpath.cache` (the one ``loadpath run`` uses, here in the service's own folder
+``CACHE/fea``) keeps each solved stress analysis per part outline and load case, and each engine
+run's paths, so re-slicing with other print settings does not solve again.  Each request runs in a
 child process (:mod:`loadpath.plugin.service_job`).
 """
 
@@ -262,7 +263,7 @@ class _Handler(BaseHTTPRequestHandler):
                         "version": _version(),
                         "running": svc.running,
                         "waiting": max(0, svc.admitted - svc.running),
-                        "fea_cache_entries": len(list((svc.cache_dir / "fea").glob("*.pickle"))),
+                        "fea_cache_entries": len(list((svc.cache_dir / "fea" / "fea").glob("*.entry"))),
                     },
                 )
             elif self.path == "/v1/schema":

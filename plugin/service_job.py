@@ -2,7 +2,8 @@
 
 :func:`check_request` validates a ``POST /v1/run`` body's shape, :func:`handle_run` turns it into a
 :class:`~loadpath.plugin.job.JobRequest` over files in the request's own working folder (with the
-FEA cache), and :func:`child` runs it in a child process and sends back the answer or the error.
+cache of analyses and paths, :mod:`loadpath.cache`), and :func:`child` runs it in a child process
+and sends back the answer or the error.
 """
 
 from __future__ import annotations
@@ -13,8 +14,6 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
-
-from loadpath.plugin.fea_cache import FEACache
 
 __all__ = ["RequestError", "confine", "check_request", "handle_run", "child"]
 
@@ -123,7 +122,9 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
         slicer.write_text(json.dumps(req["slicer_settings"]), encoding="utf-8")
     out = work / f"out{inp.suffix or '.gcode'}"
     report = work / "report" if req.get("report") else None
-    cache = FEACache(fea_dir, fea_entries)
+    from loadpath.cache import Cache
+
+    cache = Cache(fea_dir, max_entries=fea_entries)
     env = {str(k): str(v) for k, v in (req.get("slicer_env") or {}).items()}
     result = run_job(
         JobRequest(
@@ -134,7 +135,7 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
             cli={**req.get("settings", {}), "jobs": 1},
             slicer_settings=slicer,
             env=env or None,
-            analyze=cache,
+            cache=cache,
             force=req.get("force") is True,
         )
     )
@@ -147,8 +148,8 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
         "changed": result.changed,
         "warnings": list(result.warnings),
         "error_kept": result.error,
-        "fea_cached": cache.hits > 0 and cache.misses == 0,
-        "fea_solved": cache.misses,
+        "fea_cached": cache.stats.hits.get("fea", 0) > 0 and cache.stats.misses.get("fea", 0) == 0,
+        "fea_solved": cache.stats.misses.get("fea", 0),
         "times": {k: round(float(v), 4) for k, v in result.times.items()},
         "settings": result.settings.as_dict() if result.settings is not None else {},
         "metrics": metrics,

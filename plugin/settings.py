@@ -91,6 +91,15 @@ SCHEMA: tuple[Field, ...] = (
         group="run",
     ),
     Field("check", "bool", True, "", "re-read the result and check it before writing", group="run"),
+    Field(
+        "cache",
+        "bool",
+        True,
+        "",
+        "reuse stress analyses and paths of earlier runs kept in $LOADPATH_CACHE_DIR or "
+        "$XDG_CACHE_HOME/loadpath (--no-cache: neither read nor write it)",
+        group="run",
+    ),
     # ---------------------------------------------------------------- machine (from the slicer)
     Field(
         "flow_model",
@@ -264,6 +273,7 @@ class Settings:
     jobs: int = 0
     on_failure: str = "fail"
     check: bool = True
+    cache: bool = True
     flow_model: str = "rounded"
     nozzle_diameter: float = 0.4
     filament_diameter: float = 1.75
@@ -386,6 +396,12 @@ def add_cli_options(parser: argparse.ArgumentParser) -> None:
         help="any other setting, e.g. --set width_max=1.4 (see loadpath.plugin.settings.SCHEMA)",
     )
     parser.add_argument(
+        "--no-cache",
+        dest="no_cache",
+        action="store_true",
+        help="neither reuse nor keep stress analyses and paths of earlier runs (same as --set cache=false)",
+    )
+    parser.add_argument(
         "--slicer-settings",
         metavar="FILE.json",
         default=None,
@@ -408,6 +424,8 @@ def cli_values(args: argparse.Namespace) -> dict[str, Any]:
         if key not in _FIELDS:
             raise SettingsError(f"--set {key}: unknown setting; known: {', '.join(sorted(_FIELDS))}")
         out[key] = value
+    if getattr(args, "no_cache", False):
+        out["cache"] = False
     return out
 
 

@@ -61,3 +61,12 @@ from fixtures import *  # noqa: E402,F401,F403  shared real-slicer fixtures (tes
 def _state_home(tmp_path_factory, monkeypatch):
     """Every run appends its verdict to ``$XDG_STATE_HOME/loadpath/runs.log``: never the user's own."""
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path_factory.getbasetemp() / "state"))
+
+
+@pytest.fixture(autouse=True)
+def _own_result_cache(tmp_path_factory, monkeypatch):
+    """Each test runs loadpath on its own empty result cache (loadpath.cache), never the user's.
+
+    A test then measures its own run, and the cache tests fill and read theirs on purpose.
+    """
+    monkeypatch.setenv("LOADPATH_CACHE_DIR", str(tmp_path_factory.mktemp("loadpath-cache")))

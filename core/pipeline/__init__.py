@@ -46,7 +46,16 @@ from loadpath.engines import Machine
 from loadpath.engines.linking import link_paths
 from loadpath.errors import SpliceError
 from loadpath.gcode import Program, parse
-from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger
+from loadpath.pipeline.paths import (
+    Job,
+    assign,
+    clip_to,
+    job_key,
+    lays_phase,
+    plan_jobs,
+    run_jobs,
+    stagger,
+)
 from loadpath.pipeline.units import (
     Unit,
     passthrough_reason,
@@ -232,6 +241,7 @@ def run(
     progress: Progress | None = None,
     cura_settings: Mapping[str, Any] | None = None,
     analyze: Callable[..., Any] | None = None,
+    cache: Any = None,
 ) -> PipelineResult:
     """Run the pipeline on a parsed program (see the module docstring).
 
@@ -247,7 +257,12 @@ def run(
         Cura's settings (for vase mode / sequential printing detection).
     analyze : callable, optional
         ``analyze(resolved_body, pitch=...) -> Analysis`` instead of :func:`loadpath.fea.analyze`
-        (``loadpath serve`` passes one that reuses cached results for the same part and load case).
+        (e.g. one with a fixed mesh).
+    cache : loadpath.cache.Cache, optional
+        Keeps each body's analysis (:func:`loadpath.cache.fea_key`) and each engine run's paths
+        (:func:`loadpath.pipeline.paths.job_key`) on disk; what is found there is loaded instead of
+        solved or run again (a re-export with other speeds reuses everything).  Not used with
+        ``analyze``.
 
     Raises
     ------
@@ -259,6 +274,8 @@ def run(
     from loadpath import fea, geometry
     from loadpath.loadcase import resolve
 
+    if analyze is not None:  # the keys cannot tell what another analyze depends on
+        cache = None
     times: dict[str, float] = {}
     clock = _Clock(times)
     warnings: list[str] = []
@@ -313,10 +330,12 @@ def run(
         )
 
     analyses = {}
+    fea_keys: dict[str, str] = {}
     for k, rb in enumerate(resolved):
         tell("fea", k, len(resolved))
         pitches = [u.pitch for u in units if u.object == rb.name]
-        analyses[rb.name] = (analyze or fea.analyze)(rb, pitch=float(np.median(pitches)) if pitches else None)
+        pitch = float(np.median(pitches)) if pitches else None
+        analyses[rb.name], fea_keys[rb.name] = _analysis(rb, pitch, analyze or fea.analyze, cache)
     tell("fea", len(resolved), len(resolved))
     clock.lap("fea")
 
@@ -351,6 +370,18 @@ def run(
     copies = [
         Job(jobs[k].unit, jobs[k].principal, jobs[k].input, jobs[k].units, {"phase": 0.5}) for k in phased
     ]
+    keys = None
+    if cache is not None:
+        keys = [
+            job_key(
+                j,
+                options.engine,
+                options.engine_params,
+                _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
+                splice_options.plan.max_correction,
+            )
+            for j in jobs + copies
+        ]
     results = run_jobs(
         jobs + copies,
         options.engine,
@@ -362,6 +393,8 @@ def run(
             nozzle=splice_options.plan.nozzle_diameter,
             width_range=tuple(float(w) for w in splice_options.plan.width_range),
         ),
+        cache=cache,
+        keys=keys,
     )
     shifted = {k: tp for k, (tp, _) in zip(phased, results[len(jobs) :], strict=True)}
     results = results[: len(jobs)]
@@ -395,6 +428,30 @@ def run(
     return PipelineResult(
         sres.data, program, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings)
     )
+
+
+def _analysis(rb, pitch: float | None, analyze: Callable[..., Any], cache) -> tuple[Any, str]:
+    """Return a body's analysis (from the cache when it holds it, else solved and kept) and its key."""
+    import dataclasses
+
+    if cache is None:
+        return analyze(rb, pitch=pitch), ""
+    from loadpath.cache import fea_key
+    from loadpath.fea import Analysis
+
+    key = fea_key(rb, pitch)
+    hit = cache.get("fea", key)
+    if isinstance(hit, Analysis):
+        return dataclasses.replace(hit, resolved=rb, _cache={}), key
+    a = analyze(rb, pitch=pitch)
+    cache.put("fea", key, dataclasses.replace(a, _cache={}))
+    return a, key
+
+
+def _field_id(fea_key: str, kind: str, unit: Unit, principal: str) -> str:
+    """Name of the stress field a unit's paths follow (its analysis, its cut, the principal stress)."""
+    cut = "2d" if kind == "2d" else f"{unit.z_mid:.6f}"
+    return f"{fea_key} {cut} {principal}"
 
 
 def geo_kind(geo, block: int) -> str | None:

@@ -23,6 +23,10 @@ is left alone: the printed links between path ends add length the paths do not s
 Engine runs go to worker processes (``fork``: the stress fields and regions are inherited, only the
 paths come back) when there are several and ``jobs > 1``; results are collected by index, so the
 output does not depend on the number of workers.
+
+With a :class:`loadpath.cache.Cache`, each run's paths are kept under :func:`job_key` (what the
+engine's output depends on) and a later run with the same key loads them: only the missing ones
+are run (and only then is an engine, with its compiled kernels, loaded at all).
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ __all__ = [
     "fields_agree",
     "default_workers",
     "length_target",
+    "job_key",
 ]
 
 
@@ -170,6 +175,44 @@ _WORK: list[tuple[str, EngineInput, dict[str, Any], float | None, float, Machine
 _PITCH_STEP = (0.6, 1.6)  # bounds of the second run's pitch, as a factor of the first's
 
 
+def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float) -> str:
+    """Key of one engine run's paths in the cache (:mod:`loadpath.cache`).
+
+    Parameters
+    ----------
+    job : Job
+    engine : str
+    params : mapping
+        The shared engine parameters (the job's own, e.g. ``phase``, are added here).
+    field_id : str
+        Names the stress field followed: the analysis's :func:`loadpath.cache.fea_key`, the layer
+        height it is cut at (or ``2d``) and the principal stress.
+    length_retry : float
+        As :func:`run_jobs` (a fixed-width job may be run again at another pitch).
+
+    The rest comes from the job: its region (to 1 µm), pitch (to 1 µm), load entry, seed and, for a
+    fixed-width job, the slicer's extruded length it matches (to 1 µm).
+    """
+    from loadpath.cache import code_stamp, digest, geometry_bytes
+
+    inp = job.input
+    target = length_target(job)
+    merged = {**params, **job.params}
+    return digest(
+        [
+            "paths",
+            code_stamp(),
+            engine,
+            repr(sorted((str(k), repr(v)) for k, v in merged.items())),
+            field_id,
+            f"{inp.pitch:.6f} {inp.seed} {length_retry!r}",
+            "none" if target is None else f"{target:.3f}",
+            geometry_bytes(inp.region),
+            geometry_bytes(inp.load_entry),
+        ]
+    )
+
+
 def length_target(job: Job) -> float | None:
     """Return the slicer's extruded length a fixed-width job's paths should match, mm (else None)."""
     u = job.unit
@@ -212,6 +255,8 @@ def run_jobs(
     progress: Callable[[int, int], None] | None = None,
     length_retry: float = 0.15,
     machine: Machine | None = None,
+    cache: Any = None,
+    keys: Sequence[str] | None = None,
 ) -> list[tuple[Toolpaths, float]]:
     """Run every job's engine; ``(paths, seconds)`` per job, in job order.
 
@@ -231,28 +276,40 @@ def run_jobs(
         takes back that much at most, the printed links only add length).
     machine : Machine, optional
         The machine facts; each engine receives those it declares (:mod:`loadpath.engines.registry`).
+    cache : loadpath.cache.Cache, optional
+        Where the paths of earlier runs are kept; with ``keys`` (one :func:`job_key` per job) the
+        jobs found there are not run (their seconds are 0), the others are run and kept.
+    keys : sequence of str, optional
     """
     global _WORK
     _WORK = [(engine, j.input, {**params, **j.params}, length_target(j), length_retry, machine) for j in jobs]
     n = len(jobs)
     out: list[tuple[Toolpaths, float] | None] = [None] * n
+    if cache is not None and keys is not None:
+        for i, k in enumerate(keys):
+            hit = cache.get("paths", k)
+            if isinstance(hit, Toolpaths):
+                out[i] = (hit, 0.0)
+    todo = [i for i in range(n) if out[i] is None]
+    if progress and len(todo) < n:
+        progress(n - len(todo), n)
     try:
-        use_pool = workers > 1 and n > 1 and "fork" in multiprocessing.get_all_start_methods()
+        use_pool = workers > 1 and len(todo) > 1 and "fork" in multiprocessing.get_all_start_methods()
         if not use_pool:
-            for i in range(n):
+            for k, i in enumerate(todo):
                 out[i] = _run_one(i)
                 if progress:
-                    progress(i + 1, n)
+                    progress(n - len(todo) + k + 1, n)
         else:
             # compile (or load) an engine's compiled kernels once here: forked workers inherit
             # them, where each would otherwise compile them on its own on a cold cache
             engines.warm_up(engine)
             ctx = multiprocessing.get_context("fork")
-            pool = ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx,
+            pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx,
                                        initializer=worker_init, initargs=(os.getpid(),))
             try:
-                futures = {pool.submit(_run_one, i): i for i in range(n)}
-                done = 0
+                futures = {pool.submit(_run_one, i): i for i in todo}
+                done = n - len(todo)
                 from concurrent.futures import as_completed
 
                 raise_if_stopped()
@@ -268,6 +325,11 @@ def run_jobs(
             pool.shutdown(wait=True)
     finally:
         _WORK = []
+    if cache is not None and keys is not None:
+        for i in todo:
+            o = out[i]
+            if o is not None:
+                cache.put("paths", keys[i], o[0])
     return [o for o in out if o is not None]
 
 

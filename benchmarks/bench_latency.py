@@ -1,0 +1,236 @@
+"""Latency at slice time (issue 17): ``loadpath run`` beside PrusaSlicer 2.5 slicing the same part.
+
+Usage::
+
+    python benchmarks/bench_latency.py [OUT_DIR] [--repeats 3] [--quick] [--engine swarm]
+
+(``./dev bench`` passes the same arguments to every benchmark; unknown ones are ignored.)
+
+Both programs are timed as whole processes (interpreter start included), median of ``--repeats``,
+in the same run, so the ratio holds on a loaded machine.  Parts (PrusaSlicer 2.5, MK3S presets,
+``tests/slicing.py``; load case ``tests/cases.py`` ``GRIP_PULL``: clamped at x_min, pulled at x_max):
+
+``example``
+    the shipped example (``examples/ohs.gcode``, 10 layers); PrusaSlicer re-slices its STL.
+``specimen-100``
+    the specimen's outline 20 mm thick, 100 layers, the example's settings.
+``gusset-gyroid30``, ``gusset-gyroid30-sparse``
+    a shelf gusset (right triangle, 60 mm legs, two 5 mm bolt holes, 8 mm thick: 40 layers) at 30 %
+    gyroid, 3 top / 3 bottom layers: the default replace set (internal solid), then
+    ``--replace solid,sparse`` (gyroid makes every sparse layer distinct).
+``gusset-100``
+    the same part at 100 % (rectilinear): a solid part.
+``specimen-1000`` (not with ``--quick``)
+    the specimen's outline 200 mm tall: 1000 layers, 23 MB.
+
+Columns: PrusaSlicer's slicing time; ``loadpath run`` on a cold cache (``first``, each repeat with
+its own empty ``LOADPATH_CACHE_DIR``); ``repeat``: the part re-sliced with other speeds and
+temperatures (same geometry, same load case) and run against the cache the first run filled; each
+with its ratio to the slicing time; the largest peak resident memory of any loadpath run (``wait4``);
+the input's size and the output's against it (``out/in``, first run).  Targets of issue 17 are
+printed under the table with the measured figure and met/missed.  ``--quick``: one repeat, the
+example, the 100-layer specimen and the default gyroid gusset only.  ``OUT_DIR/bench_latency.json``
+keeps the rows when a folder is given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "tests"))
+sys.path.insert(0, str(REPO / "benchmarks"))
+import slicing  # noqa: E402
+from bench_pipeline import _child  # noqa: E402
+from cases import GRIP_PULL  # noqa: E402
+
+LOADPATH = str(Path(sys.executable).with_name("loadpath"))
+
+# the same part re-exported with other speeds and temperatures: nothing the geometry, the FEA or the
+# paths depend on changes
+OTHER_SPEEDS = {
+    "perimeter_speed": "30",
+    "external_perimeter_speed": "20",
+    "infill_speed": "150",
+    "solid_infill_speed": "120",
+    "top_solid_infill_speed": "40",
+    "travel_speed": "150",
+    "temperature": "210",
+    "first_layer_temperature": "220",
+}
+GUSSET = {
+    **slicing.PRUSA_MIXED,
+    "fill_density": "30%",
+    "fill_pattern": "gyroid",
+    "top_solid_layers": "3",
+    "bottom_solid_layers": "3",
+}
+GUSSET_SOLID = {**GUSSET, "fill_density": "100%", "fill_pattern": "rectilinear"}
+SOLID_PARTS = ("example", "specimen-100", "gusset-100", "specimen-1000")
+"""Parts printed all solid: the ones the output-size target (<= 1.5x the input) applies to."""
+
+
+def gusset_mesh(leg: float = 60.0, thickness: float = 8.0, hole: float = 5.0):
+    """A shelf gusset: right-triangle plate with two bolt holes near the legs, mm."""
+    import manifold3d as mf
+    import numpy as np
+    import trimesh
+
+    cs = mf.CrossSection([[(0, 0), (leg, 0), (0, leg)]])
+    for c in ((0.45 * leg, 0.12 * leg), (0.12 * leg, 0.45 * leg)):
+        cs = cs - mf.CrossSection.circle(hole / 2, 48).translate(c)
+    m = mf.Manifold.extrude(cs, thickness).to_mesh()
+    mesh = trimesh.Trimesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts))
+    mesh.apply_translation(-mesh.bounds[0])
+    return mesh
+
+
+def _slice(stl: Path, out: Path, repeats: int, settings: dict) -> float:
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        slicing.slice_prusa(stl, out, **settings)
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def _run(gcode: Path, case: Path, out: Path, cache: Path, extra: list[str], timeout: float):
+    env = {**os.environ, "LOADPATH_CACHE_DIR": str(cache)}
+    cmd = [LOADPATH, "run", str(gcode), "--loadcase", str(case), "-o", str(out), *extra]
+    wall, rss, status, err = _child(cmd, timeout=timeout, env=env)
+    if status != 0:
+        raise SystemExit(f"loadpath run failed on {gcode.name}: {err}")
+    return wall, rss
+
+
+def bench(name, stl, settings, folder: Path, repeats: int, extra: list[str], timeout: float, given=None):
+    """One row: slicing time, first and repeated runs, peak memory, sizes."""
+    from loadpath import gcode as gc
+
+    case = folder / "case.toml"
+    case.write_text(GRIP_PULL, encoding="utf-8")
+    sliced = folder / f"{name}.gcode"
+    row: dict = {"part": name, "options": " ".join(extra)}
+    row["prusaslicer_s"] = _slice(stl, sliced, repeats, settings)
+    gcode = given if given is not None else sliced
+    other = slicing.slice_prusa(stl, folder / f"{name}.speeds.gcode", **{**settings, **OTHER_SPEEDS})
+    row["layers"] = len(gc.read(gcode).layers)
+    out = folder / f"{name}.loadpath.gcode"
+    first, repeat, rss = [], [], []
+    for k in range(repeats):
+        w, m = _run(gcode, case, out, folder / f"cache-{name}-{k}", extra, timeout)
+        first.append(w)
+        rss.append(m)
+    row["size_in_mb"] = gcode.stat().st_size / 1e6
+    row["size_out_mb"] = out.stat().st_size / 1e6
+    for _ in range(repeats):
+        again = folder / f"{name}.speeds.loadpath.gcode"
+        w, m = _run(other, case, again, folder / f"cache-{name}-0", extra, timeout)
+        repeat.append(w)
+        rss.append(m)
+    row["first_s"], row["first_s_all"] = statistics.median(first), first
+    row["repeat_s"], row["repeat_s_all"] = statistics.median(repeat), repeat
+    row["peak_rss_mb"] = max(rss)
+    return row
+
+
+def _show(r: dict) -> None:
+    s = r["prusaslicer_s"]
+    print(
+        f"{r['part']:<24}{r['layers']:>7}{s:>9.2f}{r['first_s']:>9.2f}{r['first_s'] / s:>7.1f}"
+        f"{r['repeat_s']:>9.2f}{r['repeat_s'] / s:>7.1f}{r['peak_rss_mb']:>9.0f}"
+        f"{r['size_in_mb']:>8.2f}{r['size_out_mb'] / r['size_in_mb']:>7.2f}",
+        flush=True,
+    )
+
+
+def _targets(rows: list[dict]) -> list[str]:
+    lines = []
+
+    def verdict(ok: bool) -> str:
+        return "met" if ok else "MISSED"
+
+    for r in rows:
+        s = r["prusaslicer_s"]
+        f, p = r["first_s"] / s, r["repeat_s"] / s
+        lines.append(
+            f"{r['part']}: first run {f:.1f}x <= 3x {verdict(f <= 3)}; "
+            f"repeated {p:.1f}x <= 1.5x {verdict(p <= 1.5)}"
+        )
+        if r["part"] in SOLID_PARTS:
+            o = r["size_out_mb"] / r["size_in_mb"]
+            lines.append(f"{r['part']}: output {o:.2f}x the input <= 1.5x {verdict(o <= 1.5)}")
+        if r["part"] == "specimen-1000":
+            lines.append(
+                f"{r['part']}: {r['first_s']:.1f} s < 15 s {verdict(r['first_s'] < 15)}; "
+                f"peak {r['peak_rss_mb']:.0f} MB < 1024 MB {verdict(r['peak_rss_mb'] < 1024)}"
+            )
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out", type=Path, nargs="?", default=None, help="folder for bench_latency.json")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="one repeat; example, 100 layers, gyroid gusset")
+    ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
+    ap.add_argument("--timeout", type=float, default=900.0, help="seconds before a run is given up")
+    ap.add_argument("--only", default=None, help="comma-separated part names")
+    args, _ = ap.parse_known_args(argv)
+    repeats = 1 if args.quick else max(1, args.repeats)
+    eng = ["--engine", args.engine]
+    head = (
+        f"{'part':<24}{'layers':>7}{'slice s':>9}{'first s':>9}{'x':>7}{'repeat s':>9}{'x':>7}"
+        f"{'peak MB':>9}{'in MB':>8}{'out/in':>7}"
+    )
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory(prefix="bench_latency_") as tmp:
+        folder = Path(tmp)
+        ohs = slicing.write_stl(slicing.ohs_mesh(), folder / "ohs.stl")
+        gusset = slicing.write_stl(gusset_mesh(), folder / "gusset.stl")
+        parts = [
+            ("example", ohs, slicing.PRUSA_EXAMPLE, eng, REPO / "examples" / "ohs.gcode"),
+            ("specimen-100", None, slicing.PRUSA_EXAMPLE, eng, None),
+            ("gusset-gyroid30", gusset, GUSSET, eng, None),
+            ("gusset-gyroid30-sparse", gusset, GUSSET, [*eng, "--replace", "solid,sparse"], None),
+            ("gusset-100", gusset, GUSSET_SOLID, eng, None),
+            ("specimen-1000", None, slicing.PRUSA_EXAMPLE, eng, None),
+        ]
+        if args.quick:
+            parts = [p for p in parts if p[0] in ("example", "specimen-100", "gusset-gyroid30")]
+        if args.only:
+            keep = set(args.only.split(","))
+            parts = [p for p in parts if p[0] in keep]
+        start = statistics.median(_child([LOADPATH, "--help"])[0] for _ in range(repeats))
+        print(
+            f"loadpath run vs PrusaSlicer slicing, whole processes, median of {repeats}; engine "
+            f"{args.engine}; {slicing.prusa_version()}; interpreter + imports (loadpath --help) "
+            f"{start:.2f} s; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
+            flush=True,
+        )
+        print(head)
+        print("-" * len(head), flush=True)
+        for name, stl, settings, extra, given in parts:
+            if stl is None:
+                h = {"specimen-100": 20.0, "specimen-1000": 200.0}[name]
+                stl = slicing.write_stl(slicing.ohs_mesh(thickness=h), folder / f"{name}.stl")
+            rows.append(bench(name, stl, settings, folder, repeats, extra, args.timeout, given))
+            _show(rows[-1])
+    print("\ntargets (issue 17):")
+    for line in _targets(rows):
+        print("  " + line)
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "bench_latency.json").write_text(json.dumps({"start_s": start, "rows": rows}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

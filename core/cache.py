@@ -1,0 +1,277 @@
+"""The persistent cache of results a re-export can reuse: stress analyses and engine paths, on disk.
+
+A post-processor runs at every export (PrusaSlicer) or every slice (OrcaSlicer, Bambu Studio); most
+re-exports change speeds, temperatures or other settings that neither the stress analysis nor the
+paths depend on.  :class:`Cache` keeps those results under a hash of exactly what determines them
+(the callers build the keys: :func:`loadpath.cache.fea_key` for a body's analysis,
+:func:`loadpath.pipeline.paths.job_key` for one engine run), so the next run loads them instead.
+
+Where: ``$LOADPATH_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/loadpath``, else
+``~/.cache/loadpath`` (:func:`default_folder`); one sub-folder per kind of entry (``fea``,
+``paths``).  ``loadpath run --no-cache`` (setting ``cache = false``) neither reads nor writes it.
+
+Safety:
+
+* every key also hashes the loadpath version and the bytes of its own source files
+  (:func:`code_stamp`), so an edited or upgraded loadpath never reads an older one's results;
+* an entry is written to a temporary file in its folder and renamed into place (``os.replace``),
+  so a reader sees a whole entry or none, also with several runs writing the same key at once
+  (the last rename wins; both wrote the same result);
+* an entry carries the SHA-256 of its payload: a torn, truncated or otherwise damaged one (or one
+  that does not unpickle) is ignored, deleted and rebuilt by the caller;
+* the folder is bounded (``max_bytes``, default 1 GiB, ``$LOADPATH_CACHE_MAX_MB``): after each
+  write the least recently used entries (modification time, refreshed on every hit) are deleted
+  until it fits; temporary files of runs that died are deleted after an hour.
+
+Entries are pickles, so the folder is created 0700: only the user's own runs write it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import secrets
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Cache", "CacheStats", "default_folder", "code_stamp", "digest", "geometry_bytes", "fea_key"]
+
+ENV_DIR = "LOADPATH_CACHE_DIR"
+ENV_MAX_MB = "LOADPATH_CACHE_MAX_MB"
+DEFAULT_MAX_BYTES = 1 << 30
+_MAGIC = b"LPC1"
+_SUFFIX = ".entry"
+_STALE_TMP_S = 3600.0
+
+
+def default_folder(env: dict[str, str] | None = None) -> Path:
+    """Return the cache folder: ``$LOADPATH_CACHE_DIR``, ``$XDG_CACHE_HOME/loadpath``, ``~/.cache/loadpath``.
+
+    ``env`` defaults to ``os.environ``.
+    """
+    env = os.environ if env is None else env
+    if env.get(ENV_DIR):
+        return Path(env[ENV_DIR]).expanduser()
+    base = env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base).expanduser() / "loadpath"
+
+
+_STAMP: str | None = None
+
+
+def code_stamp() -> str:
+    """Hash of the loadpath version and the bytes of every ``.py`` file of the package (once per process).
+
+    About 5 ms; it keeps a result from one version of the code out of every other.
+    """
+    global _STAMP
+    if _STAMP is None:
+        import loadpath
+
+        h = hashlib.sha256(f"loadpath {loadpath.__version__}\n".encode())
+        roots = sorted({Path(p).resolve() for p in loadpath.__path__})
+        for root in roots:
+            for p in sorted(root.rglob("*.py")):
+                h.update(str(p.relative_to(root)).encode() + b"\0")
+                h.update(p.read_bytes())
+        _STAMP = h.hexdigest()
+    return _STAMP
+
+
+def digest(parts: Iterable[bytes | str]) -> str:
+    """Return the hex SHA-256 of the parts, each length-prefixed (so no two lists collide)."""
+    h = hashlib.sha256()
+    for p in parts:
+        b = p.encode() if isinstance(p, str) else bytes(p)
+        h.update(len(b).to_bytes(8, "little"))
+        h.update(b)
+    return h.hexdigest()
+
+
+def geometry_bytes(geom: Any, grid: float = 1e-3) -> bytes:
+    """Return a canonical byte form of a shapely geometry: snapped to ``grid`` mm, normalised, WKB."""
+    import shapely
+
+    if geom is None:
+        return b"none"
+    return shapely.to_wkb(shapely.normalize(shapely.set_precision(geom, grid)), hex=False)
+
+
+def fea_key(rb: Any, pitch: float | None) -> str:
+    """Key of a body's stress analysis: what :func:`loadpath.fea.analyze` depends on.
+
+    The body's slabs (heights to 0.1 µm, outlines to 1 µm), the analysis kind, the load case's
+    supports, loads, material, frame and object (not its ``[toolpath]`` table), the pitch the
+    default mesh size comes from (to 1 µm), and :func:`code_stamp`.
+    """
+    lc = rb.loadcase
+    parts: list[bytes | str] = [
+        "fea",
+        code_stamp(),
+        str(rb.analysis),
+        "none" if pitch is None else f"{float(pitch):.3f}",
+        repr((lc.version, lc.supports, lc.loads, lc.material, lc.frame, lc.object)),
+        repr(getattr(rb, "origin", None)),
+    ]
+    for slab in rb.body.slabs:
+        parts.append(f"{slab.z0:.4f} {slab.z1:.4f}")
+        parts.append(geometry_bytes(slab.outline))
+    return digest(parts)
+
+
+@dataclass
+class CacheStats:
+    """Lookups of one :class:`Cache` object, per kind: ``hits``, ``misses``, ``corrupt`` (ignored entries)."""
+
+    hits: dict[str, int] = field(default_factory=dict)
+    misses: dict[str, int] = field(default_factory=dict)
+    corrupt: dict[str, int] = field(default_factory=dict)
+
+    def count(self, table: dict[str, int], kind: str) -> None:
+        table[kind] = table.get(kind, 0) + 1
+
+
+class Cache:
+    """A folder of results under keys (see the module docstring).
+
+    Parameters
+    ----------
+    folder : Path, optional
+        Default :func:`default_folder`.
+    max_bytes : int, optional
+        Size bound of the whole folder; default ``$LOADPATH_CACHE_MAX_MB`` MiB, else 1 GiB.
+    max_entries : int, optional
+        Bound on the number of entries of each kind (``loadpath serve --fea-cache-entries``).
+    """
+
+    def __init__(
+        self,
+        folder: str | os.PathLike | None = None,
+        max_bytes: int | None = None,
+        max_entries: int | None = None,
+    ) -> None:
+        self.folder = Path(folder) if folder is not None else default_folder()
+        if max_bytes is None:
+            mb = os.environ.get(ENV_MAX_MB)
+            max_bytes = int(float(mb) * (1 << 20)) if mb else DEFAULT_MAX_BYTES
+        self.max_bytes = int(max_bytes)
+        self.max_entries = max_entries
+        self.stats = CacheStats()
+
+    def path(self, kind: str, key: str) -> Path:
+        """Return the file of an entry."""
+        return self.folder / kind / f"{key}{_SUFFIX}"
+
+    def get(self, kind: str, key: str) -> Any | None:
+        """Return the value kept under ``key`` (None when absent or damaged; a damaged one is deleted)."""
+        p = self.path(kind, key)
+        try:
+            with p.open("rb") as fh:
+                blob = fh.read()
+        except OSError:
+            self.stats.count(self.stats.misses, kind)
+            return None
+        value = _decode(blob)
+        if value is None:
+            self.stats.count(self.stats.corrupt, kind)
+            self.stats.count(self.stats.misses, kind)
+            p.unlink(missing_ok=True)
+            return None
+        try:
+            os.utime(p)  # least recently used = oldest modification time
+        except OSError:  # deleted by another run's eviction meanwhile: the value is whole anyway
+            pass
+        self.stats.count(self.stats.hits, kind)
+        return value
+
+    def put(self, kind: str, key: str, value: Any) -> bool:
+        """Keep ``value`` under ``key`` (atomically), then evict down to ``max_bytes``.
+
+        Returns False (and keeps nothing) when the folder cannot be written, e.g. a read-only home:
+        the run goes on without the cache.
+        """
+        payload = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+        blob = _MAGIC + hashlib.sha256(payload).digest() + payload
+        if len(blob) > self.max_bytes:
+            return False
+        p = self.path(kind, key)
+        tmp = p.with_name(f".{p.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+            p.parent.mkdir(exist_ok=True, mode=0o700)
+            with tmp.open("wb") as fh:
+                fh.write(blob)
+            os.replace(tmp, p)
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            return False
+        self.evict()
+        return True
+
+    def entries(self) -> list[tuple[float, int, Path]]:
+        """``(mtime, bytes, path)`` of every entry, least recently used first."""
+        out = []
+        if not self.folder.is_dir():
+            return out
+        now = time.time()
+        for sub in self.folder.iterdir():
+            if not sub.is_dir():
+                continue
+            for p in sub.iterdir():
+                try:
+                    st = p.stat()
+                except FileNotFoundError:  # evicted by another run meanwhile
+                    continue
+                if p.name.endswith(".tmp"):
+                    if now - st.st_mtime > _STALE_TMP_S:  # left by a run that died
+                        p.unlink(missing_ok=True)
+                    continue
+                if p.name.endswith(_SUFFIX):
+                    out.append((st.st_mtime, st.st_size, p))
+        out.sort(key=lambda e: (e[0], str(e[2])))
+        return out
+
+    def size(self) -> int:
+        """Bytes held by the entries."""
+        return sum(s for _, s, _ in self.entries())
+
+    def count(self, kind: str) -> int:
+        """Number of entries of one kind."""
+        return sum(1 for _, _, p in self.entries() if p.parent.name == kind)
+
+    def evict(self) -> int:
+        """Delete least recently used entries beyond ``max_bytes`` and ``max_entries``; returns how many."""
+        entries = self.entries()
+        total = sum(s for _, s, _ in entries)
+        per_kind: dict[str, int] = {}
+        for _, _, p in entries:
+            per_kind[p.parent.name] = per_kind.get(p.parent.name, 0) + 1
+        gone = 0
+        for _, s, p in entries:
+            kind = p.parent.name
+            over_count = self.max_entries is not None and per_kind[kind] > self.max_entries
+            if total <= self.max_bytes and not over_count:
+                continue
+            p.unlink(missing_ok=True)
+            total -= s
+            per_kind[kind] -= 1
+            gone += 1
+        return gone
+
+
+def _decode(blob: bytes) -> Any | None:
+    """Return the value of an entry's bytes, or None when they are not a whole, intact entry."""
+    n = len(_MAGIC)
+    if len(blob) < n + 32 or blob[:n] != _MAGIC:
+        return None
+    payload = blob[n + 32 :]
+    if hashlib.sha256(payload).digest() != blob[n : n + 32]:
+        return None
+    try:
+        return pickle.loads(payload)
+    except Exception:  # noqa: BLE001 - any unpickling failure means: not usable, rebuild it
+        return None

@@ -1,0 +1,153 @@
+"""The persistent result cache (loadpath.cache): reuse on a re-export, damage, eviction, concurrency."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from loadpath.cache import Cache, default_folder
+from loadpath.plugin.job import JobRequest, run_job
+from pipeline_helpers import write_case
+
+OTHER_SPEEDS = {"perimeter_speed": 30, "solid_infill_speed": 120, "infill_speed": 150, "temperature": 210}
+
+
+def _run(gpath: Path, case: Path, out: Path, cache: Cache | None, **cli):
+    cli = {"engine": "streamlines", "jobs": 1, **cli}
+    if cache is None:
+        cli["cache"] = False
+    return run_job(JobRequest(gpath, case, output=out, cli=cli, cache=cache))
+
+
+def _paths(result) -> list[np.ndarray]:
+    return [p.points for j in result.pipeline.jobs for p in j.paths.paths]
+
+
+def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced, tmp_path):
+    first = sliced("prusa", "ohs", "example")
+    again = sliced("prusa", "ohs", "example", **OTHER_SPEEDS)  # PrusaSlicer re-slices the same part
+    assert first.read_bytes() != again.read_bytes()
+    case = write_case(tmp_path)
+    cache = Cache(tmp_path / "cache")
+    r1 = _run(first, case, tmp_path / "1.gcode", cache)
+    n_jobs = len(r1.pipeline.jobs)
+    assert n_jobs >= 1 and r1.changed
+    assert cache.stats.misses == {"fea": 1, "paths": n_jobs + sum(len(j.units) > 1 for j in r1.pipeline.jobs)}
+    assert cache.stats.hits == {}
+
+    cache2 = Cache(tmp_path / "cache")
+    r2 = _run(again, case, tmp_path / "2.gcode", cache2)
+    assert cache2.stats.misses == {} and cache2.stats.hits["fea"] == 1
+    assert cache2.stats.hits["paths"] == cache.stats.misses["paths"]
+    assert all(np.array_equal(a, b) for a, b in zip(_paths(r1), _paths(r2), strict=True))
+    # what the cache gave is what a run without it makes, to the byte (the check passed on both)
+    cold = _run(again, case, tmp_path / "cold.gcode", None)
+    assert cold.changed and (tmp_path / "2.gcode").read_bytes() == (tmp_path / "cold.gcode").read_bytes()
+    assert r2.times["fea"] < r1.times["fea"]
+
+    # another load case on the same part is solved again
+    stronger = tmp_path / "stronger.toml"
+    stronger.write_text(case.read_text().replace("500.0", "900.0"), encoding="utf-8")
+    cache3 = Cache(tmp_path / "cache")
+    _run(again, stronger, tmp_path / "3.gcode", cache3)
+    assert cache3.stats.misses["fea"] == 1 and cache3.stats.hits.get("fea", 0) == 0
+
+
+def test_a_damaged_entry_is_ignored_and_rebuilt(sliced, tmp_path):
+    gpath = sliced("prusa", "ohs", "example")
+    case = write_case(tmp_path)
+    cache = Cache(tmp_path / "cache")
+    _run(gpath, case, tmp_path / "1.gcode", cache)
+    entries = [p for _, _, p in cache.entries()]
+    assert len(entries) >= 2
+    for k, p in enumerate(entries):  # a torn write, a flipped byte, something else entirely
+        blob = p.read_bytes()
+        if k % 3 == 0:
+            p.write_bytes(blob[: len(blob) // 2])
+        elif k % 3 == 1:
+            p.write_bytes(blob[:-1] + bytes([blob[-1] ^ 0xFF]))
+        else:
+            p.write_bytes(b"not a cache entry")
+    again = Cache(tmp_path / "cache")
+    _run(gpath, case, tmp_path / "2.gcode", again)
+    assert sum(again.stats.corrupt.values()) == len(entries) and again.stats.hits == {}
+    assert (tmp_path / "1.gcode").read_bytes() == (tmp_path / "2.gcode").read_bytes()
+    third = Cache(tmp_path / "cache")  # rebuilt whole
+    _run(gpath, case, tmp_path / "3.gcode", third)
+    assert third.stats.misses == {} and sum(third.stats.hits.values()) == len(entries)
+
+
+def test_no_cache_neither_reads_nor_writes(sliced, tmp_path, monkeypatch):
+    from loadpath.plugin.cli import main
+
+    folder = tmp_path / "user-cache"
+    monkeypatch.setenv("LOADPATH_CACHE_DIR", str(folder))
+    assert default_folder() == folder
+    monkeypatch.delenv("LOADPATH_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert default_folder() == tmp_path / "xdg" / "loadpath"
+    gpath = sliced("prusa", "ohs", "example")
+    case = write_case(tmp_path)
+    argv = ["run", str(gpath), "--loadcase", str(case), "--engine", "streamlines", "--set", "jobs=1"]
+    assert main([*argv, "-o", str(tmp_path / "a.gcode"), "--no-cache"]) == 0
+    assert not (tmp_path / "xdg").exists()
+    assert main([*argv, "-o", str(tmp_path / "b.gcode")]) == 0
+    assert Cache(tmp_path / "xdg" / "loadpath").count("fea") == 1
+    assert (tmp_path / "a.gcode").read_bytes() == (tmp_path / "b.gcode").read_bytes()
+
+
+def test_least_recently_used_entries_are_evicted(tmp_path):
+    value = np.arange(20_000, dtype=np.float64)  # 160 kB a piece
+    cache = Cache(tmp_path, max_bytes=3 * 170_000)
+    for k in "abc":
+        assert cache.put("paths", k, value + ord(k))
+    now = time.time()
+    for age, k in ((30, "a"), (20, "b"), (10, "c")):
+        os.utime(cache.path("paths", k), (now - age, now - age))
+    assert np.array_equal(cache.get("paths", "a"), value + ord("a"))  # a hit makes "a" the newest
+    assert cache.put("paths", "d", value + ord("d"))
+    assert not cache.path("paths", "b").exists()  # the least recently used
+    assert {p.stem for _, _, p in cache.entries()} == {"a", "c", "d"}
+    assert cache.size() <= cache.max_bytes
+    counted = Cache(tmp_path, max_entries=1)
+    counted.put("fea", "x", 1)
+    counted.put("fea", "y", 2)
+    assert counted.count("fea") == 1 and counted.get("fea", "y") == 2
+
+
+_WORKER = """
+import sys
+import numpy as np
+from loadpath.cache import Cache
+cache = Cache(sys.argv[1])
+seed = int(sys.argv[2])
+bad = 0
+for i in range(150):
+    key = f"k{(i * 7 + seed) % 5}"
+    v = cache.get("paths", key)
+    if v is not None and not (v.shape == (300_000,) and np.all(v == float(key[1:]))):
+        bad += 1
+    cache.put("paths", key, np.full(300_000, float(key[1:])))
+print(bad)
+"""
+
+
+def test_two_processes_never_see_a_torn_entry(tmp_path):
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", _WORKER, str(tmp_path), str(s)], stdout=subprocess.PIPE, text=True
+        )
+        for s in (0, 3)
+    ]
+    outs = [p.communicate(timeout=300)[0] for p in procs]
+    assert [p.returncode for p in procs] == [0, 0]
+    assert [int(o.strip()) for o in outs] == [0, 0]
+    cache = Cache(tmp_path)
+    assert sorted(p.stem for _, _, p in cache.entries()) == [f"k{i}" for i in range(5)]
+    assert not list((tmp_path / "paths").glob("*.tmp"))
+    for i in range(5):
+        assert np.all(cache.get("paths", f"k{i}") == float(i))
