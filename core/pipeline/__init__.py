@@ -29,6 +29,8 @@ Stages (each timed in :attr:`PipelineResult.times`):
     :class:`~loadpath.errors.SpliceError` and nothing is returned.
 
 Files with nothing to replace, and vase-mode or sequential prints, come back unchanged with a warning.
+
+(Over 400 lines: :func:`run` and the records it returns; its stages are the modules named above.)
 """
 
 from __future__ import annotations
@@ -242,6 +244,9 @@ def run(
         From the stages.
     SpliceError
         The result failed its check.
+
+    (Over 120 lines: the stages in order, each a call into its module -- parse, geometry, load case,
+    FEA, engine runs, splice, check -- with the clock and progress between them.)
     """
     from loadpath import fea, geometry
     from loadpath.loadcase import resolve
