@@ -61,7 +61,7 @@ from loadpath.splice.plan import PlanOptions, simplify
 from loadpath.splice.verify import SpliceCheck, check_output
 from loadpath.toolpath import Path, Toolpaths
 
-__all__ = ["PipelineOptions", "PipelineResult", "JobResult", "run", "STAGES"]
+__all__ = ["PipelineOptions", "PipelineResult", "EngineRun", "run", "STAGES"]
 
 STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "write")
 """Stage names, in order (``parse`` and ``write`` are timed by the caller)."""
@@ -118,7 +118,7 @@ class PipelineOptions:
 
 
 @dataclass
-class JobResult:
+class EngineRun:
     """One engine run and the layers that print its paths.
 
     Attributes
@@ -166,7 +166,7 @@ class PipelineResult:
         The input.
     splice : SpliceResult or None
     check : SpliceCheck or None
-    jobs : tuple of JobResult
+    jobs : tuple of EngineRun
     analyses : dict of str -> Analysis
         FEA per object name.
     geometry : PrintGeometry or None
@@ -180,7 +180,7 @@ class PipelineResult:
     program: Program
     splice: SpliceResult | None = None
     check: SpliceCheck | None = None
-    jobs: tuple[JobResult, ...] = ()
+    jobs: tuple[EngineRun, ...] = ()
     analyses: dict = field(default_factory=dict)
     geometry: Any = None
     times: dict = field(default_factory=dict)
@@ -415,7 +415,7 @@ def _fills(
     options: PipelineOptions,
     plan: PlanOptions,
     shifted_paths: dict[int, Toolpaths] | None = None,
-) -> tuple[list[JobResult], list[BlockFill]]:
+) -> tuple[list[EngineRun], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them.
 
     ``shifted_paths`` (job index -> paths): the engine's own staggered copy of a job; other jobs'
@@ -448,7 +448,7 @@ def _fills(
                 entry["paths"].extend(ps)
                 entry["regions"].append(u.fill_region)
         job_results.append(
-            JobResult(
+            EngineRun(
                 job,
                 sorted(members, key=lambda m: m.layer),
                 tp,
