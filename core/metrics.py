@@ -29,6 +29,10 @@ continuity
 Baselines: :func:`rectilinear` makes the slicer's own rectilinear infill (parallel lines at any
 angle, one pitch apart, clipped to the region) so every benchmark prints the engines beside
 aligned rectilinear and cross-hatching (:func:`baselines`).
+
+(Over 400 lines: the report's metrics -- alignment, spacing, coverage, crossings, travel -- and
+the rectilinear baselines they are compared with, each small, evaluated together by
+:func:`evaluate`.)
 """
 
 from __future__ import annotations

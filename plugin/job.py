@@ -181,30 +181,14 @@ def _create_temp(folder: Path, name: str) -> tuple[int, str]:
 
 
 def infer_cura_filament(program, geo) -> float | None:
-    """Filament diameter from the solid infill of a file without settings (Cura), mm, or None.
+    """Filament diameter measured on a settings-less file's solid infill, mm, or None.
 
-    Solid infill tiles its region: its flow width equals its line spacing, so
-    ``E * pi d^2 / 4 = pitch * height * length`` gives ``d``.  Snapped to 1.75 or 2.85 mm within 5 %.
+    The rule is core's (:func:`loadpath.geometry.flow.solid_infill_diameter`); kept under this
+    name for callers of the application layer.
     """
-    import numpy as np
+    from loadpath.geometry.flow import solid_infill_diameter
 
-    ds = []
-    for obj in geo.objects:
-        for lg in obj.layers:
-            for isl in lg.islands:
-                for b in isl.blocks:
-                    if b.kind in ("solid", "bottom", "top") and b.length > 20 and b.pitch > 0:
-                        blk = program.block(b.block_index)
-                        if blk.e > 0:
-                            area = b.pitch * b.height * blk.length / blk.e
-                            ds.append(float(np.sqrt(4 * area / np.pi)))
-    if not ds:
-        return None
-    d = float(np.median(ds))
-    for std in (1.75, 2.85):
-        if abs(d - std) <= 0.05 * std:
-            return std
-    return d
+    return solid_infill_diameter(program, geo)
 
 
 def fate(inp: Path, out: Path, written: bool) -> str:

@@ -9,16 +9,30 @@ inner perimeter lie one mean flow width apart in both slicers' models (PrusaSlic
 Cura ``(w0 + wx) / 2``), and that spacing is a length the filament diameter does not enter.  When the
 E-based width at ``D = 1.75 mm`` disagrees with the measured spacing by more than
 :data:`CALIBRATE_REL`, ``D = 1.75 / sqrt(ratio)`` (snapped to 1.75, 2.85 or 3.0 mm within 3 %).
+:func:`solid_infill_diameter` measures it on the solid infill instead, once the layer geometry is
+known (for Cura files).
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
 
-__all__ = ["DEFAULT_FILAMENT", "CALIBRATE_REL", "filament_diameter", "flow_widths", "wall_spacing"]
+if TYPE_CHECKING:
+    from loadpath.geometry.model import PrintGeometry
+
+__all__ = [
+    "DEFAULT_FILAMENT",
+    "CALIBRATE_REL",
+    "filament_diameter",
+    "solid_infill_diameter",
+    "flow_widths",
+    "wall_spacing",
+]
 
 DEFAULT_FILAMENT = 1.75
 """Filament diameter assumed when the file neither says nor shows otherwise, mm."""
@@ -82,7 +96,7 @@ def wall_spacing(program: Program, layers: int = 3) -> float | None:
     if len(both) == 0:
         return None
     mid = len(both) // 2
-    picks = both[max(0, mid - layers // 2): mid - layers // 2 + layers]
+    picks = both[max(0, mid - layers // 2) : mid - layers // 2 + layers]
     dist = []
     for layer in picks:
         e = m[ext & (m["layer"] == layer)]
@@ -108,7 +122,35 @@ def flow_widths(moves: np.ndarray, diameter: float) -> np.ndarray:
     """
     length = np.hypot(moves["x1"] - moves["x0"], moves["y1"] - moves["y0"])
     ok = moves["extrude"] & (length > 0) & (moves["height"] > 0)
-    area = np.pi * diameter ** 2 / 4
+    area = np.pi * diameter**2 / 4
     with np.errstate(invalid="ignore", divide="ignore"):
         fw = moves["e"] * area / (length * moves["height"])
     return np.where(ok, fw, np.nan)
+
+
+def solid_infill_diameter(program: Program, geo: PrintGeometry) -> float | None:
+    """Filament diameter from the solid infill of a file without settings (Cura), mm, or None.
+
+    Solid infill tiles its region: its flow width equals its line spacing, so
+    ``E * pi d^2 / 4 = pitch * height * length`` gives ``d``.  Snapped to 1.75 or 2.85 mm within 5 %.
+    The application uses it on Cura files whose diameter neither the settings nor
+    :func:`filament_diameter` (config, wall spacing) gave; the two measurements live here together
+    so there is one place that reads a filament diameter off a file.
+    """
+    ds = []
+    for obj in geo.objects:
+        for lg in obj.layers:
+            for isl in lg.islands:
+                for b in isl.blocks:
+                    if b.kind in ("solid", "bottom", "top") and b.length > 20 and b.pitch > 0:
+                        blk = program.block(b.block_index)
+                        if blk.e > 0:
+                            area = b.pitch * b.height * blk.length / blk.e
+                            ds.append(float(np.sqrt(4 * area / np.pi)))
+    if not ds:
+        return None
+    d = float(np.median(ds))
+    for std in (1.75, 2.85):
+        if abs(d - std) <= 0.05 * std:
+            return std
+    return d

@@ -7,6 +7,9 @@ Headless and deterministic: ``gmsh.initialize(["-noenv"], readConfigFiles=False,
   outline with holes and islands, graded towards holes, re-entrant corners and the loaded / supported
   boundary, optionally following extra lines inside (used for prism stacks, :mod:`loadpath.mesh.layered`).
 * :func:`mesh_stl`: quadratic tetrahedra inside a closed STL surface.
+
+(Over 400 lines: the one adapter of gmsh -- its session, size fields, 2D and STL meshing and the
+messages for its failures; the house rule keeps a heavy dependency behind one module.)
 """
 
 from __future__ import annotations

@@ -29,6 +29,8 @@ Stages (each timed in :attr:`PipelineResult.times`):
     :class:`~loadpath.errors.SpliceError` and nothing is returned.
 
 Files with nothing to replace, and vase-mode or sequential prints, come back unchanged with a warning.
+
+(Over 400 lines: :func:`run` and the records it returns; its stages are the modules named above.)
 """
 
 from __future__ import annotations
@@ -69,7 +71,7 @@ from loadpath.splice.plan import PlanOptions, simplify
 from loadpath.splice.verify import SpliceCheck, check_output
 from loadpath.toolpath import Path, Toolpaths
 
-__all__ = ["PipelineOptions", "PipelineResult", "JobResult", "run", "STAGES"]
+__all__ = ["PipelineOptions", "PipelineResult", "EngineRun", "run", "STAGES"]
 
 STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "write")
 """Stage names, in order (``parse`` and ``write`` are timed by the caller)."""
@@ -130,7 +132,7 @@ class PipelineOptions:
 
 
 @dataclass
-class JobResult:
+class EngineRun:
     """One engine run and the layers that print its paths.
 
     Attributes
@@ -186,7 +188,7 @@ class PipelineResult:
         The input.
     splice : SpliceResult or None
     check : SpliceCheck or None
-    jobs : tuple of JobResult
+    jobs : tuple of EngineRun
     analyses : dict of str -> Analysis
         FEA per object name.
     geometry : PrintGeometry or None
@@ -200,7 +202,7 @@ class PipelineResult:
     program: Program
     splice: SpliceResult | None = None
     check: SpliceCheck | None = None
-    jobs: tuple[JobResult, ...] = ()
+    jobs: tuple[EngineRun, ...] = ()
     analyses: dict = field(default_factory=dict)
     geometry: Any = None
     times: dict = field(default_factory=dict)
@@ -270,6 +272,9 @@ def run(
         From the stages.
     SpliceError
         The result failed its check.
+
+    (Over 120 lines: the stages in order, each a call into its module -- parse, geometry, load case,
+    FEA, engine runs, splice, check -- with the clock and progress between them.)
     """
     from loadpath import fea, geometry
     from loadpath.loadcase import resolve
@@ -480,7 +485,7 @@ def _fills(
     options: PipelineOptions,
     plan: PlanOptions,
     shifted_paths: dict[int, Toolpaths] | None = None,
-) -> tuple[list[JobResult], list[BlockFill]]:
+) -> tuple[list[EngineRun], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them.
 
     ``shifted_paths`` (job index -> paths): the engine's own staggered copy of a job; other jobs'
@@ -526,7 +531,7 @@ def _fills(
                 entry["paths"].extend(ps)
                 entry["regions"].append(u.fill_region)
         job_results.append(
-            JobResult(
+            EngineRun(
                 job,
                 sorted(members, key=lambda m: m.layer),
                 tp,

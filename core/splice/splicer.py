@@ -18,6 +18,9 @@ is measured before and after.  PrusaSlicer's footer lines (``; estimated printin
 (``; estimated printing time after loadpath (normal mode) = ...``); Cura's ``;TIME:`` header line is
 followed by a comment with the change.  ``M73`` progress lines inside a replaced block are spread
 over the new block at the same fraction of its length, so they stay in order and monotone.
+
+(Over 400 lines: the options and result records, and the footer's time and filament notes,
+belong to the one :func:`splice` call.)
 """
 
 from __future__ import annotations

@@ -131,6 +131,9 @@ def check_splice(
     retract_length : float, mm
         The retraction the splicer was told to use (new lines may hold back this much even when the
         file itself never did).
+
+    (Over 120 lines: one walk over the replaced blocks and the untouched lines, each check adding a
+    line to the problems.)
     """
     problems: list[str] = []
     n = original.n_lines

@@ -16,6 +16,10 @@ can reach and the exact test decides:
 The grids are built on the points as laid; the centring moves each point by at most ``max |move|``
 along its normal, so its searches widen their boxes by that much.  :func:`tangents` gives both
 the paths' unit tangents; :func:`cell_lists` is also used by :mod:`.ends`.
+
+(Over 400 lines: the two searches share :func:`cell_lists` and the grid walk, and each is the loop
+form of a numpy expression kept in one place with its comments; split, the kernels would import
+each other's private helpers.)
 """
 
 from __future__ import annotations

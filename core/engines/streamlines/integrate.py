@@ -33,6 +33,9 @@ Termination, per branch (each end of a line records why it stopped, ``END_*``)
     ``END_LENGTH``    guard: ``max_length`` reached (closed trajectories around a centre-type point).
 The thesis's loop exit ``if flagForward==1 && flagBackward==1 Break`` (App. C) is read as the
 evident "both branches stopped".
+
+(Over 400 lines: the batched tracer :func:`trace` and the history, assembly and loop cuts that
+only it uses share the :class:`Traced` record and its per-particle arrays; they are one stage.)
 """
 
 from __future__ import annotations
@@ -182,6 +185,9 @@ def trace(
     Returns
     -------
     Traced
+
+    (Over 120 lines: the integration loop keeps every particle's state in local arrays updated in
+    place each step; the deferred spacing test needs them all.)
     """
     seeds = np.asarray(seeds, dtype=float).reshape(-1, 2)
     n = len(seeds)

@@ -1,14 +1,14 @@
 """Path ends pulled back until their round bead end balances the void it leaves.
 
-A path end placed so its *square* bead end meets the bead ahead (:mod:`.ends`, the flow-width
-rectangle of interface.md) puts its whole rounded end, half a disc of the bead's width, on top of
-that bead; a swarm end killed closer than that puts more.  Printed, that plastic piles up on the
-other bead; in the coverage metric it is overlap, and on a layer with hundreds of ends along the
-seams where fronts meet (a bearing-loaded bracket: 374 ends on 330 mm², their caps 17 of its
-22 mm² of overlap) it is most of it.  Pulling an end straight back by ``t`` takes its cap off the
-bead ahead but leaves uncovered the corners beside the cap; for a cap of radius ``r`` against a
-straight bead side, the overlap falls from ``pi r^2 / 2`` at ``t = 0`` to ``0.45 r^2`` at
-``t = 0.6 r`` while the void only grows to ``0.08 r^2``.
+A path end placed so its *square* bead end meets the bead ahead
+(:mod:`loadpath.engines.finish.ends`, the flow-width rectangle of interface.md) puts its whole
+rounded end, half a disc of the bead's width, on top of that bead; a swarm end killed closer than
+that puts more.  Printed, that plastic piles up on the other bead; in the coverage metric it is
+overlap, and on a layer with hundreds of ends along the seams where fronts meet (a bearing-loaded
+bracket: 374 ends on 330 mm², their caps 17 of its 22 mm² of overlap) it is most of it.  Pulling an
+end straight back by ``t`` takes its cap off the bead ahead but leaves uncovered the corners beside
+the cap; for a cap of radius ``r`` against a straight bead side, the overlap falls from ``pi r^2 /
+2`` at ``t = 0`` to ``0.45 r^2`` at ``t = 0.6 r`` while the void only grows to ``0.08 r^2``.
 
 :func:`settle_ends` finds, for every end, the pull-back ``t`` (in steps up to ``max_back`` of its
 width) that removes the most overlap less ``balance`` times the void it adds, measured on a grid
@@ -70,6 +70,9 @@ def settle_ends(
     paths, widths : lists as given, the pulled-back ends moved along their paths
     stats : dict
         ``ends_settled`` (count) and ``settled_mm`` (total pull-back).
+
+    (Over 120 lines: the trial pull-backs of all ends are scored together, on sample grids around
+    each end; the candidates, scores and the update share those arrays.)
     """
     paths = [np.asarray(p, dtype=float) for p in paths]
     widths = [np.asarray(w, dtype=float) for w in widths]

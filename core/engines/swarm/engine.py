@@ -15,6 +15,9 @@
 A fill swarm's domain is the uncovered piece: its boundary runs along the beads already laid, so
 its boundary agents keep the new paths a pitch from the old ones and its margin keeps them at
 least ``(1/2 + margin)`` pitches away.  Everything is deterministic (no random choice).
+
+(Over 400 lines: :func:`generate` documents each option with the benchmark figures behind its
+default; the seed lines, fill pieces and path recorder are used by the swarm loop alone.)
 """
 
 from __future__ import annotations
@@ -312,40 +315,36 @@ def generate(inp: EngineInput, K: float = 5.0, **options: object) -> Toolpaths:
         potential, Eq. 12: ``P = P_a + K P_e``.
     **options
         Fields of :class:`SwarmParams` (``window``, ``kill_below``, ``spawn_above``, ...), and
-        ``coverage_target`` (default 0.995: stop starting swarms above this nominal-bead
-        coverage), ``max_swarms`` (default 400), ``fill`` (default True: start further swarms on
-        uncovered pieces), ``fill_min_width`` (default 0.6: the narrowest uncovered piece, in
-        pitches, that gets a fill swarm), ``widths`` (default ``"measured"``: every point's local
-        pitch measured on the finished layer, :mod:`.widths`; ``"geometric"``: only the points the
-        swarm is unsure of (chain ends, next to a boundary, seeds), the others from the chain
-        neighbours; ``"swarm"``: all from the chain neighbours during the step; on the stiffness
-        benchmark's bracket "measured" gives 0.56 of the ceiling gain against 0.50 for
-        "geometric"), ``centre`` (default 0.25: measured points move up to this many pitches
-        toward the wider of their two gaps, so their bead sits between the mid-gaps instead of
-        covering the nearer neighbour, :func:`.widths.centre_points`; 0 turns it off),
-        ``width_cap`` (default 1.5: the widest bead, in pitches), ``extend_ends`` (default True:
-        path ends carried on to the next bead or the edge, :mod:`.ends`), ``end_cap`` (default 0:
-        an end stops where its square end meets the bead it runs into; the flow model's bead
-        ``w h L`` ends at the end point, so anything more leaves a void there), ``end_overlap``
-        (default 0: how much of its own width an extension may cover of the beads beside it;
-        ``None``: only the centre-line clearance is checked, as the streamline engine does; on
-        the bracket 0 gives 0.49 of the ceiling gain, ``None`` 0.32), ``gaps`` (default True:
-        a straight bead in each void left where path ends meet, :mod:`.gaps`), ``phase``
-        (default 0: the seeds of every swarm, one pitch apart along their line, move on by this
-        many pitches; 0.5 gives a layer whose paths run between those of phase 0, which the
-        pipeline prints on every other of a run of identical layers), ``join`` (default True: ends
-        facing each other across a gap of up to two pitches become one path, :mod:`.joins`; on the
-        bench bracket 409 -> 343 paths, coverage 98.77 -> 98.81 %, overlap 3.86 -> 3.68 %),
-        ``hairpin`` (default None: off; a number ``c`` also joins neighbours that end side by side
-        by a hairpin whose bridge keeps ``c`` pitches from other paths; with 0.5 the bench
-        bracket has 263 paths, 98.91 % coverage, 3.37 % overlap, the specimen 0.19 % overlap, but
-        the stiffness benchmark's share falls from 0.82 to 0.79: the bridge's square-ended bead
-        lies half on the bead the two ends stop at),
-        ``settle`` (default None: off; a number ``b`` pulls back the ends whose round bead end lies
-        on another bead where that removes more overlap than ``b`` times the void it leaves,
-        :mod:`.caps`; with 10 the bench bracket's overlap falls to 2.82 % at 98.68 % coverage, but
-        the stiffness benchmark, whose beads end square, loses about 0.05 of its share of the
-        ceiling gain).
+        ``coverage_target`` (default 0.995: stop starting swarms above this nominal-bead coverage),
+        ``max_swarms`` (default 400), ``fill`` (default True: start further swarms on uncovered pieces),
+        ``fill_min_width`` (default 0.6: the narrowest uncovered piece, in pitches, that gets a fill swarm),
+        ``widths`` (default ``"measured"``: every point's local pitch measured on the finished layer,
+        :mod:`loadpath.engines.finish.widths`; ``"geometric"``: only the points the swarm is unsure of
+        (chain ends, next to a boundary, seeds), the others from the chain neighbours; ``"swarm"``: all from
+        the chain neighbours during the step; on the stiffness benchmark's bracket "measured" gives 0.56 of
+        the ceiling gain against 0.50 for "geometric"), ``centre`` (default 0.25: measured points move up to
+        this many pitches toward the wider of their two gaps, so their bead sits between the mid-gaps
+        instead of covering the nearer neighbour, :func:`loadpath.engines.finish.widths.centre_points`; 0
+        turns it off), ``width_cap`` (default 1.5: the widest bead, in pitches), ``extend_ends`` (default
+        True: path ends carried on to the next bead or the edge, :mod:`loadpath.engines.finish.ends`),
+        ``end_cap`` (default 0: an end stops where its square end meets the bead it runs into; the flow
+        model's bead ``w h L`` ends at the end point, so anything more leaves a void there), ``end_overlap``
+        (default 0: how much of its own width an extension may cover of the beads beside it; ``None``: only
+        the centre-line clearance is checked, as the streamline engine does; on the bracket 0 gives 0.49 of
+        the ceiling gain, ``None`` 0.32), ``gaps`` (default True: a straight bead in each void left where
+        path ends meet, :mod:`.gaps`), ``phase`` (default 0: the seeds of every swarm, one pitch apart along
+        their line, move on by this many pitches; 0.5 gives a layer whose paths run between those of phase
+        0, which the pipeline prints on every other of a run of identical layers), ``join`` (default True:
+        ends facing each other across a gap of up to two pitches become one path, :mod:`.joins`; on the
+        bench bracket 409 -> 343 paths, coverage 98.77 -> 98.81 %, overlap 3.86 -> 3.68 %), ``hairpin``
+        (default None: off; a number ``c`` also joins neighbours that end side by side by a hairpin whose
+        bridge keeps ``c`` pitches from other paths; with 0.5 the bench bracket has 263 paths, 98.91 %
+        coverage, 3.37 % overlap, the specimen 0.19 % overlap, but the stiffness benchmark's share falls
+        from 0.82 to 0.79: the bridge's square-ended bead lies half on the bead the two ends stop at),
+        ``settle`` (default None: off; a number ``b`` pulls back the ends whose round bead end lies on
+        another bead where that removes more overlap than ``b`` times the void it leaves, :mod:`.caps`; with
+        10 the bench bracket's overlap falls to 2.82 % at 98.68 % coverage, but the stiffness benchmark,
+        whose beads end square, loses about 0.05 of its share of the ceiling gain).
 
     Returns
     -------

@@ -3,8 +3,9 @@
 Where two fronts meet (a seam behind a hole, the neutral axis of a bent bracket where the followed
 stress turns by 90 degrees, a swarm killed between converging neighbours) the paths end, and the
 beads' square ends leave voids a pitch or so across that no swarm can enter and that
-:mod:`.ends` cannot reach without covering a neighbour.  A void costs stiffness in proportion to
-its area, and volume matching cannot refill it (it thins or thickens every bead alike).
+:mod:`loadpath.engines.finish.ends` cannot reach without covering a neighbour.  A void costs
+stiffness in proportion to its area, and volume matching cannot refill it (it thins or thickens
+every bead alike).
 
 :func:`gap_fill` finds the voids next to path ends (beads square at their ends, of each point's
 flow width) and lays one straight bead in each void of at least ``min_area`` pitch²: through the
@@ -188,6 +189,9 @@ def gap_fill(
     widths : list of (2,) float, mm
     stats : dict
         ``gap_voids`` (voids examined), ``gap_beads`` (laid), ``gap_mm2`` (their nominal area).
+
+    (Over 120 lines: the voids near the ends, their candidate beads and the acceptance tests all
+    work on the same flattened point, width and end arrays, built once here.)
     """
     stats: dict = {"gap_voids": 0, "gap_beads": 0, "gap_mm2": 0.0}
     keep = [i for i, p in enumerate(paths) if len(p) >= 2]

@@ -2,9 +2,10 @@
 
 Where two fronts meet head-on (fill swarms started from both sides of a piece, a fan around a pin
 hole meeting a fill swarm) their paths end facing each other across a small gap: after
-:mod:`.ends` they stop about half a pitch apart, so each end's round bead end lies on the other's,
-and two retractions and two bead ends are printed where one continuous bead would do.  On the bench
-bracket 144 such pairs lie within two pitches of each other (288 of 754 ends).
+:mod:`loadpath.engines.finish.ends` they stop about half a pitch apart, so each end's round bead end
+lies on the other's, and two retractions and two bead ends are printed where one continuous bead
+would do.  On the bench bracket 144 such pairs lie within two pitches of each other (288 of 754
+ends).
 
 :func:`join_ends` joins every pair of ends that
 
@@ -105,6 +106,9 @@ def join_ends(
         For each output path, the input path it starts with.
     stats : dict
         ``joins`` (bridges laid) and ``join_mm`` (their length).
+
+    (Over 120 lines: pairing the ends, testing the bridge and rebuilding the joined paths work on
+    the same end tables; the hairpin variant reuses them.)
     """
     paths = [np.asarray(p, dtype=float) for p in paths]
     widths = [np.asarray(w, dtype=float) for w in widths]

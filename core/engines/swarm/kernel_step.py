@@ -820,7 +820,7 @@ def _local_pitch(tab: np.ndarray, x: np.ndarray, pitch: float) -> np.ndarray:
     """Local pitch of each agent: half the gap to each moving neighbour, the full gap to a boundary.
 
     Negative where the estimate is uncertain (no moving neighbour on both sides); the engine
-    measures those points on the finished layer (:mod:`.widths`).
+    measures those points on the finished layer (:mod:`loadpath.engines.finish.widths`).
     """
     m = tab.shape[0]
     link = np.zeros(m + 1, dtype=np.bool_)

@@ -36,6 +36,9 @@ Example
 >>> data = bgcode.encode(bg, "G1 X1 Y2 E0.5\n")
 >>> bgcode.is_bgcode(data), bgcode.decode(data).gcode
 (True, 'G1 X1 Y2 E0.5\n')
+
+(Over 400 lines: the container's records, :func:`decode`, :func:`encode` and :func:`to_ascii`
+mirror each other block kind by block kind.)
 """
 
 from __future__ import annotations
