@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from loadpath.density import DensityOptions
 from loadpath.errors import LoadpathError, SettingsError
 from loadpath.plugin import settings as settings_mod
 
@@ -257,6 +258,7 @@ def _run(
         stagger=s.stagger,
         workers=s.jobs or default_workers(),
         check=s.check,
+        density=DensityOptions(s.density, fill=s.sparse_fill, max_pitch=s.density_max_pitch),
     )
     pres = pipeline.run(
         program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura,

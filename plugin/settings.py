@@ -150,6 +150,35 @@ SCHEMA: tuple[Field, ...] = (
         toolpath=True,
     ),
     Field(
+        "density",
+        "str",
+        "energy",
+        "",
+        "where replaced sparse infill puts its plastic: 'energy' (dense where the strain energy is, "
+        "the stiffest at the same mass), 'failure' (fully stressed, von Mises) or 'uniform' (the slicer's)",
+        ("energy", "failure", "uniform"),
+        toolpath=True,
+    ),
+    Field(
+        "sparse_fill",
+        "optional_float",
+        None,
+        "fraction",
+        "mean fill of the replaced sparse infill (0.25 or 25%); default the slicer's, so the part keeps its mass",
+        minimum=0.01,
+        maximum=1.0,
+        toolpath=True,
+    ),
+    Field(
+        "density_max_pitch",
+        "float",
+        8.0,
+        "mm",
+        "widest pitch of replaced sparse infill (top skins bridge from line to line)",
+        minimum=0.5,
+        maximum=50.0,
+    ),
+    Field(
         "width_min",
         "float",
         0.6,
@@ -358,6 +387,9 @@ class Settings:
     K: float = 5.0  # noqa: N815 (the paper's symbol)
     principal: str = "max_abs"
     replace: tuple[str, ...] = ("solid",)
+    density: str = "energy"
+    sparse_fill: float | None = None
+    density_max_pitch: float = 8.0
     width_min: float = 0.6
     width_max: float = 1.6
     link_max: float = 2.0
@@ -500,7 +532,10 @@ def resolve(
     if cura_settings:
         s = s.with_values(from_cura_settings(cura_settings), "Cura settings")
     if toolpath is not None:
-        vals = {k: getattr(toolpath, k) for k in ("engine", "pitch", "K", "principal", "replace")}
+        vals = {
+            k: getattr(toolpath, k)
+            for k in ("engine", "pitch", "K", "principal", "replace", "density", "sparse_fill")
+        }
         s = s.with_values({k: v for k, v in vals.items() if v is not None}, "load case")
     if cli:
         s = s.with_values({k: v for k, v in cli.items() if v is not None}, "command line")

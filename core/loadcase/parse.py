@@ -41,7 +41,7 @@ _TOP_KEYS = ("version", "object", "frame", "material", "supports", "loads", "too
 _MATERIAL_KEYS = ("youngs_modulus", "poissons_ratio")
 _SUPPORT_KEYS = ("name", "where", "fix")
 _LOAD_KEYS = ("name", "where", "force", "pressure")
-_TOOLPATH_KEYS = ("engine", "pitch", "K", "principal", "replace")
+_TOOLPATH_KEYS = ("engine", "pitch", "K", "principal", "replace", "density", "sparse_fill")
 _ENGINES = ("swarm", "streamlines")
 _PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
 _REPLACE = ("solid", "sparse", "top", "bottom")
@@ -361,4 +361,14 @@ def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
         for kind in r:
             c.string(kind, "toolpath.replace[]", _REPLACE)
         replace = tuple(dict.fromkeys(r))
-    return ToolpathOptions(engine=engine, pitch=pitch, K=k, principal=principal, replace=replace)
+    from loadpath.density import CRITERIA
+
+    density = c.string(t["density"], "toolpath.density", CRITERIA) if "density" in t else None
+    fill = None
+    if "sparse_fill" in t:
+        fill = c.number(t["sparse_fill"], "toolpath.sparse_fill", "fraction")
+        if not 0.0 < fill <= 1.0:
+            raise c.fail(f"toolpath.sparse_fill = {fill} must be a fraction in (0, 1] (e.g. 0.2 for 20 %)")
+    return ToolpathOptions(
+        engine=engine, pitch=pitch, K=k, principal=principal, replace=replace, density=density, sparse_fill=fill
+    )

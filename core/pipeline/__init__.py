@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -46,7 +46,8 @@ from loadpath.gcode import Program, parse
 from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
 from loadpath.gcode.verify import SpliceCheck, check_output
-from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger
+from loadpath.density import DensityOptions, density_field
+from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger, volume_scale
 from loadpath.pipeline.units import (
     Unit,
     passthrough_reason,
@@ -90,6 +91,10 @@ class PipelineOptions:
     overlap : bool
         Grow each unit's region by the slicer's own infill-perimeter overlap before the engine
         fills it (:func:`loadpath.pipeline.units.with_overlap`).
+    density : DensityOptions or None
+        Where replaced sparse infill puts its plastic (:mod:`loadpath.density`): dense where the
+        part works, at the slicer's mass unless ``density.fill`` is set.  None or criterion
+        ``"uniform"``: the slicer's uniform density.
     """
 
     engine: str = "swarm"
@@ -102,6 +107,7 @@ class PipelineOptions:
     check: bool = True
     volume_tol: float = 0.03
     overlap: bool = True
+    density: DensityOptions | None = None
 
 
 @dataclass
@@ -311,6 +317,9 @@ def run(
         return options.principal
 
     jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])
+    if options.density is not None and options.density.criterion != "uniform":
+        nu = float(loadcase.material.poissons_ratio)
+        jobs = [with_density(j, options.density, nu) if j.unit.fixed_width else j for j in jobs]
     # the engine lays the staggered copy of a run of identical layers itself, from seeds half a
     # pitch on (option ``phase``): a whole layer again, where shifting the paths sideways and
     # clipping them left a poorer one (stiffness benchmark, share of the model's ceiling gain:
@@ -369,6 +378,18 @@ def run(
     )
 
 
+def with_density(job: Job, density: DensityOptions, poissons_ratio: float) -> Job:
+    """The job with the density field of its region (:func:`loadpath.density.density_field`).
+
+    The field is scaled to the unit's own fill (its slicer pitch), or to ``density.fill`` with the
+    job's pitch rescaled to that fill, so each layer keeps the plastic the slicer gave it.
+    """
+    u, inp = job.unit, job.input
+    df = density_field(inp.field, inp.region, u.flow_width, inp.pitch, density, poissons_ratio)
+    pitch = df.base_pitch if density.fill is not None else inp.pitch
+    return replace(job, input=replace(inp, density=df, pitch=pitch))
+
+
 def geo_kind(geo, block: int) -> str | None:
     """Return the geometry's kind of a block (None when it is in no island)."""
     for obj in geo.objects:
@@ -424,7 +445,7 @@ def _fills(
                 paths = clip_to(paths, u.fill_region, 2.0 * u.pitch)
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():
-                entry = per_block.setdefault(block, {"paths": [], "regions": [], "unit": u})
+                entry = per_block.setdefault(block, {"paths": [], "regions": [], "unit": u, "scale": volume_scale(job)})
                 entry["paths"].extend(ps)
                 entry["regions"].append(u.fill_region)
         job_results.append(
@@ -450,6 +471,7 @@ def _fills(
                 flow_width=u.flow_width if u.fixed_width else None,
                 nominal_pitch=u.pitch,
                 simplified=True,
+                volume_scale=e["scale"],
             )
         )
     return job_results, fills

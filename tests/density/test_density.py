@@ -67,3 +67,25 @@ def test_bad_options_name_the_setting():
         DensityOptions("stress")
     with pytest.raises(SettingsError, match="sparse_fill"):
         DensityOptions(fill=20.0)
+
+
+def test_zones_split_the_beam_into_bands_that_keep_the_fill():
+    from loadpath.density import zones
+
+    f = AnalyticField(bending, BEAM, scale=100.0)
+    d = density_field(f, BEAM, 0.45, 2.25)
+    zs = zones(d, BEAM, 6)
+    assert 3 <= len(zs) <= 6
+    # disjoint, covering the beam
+    total = sum(z.region.area for z in zs)
+    assert total == pytest.approx(BEAM.area, rel=1e-6)
+    import shapely
+
+    assert shapely.union_all([z.region for z in zs]).area == pytest.approx(BEAM.area, rel=1e-6)
+    # the plastic of the zones (area / pitch * width) is the field's, within 2 %
+    fill = sum(z.region.area * 0.45 / z.pitch for z in zs) / BEAM.area
+    assert fill == pytest.approx(0.2, rel=0.02)
+    # bands: the densest zone holds the outer fibres, the sparsest the neutral axis
+    dense, sparse = min(zs, key=lambda z: z.pitch), max(zs, key=lambda z: z.pitch)
+    assert dense.region.contains(shapely.Point(60, 9.8)) and sparse.region.contains(shapely.Point(60, 0))
+    assert zones(density_field(AnalyticField(tension, BEAM, 25.0), BEAM, 0.45, 2.25), BEAM)[0].region is BEAM
