@@ -154,16 +154,24 @@ VARIANTS = {
     "uniform": {"density": "uniform"},
     "failure": {"density": "failure"},
     "alternate": {"density": "energy", "principal": "alternate"},
+    "cross30": {"density": "energy", "principal": "cross", "cross_angle": 30.0},
+    "cross45": {"density": "energy", "principal": "cross", "cross_angle": 45.0},
 }
 
 
 def slice_part(part: str, slicer: str, pattern: str, fill: int, folder: Path) -> Path:
     stl = slicing.write_stl(PARTS[part](), folder / f"{part}.stl")
-    out = folder / f"{part}-{slicer}-{pattern}{fill}.gcode"
+    out = folder / f"{part}-{slicer}-{pattern.replace('/', '_')}{fill}.gcode"
     if out.exists():
         return out
     if slicer == "prusa":
         s = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3"}
+        if pattern == "0/90":  # rectilinear along x, then y (the thesis's 0/90 reference)
+            s.update(fill_angle="0")
+            pattern = "rectilinear"
+            out = folder / f"{part}-{slicer}-0_90{fill}.gcode"
+            if out.exists():
+                return out
         return slicing.slice_prusa(stl, out, **{**s, "fill_pattern": pattern, "fill_density": f"{fill}%"})
     # Cura: the frontend's formula for the line distance (grid: two directions per layer)
     lines = {"grid": 2.0, "gyroid": 1.0, "lines": 1.0}[pattern]
@@ -205,6 +213,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("out", nargs="?", default=None)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
+    ap.add_argument("--parts", default=None, help="comma-separated subset of " + ",".join(PARTS))
+    ap.add_argument("--configs", default=None, help="comma-separated slicer-pattern-fill, e.g. prusa-gyroid-20")
+    ap.add_argument("--variants", default=None, help="comma-separated subset of " + ",".join(VARIANTS))
     args, _ = ap.parse_known_args(argv)
     folder = Path(args.out or tempfile.mkdtemp(prefix="bench_sparse_"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -215,6 +226,12 @@ def main(argv: list[str] | None = None) -> int:
         configs = [(s, p, f) for s, pats in (("prusa", ("gyroid", "rectilinear")), ("cura", ("grid", "gyroid")))
                    for p in pats for f in (20, 40)]
         variants = list(VARIANTS)
+    if args.parts:
+        parts = args.parts.split(",")
+    if args.configs:
+        configs = [(c.split("-")[0], c.split("-")[1], int(c.split("-")[2])) for c in args.configs.split(",")]
+    if args.variants:
+        variants = args.variants.split(",")
     head = (f"{'part':8} {'slice':16} {'variant':9} {'mass':>6} {'stiff':>6} {'fail':>5} {'beta':>5} "
             f"{'trav':>6} {'travmx':>6} {'retr':>6} {'time':>5} {'size':>5} {'check':>6} {'run s':>6}")
     print(f"engine {args.engine}; files in {folder}")

@@ -254,6 +254,7 @@ def _run(
         engine_params=params,
         pitch=s.pitch,
         principal=s.principal,
+        cross_angle=s.cross_angle,
         replace=tuple(s.replace),
         stagger=s.stagger,
         workers=s.jobs or default_workers(),

@@ -63,7 +63,7 @@ __all__ = [
 ]
 
 ENGINES = ("swarm", "streamlines")
-PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
+PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate", "cross")
 REPLACE_KINDS = ("solid", "sparse", "top", "bottom")
 
 
@@ -134,7 +134,8 @@ SCHEMA: tuple[Field, ...] = (
         "str",
         "max_abs",
         "",
-        "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers)",
+        "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers; "
+        "'cross': layers at +-cross_angle about the largest principal stress)",
         PRINCIPALS,
         cli="--principal",
         toolpath=True,
@@ -148,6 +149,15 @@ SCHEMA: tuple[Field, ...] = (
         REPLACE_KINDS,
         cli="--replace",
         toolpath=True,
+    ),
+    Field(
+        "cross_angle",
+        "float",
+        30.0,
+        "deg",
+        "principal = cross: layers turned this much either way from the largest principal stress",
+        minimum=0.0,
+        maximum=90.0,
     ),
     Field(
         "density",
@@ -387,6 +397,7 @@ class Settings:
     K: float = 5.0  # noqa: N815 (the paper's symbol)
     principal: str = "max_abs"
     replace: tuple[str, ...] = ("solid",)
+    cross_angle: float = 30.0
     density: str = "energy"
     sparse_fill: float | None = None
     density_max_pitch: float = 8.0

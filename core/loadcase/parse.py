@@ -43,7 +43,7 @@ _SUPPORT_KEYS = ("name", "where", "fix")
 _LOAD_KEYS = ("name", "where", "force", "pressure")
 _TOOLPATH_KEYS = ("engine", "pitch", "K", "principal", "replace", "density", "sparse_fill")
 _ENGINES = ("swarm", "streamlines")
-_PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
+_PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate", "cross")
 _REPLACE = ("solid", "sparse", "top", "bottom")
 
 _EXAMPLE_SUPPORT = '[[supports]] where = { side = "x_min", within = 5.0 } fix = ["x", "y", "z"]'

@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 import shapely
 from loadpath.errors import SpliceError
+from loadpath.field import RotatedField
 from loadpath.gcode import Program, parse
 from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
@@ -78,8 +79,10 @@ class PipelineOptions:
     pitch : float or None, mm
         None: each unit's slicer pitch.
     principal : str
-        ``"max_abs"``, ``"min_abs"``, ``"tensile"``, ``"compressive"`` or ``"alternate"`` (``max_abs``
-        on even layers, ``min_abs`` on odd ones).
+        ``"max_abs"``, ``"min_abs"``, ``"tensile"``, ``"compressive"``, ``"alternate"`` (``max_abs``
+        on even layers, ``min_abs`` on odd ones) or ``"cross"`` (``max_abs`` turned by
+        ``+cross_angle`` on even layers, ``-cross_angle`` on odd ones: families that brace each other).
+    cross_angle : float, degrees
     replace : tuple of str
     stagger : bool
     workers : int
@@ -101,6 +104,7 @@ class PipelineOptions:
     engine_params: Mapping[str, Any] = field(default_factory=dict)
     pitch: float | None = None
     principal: str = "max_abs"
+    cross_angle: float = 30.0
     replace: tuple[str, ...] = ("solid",)
     stagger: bool = True
     workers: int = 1
@@ -308,12 +312,16 @@ def run(
     def field_of(u: Unit, principal: str):
         key = (u.object, "2d" if kind_of[u.object] == "2d" else round(u.z_mid, 6), principal)
         if key not in fields:
-            fields[key] = analyses[u.object].field(u.z_mid, principal)
+            base, _, turn = principal.partition("@")
+            f = analyses[u.object].field(u.z_mid, base)
+            fields[key] = RotatedField(f, np.radians(float(turn))) if turn else f
         return fields[key]
 
     def principal_of(u: Unit) -> str:
         if options.principal == "alternate":
             return "max_abs" if u.layer % 2 == 0 else "min_abs"
+        if options.principal == "cross":  # +-angle about the max-|sigma| direction, layer by layer
+            return f"max_abs@{options.cross_angle if u.layer % 2 == 0 else -options.cross_angle:g}"
         return options.principal
 
     jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])

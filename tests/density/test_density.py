@@ -89,3 +89,16 @@ def test_zones_split_the_beam_into_bands_that_keep_the_fill():
     dense, sparse = min(zs, key=lambda z: z.pitch), max(zs, key=lambda z: z.pitch)
     assert dense.region.contains(shapely.Point(60, 9.8)) and sparse.region.contains(shapely.Point(60, 0))
     assert zones(density_field(AnalyticField(tension, BEAM, 25.0), BEAM, 0.45, 2.25), BEAM)[0].region is BEAM
+
+
+def test_rotated_field_turns_the_directions_and_keeps_the_magnitudes():
+    from loadpath.field import RotatedField
+
+    f = AnalyticField(lambda p: np.tile([30.0, -10.0, 5.0], (len(p), 1)), scale=30.0)
+    pts = np.array([[0.0, 0.0], [3.0, 4.0]])
+    a = f.sample(pts)
+    for turn in (np.radians(30.0), -np.radians(30.0)):
+        b = RotatedField(f, turn).sample(pts)
+        assert b.magnitude == pytest.approx(a.magnitude) and b.anisotropy == pytest.approx(a.anisotropy)
+        ang = np.arctan2(b.direction[:, 1], b.direction[:, 0]) - np.arctan2(a.direction[:, 1], a.direction[:, 0])
+        assert np.cos(2 * (ang - turn)) == pytest.approx(1.0)
