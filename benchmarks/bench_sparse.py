@@ -208,23 +208,53 @@ def infill_motion(path: Path) -> dict[int, tuple[float, int]]:
     return out
 
 
+def timing(folder: Path, engine: str, repeats: int = 3) -> int:
+    """``loadpath run`` on a 40-layer 30 % gyroid part against PrusaSlicer's own slicing time."""
+    stl = slicing.write_stl(slicing.bracket_mesh(thickness=8.0), folder / "bracket8.stl")
+    case = folder / "bracket.toml"
+    case.write_text(CASES["bracket"], encoding="utf-8")
+    conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3",
+            "fill_pattern": "gyroid", "fill_density": "30%"}
+    t_slice, t_run = [], []
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        src = slicing.slice_prusa(stl, folder / f"bracket8-{k}.gcode", **conf)
+        t_slice.append(time.perf_counter() - t0)
+    layers = len(gcode.read(src).layers)
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        res = run_job(JobRequest(src, case, output=folder / f"bracket8-{k}.loadpath.gcode",
+                                 cli={"engine": engine, "replace": ("solid", "sparse")}))
+        t_run.append(time.perf_counter() - t0)
+        if res.error:
+            print(f"loadpath run failed: {res.error}")
+            return 1
+    ms, mr = float(np.median(t_slice)), float(np.median(t_run))
+    print(f"{layers}-layer 30 % gyroid bracket: PrusaSlicer {ms:.1f} s, loadpath run ({engine}) {mr:.1f} s "
+          f"(medians of {repeats}): {mr / ms:.1f}x (target <= 5x)")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", nargs="?", default=None)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
     ap.add_argument("--parts", default=None, help="comma-separated subset of " + ",".join(PARTS))
-    ap.add_argument("--configs", default=None, help="comma-separated slicer-pattern-fill, e.g. prusa-gyroid-20")
+    ap.add_argument("--configs", default=None, help="slicer-pattern-fill, comma-separated: prusa-gyroid-20")
     ap.add_argument("--variants", default=None, help="comma-separated subset of " + ",".join(VARIANTS))
+    ap.add_argument("--timing", action="store_true", help="only the time budget: 40-layer 30 %% gyroid part")
     args, _ = ap.parse_known_args(argv)
     folder = Path(args.out or tempfile.mkdtemp(prefix="bench_sparse_"))
     folder.mkdir(parents=True, exist_ok=True)
+    if args.timing:
+        return timing(folder, args.engine)
     if args.quick:
         parts, configs, variants = ["beam", "ohs"], [("prusa", "gyroid", 20)], ["density", "uniform"]
     else:
         parts = list(PARTS)
-        configs = [(s, p, f) for s, pats in (("prusa", ("gyroid", "rectilinear")), ("cura", ("grid", "gyroid")))
-                   for p in pats for f in (20, 40)]
+        pats = (("prusa", ("gyroid", "rectilinear")), ("cura", ("grid", "gyroid")))
+        configs = [(s, p, f) for s, ps in pats for p in ps for f in (20, 40)]
         variants = list(VARIANTS)
     if args.parts:
         parts = args.parts.split(",")
@@ -273,9 +303,11 @@ def main(argv: list[str] | None = None) -> int:
                 rr = [(mot.get(k, (0.0, 0))[1] + 1.0) / (n + 1.0) for k, (_, n) in base.items()]
                 print(f"{part:8} {label:16} {v:9} {r['mass'] / r0['mass']:6.3f} {r['stiffness']:6.3f} "
                       f"{'n/a':>5} {r['beta']:5.2f} {np.mean(ratios):6.2f} {np.max(ratios):6.2f} "
-                      f"{np.mean(rr):6.2f} {tr:5.2f} {size:5.2f} {'clean' if clean else 'PROBLEM':>6} {secs:6.0f}")
+                      f"{np.mean(rr):6.2f} {tr:5.2f} {size:5.2f} {'clean' if clean else 'PROBLEM':>6} "
+                      f"{secs:6.0f}")
             sys.stdout.flush()
-    print("trav/travmx/retr: per-layer sparse-infill travel (mean, largest) and retractions over the slicer's,"
+    print("trav/travmx/retr: per-layer sparse-infill travel (mean, largest) and retractions over the "
+          "slicer's,"
           " (x + 1) / (slicer + 1); time: kinematic time of the replaced sparse blocks over the slicer's;"
           " size: output over input bytes. Thesis §3.6 beam (ABS, 20 %, printed): 4.7x over 0/90;"
           " Strecs3D: 1.65x stiffness, 1.97x load (benchmarks.md §7).")

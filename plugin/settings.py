@@ -174,7 +174,8 @@ SCHEMA: tuple[Field, ...] = (
         "optional_float",
         None,
         "fraction",
-        "mean fill of the replaced sparse infill (0.25 or 25%); default the slicer's, so the part keeps its mass",
+        "mean fill of the replaced sparse infill (0.25 or 25%); "
+        "default the slicer's, so the part keeps its mass",
         minimum=0.01,
         maximum=1.0,
         toolpath=True,

@@ -4,7 +4,7 @@ Each engine module exposes ``generate(inp: EngineInput, **params) -> Toolpaths``
 :func:`generate` picks one by name, importing it only when used.
 
 A spatially varying pitch (``inp.density``, :mod:`loadpath.density`) is laid by zones: the region is
-split where the density field's pitch, rounded to a few levels, changes (:func:`loadpath.density.zones`),
+split where the density field's pitch, rounded to a few levels, changes (:mod:`loadpath.engines.zones`),
 and the engine fills each zone at its own pitch; the paths of all zones come back as one layer.
 Inside a zone both engines' spacing terms use its pitch (the swarm's QP box and spacing, the
 streamlines' seeding distance and minimum spacing), so ``l(x)`` is piecewise constant.
@@ -57,7 +57,7 @@ def _zoned(module: Any, inp: EngineInput, params: dict[str, Any]) -> Toolpaths:
     """Run the engine once per zone of the density field (module docstring)."""
     from dataclasses import replace
 
-    from loadpath.density import zones
+    from loadpath.engines.zones import zones
 
     params = dict(params)
     levels = int(params.pop("density_levels", DENSITY_LEVELS))
@@ -70,5 +70,6 @@ def _zoned(module: Any, inp: EngineInput, params: dict[str, Any]) -> Toolpaths:
         sub = replace(inp, region=z.region, pitch=z.pitch * scale, density=None)
         tp: Toolpaths = module.generate(sub, **params)
         paths.extend(tp.paths)
-        runs.append({"pitch": round(sub.pitch, 4), "area": round(float(z.region.area), 2), "paths": len(tp.paths)})
+        area = round(float(z.region.area), 2)
+        runs.append({"pitch": round(sub.pitch, 4), "area": area, "paths": len(tp.paths)})
     return Toolpaths(tuple(paths), {"zones": runs, "density_mean": inp.density.mean})

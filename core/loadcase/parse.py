@@ -370,5 +370,11 @@ def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
         if not 0.0 < fill <= 1.0:
             raise c.fail(f"toolpath.sparse_fill = {fill} must be a fraction in (0, 1] (e.g. 0.2 for 20 %)")
     return ToolpathOptions(
-        engine=engine, pitch=pitch, K=k, principal=principal, replace=replace, density=density, sparse_fill=fill
+        engine=engine,
+        pitch=pitch,
+        K=k,
+        principal=principal,
+        replace=replace,
+        density=density,
+        sparse_fill=fill,
     )

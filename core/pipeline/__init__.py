@@ -48,7 +48,16 @@ from loadpath.gcode.plan import PlanOptions, simplify
 from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
 from loadpath.gcode.verify import SpliceCheck, check_output
 from loadpath.density import DensityOptions, density_field
-from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger, volume_scale
+from loadpath.pipeline.paths import (
+    Job,
+    assign,
+    clip_to,
+    lays_phase,
+    plan_jobs,
+    run_jobs,
+    stagger,
+    volume_scale,
+)
 from loadpath.pipeline.units import (
     Unit,
     passthrough_reason,
@@ -453,7 +462,9 @@ def _fills(
                 paths = clip_to(paths, u.fill_region, 2.0 * u.pitch)
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():
-                entry = per_block.setdefault(block, {"paths": [], "regions": [], "unit": u, "scale": volume_scale(job)})
+                entry = per_block.setdefault(
+                    block, {"paths": [], "regions": [], "unit": u, "scale": volume_scale(job)}
+                )
                 entry["paths"].extend(ps)
                 entry["regions"].append(u.fill_region)
         job_results.append(

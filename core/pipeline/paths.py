@@ -1,5 +1,8 @@
 """Engine runs: one per distinct unit, in parallel processes, reused on identical layers.
 
+(Over 400 lines: planning, running and reusing engine runs share the Job and its grouping rules;
+split along those three when it grows further.)
+
 Units share an engine run when they would get the same input: same object, kind, followed
 principal stress, pitch, layer height and (for fixed-width kinds) flow width, a replace region that
 is the same within ``TOL.region_compare_mm`` (:func:`loadpath.geometry.group_regions`), and the same

@@ -34,7 +34,8 @@ force = [0.0, -500.0, 0.0]
 @pytest.fixture(scope="module")
 def beam(tmp_path_factory):
     folder = tmp_path_factory.mktemp("beam")
-    stl = slicing.write_stl(slicing._at_origin(trimesh.creation.box(extents=(120.0, 20.0, 2.0))), folder / "b.stl")
+    mesh = slicing._at_origin(trimesh.creation.box(extents=(120.0, 20.0, 2.0)))
+    stl = slicing.write_stl(mesh, folder / "b.stl")
     src = slicing.slice_prusa(stl, folder / "beam.gcode", **slicing.PRUSA_MIXED)
     (folder / "case.toml").write_text(CASE, encoding="utf-8")
     return src, folder / "case.toml"
@@ -48,8 +49,9 @@ def _sparse(path):
 
 
 def _bands(moves, mid, step=0.2):
-    """Line length per mm of beam height in the outer bands (|y - mid| in 6-8 mm) and the middle one (< 2 mm)."""
-    n = np.maximum(1, np.ceil(np.hypot(moves["x1"] - moves["x0"], moves["y1"] - moves["y0"]) / step)).astype(int)
+    """Line length per mm of beam height: outer bands (|y - mid| in 6-8 mm), middle one (< 2 mm)."""
+    seg = np.hypot(moves["x1"] - moves["x0"], moves["y1"] - moves["y0"])
+    n = np.maximum(1, np.ceil(seg / step)).astype(int)
     t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n) + 0.5) / np.repeat(n, n)
     y = np.repeat(moves["y0"], n) + t * np.repeat(moves["y1"] - moves["y0"], n)
     w = np.repeat(np.hypot(moves["x1"] - moves["x0"], moves["y1"] - moves["y0"]) / n, n)
@@ -60,7 +62,8 @@ def _bands(moves, mid, step=0.2):
 def _run(beam, name, **cli):
     src, case = beam
     out = src.with_name(name)
-    res = run_job(JobRequest(src, case, output=out, cli={"engine": "streamlines", "replace": ("sparse",), **cli}))
+    cli = {"engine": "streamlines", "replace": ("sparse",), **cli}
+    res = run_job(JobRequest(src, case, output=out, cli=cli))
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems
     return out, res
