@@ -78,6 +78,8 @@ def test_density_follows_the_bending_stress_at_the_slicers_mass(beam):
     # zones of several pitches, densest at the fibres the bending stretches and squeezes
     zones = [z for jr in res.pipeline.jobs for z in jr.paths.stats.get("zones", [])]
     assert len({z["pitch"] for z in zones}) >= 3
+    # no zone sparser than the no-sag pitch (top skins bridge from line to line)
+    assert max(z["pitch"] for z in zones) <= 8.0 + 1e-6
     mid = 0.5 * (min(old["y0"].min(), old["y1"].min()) + max(old["y0"].max(), old["y1"].max()))
     outer, inner = _bands(new, mid)
     assert outer > 2.0 * inner, (outer, inner)
