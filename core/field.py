@@ -42,6 +42,7 @@ __all__ = [
     "FieldSample",
     "StressField",
     "AnalyticField",
+    "RotatedField",
     "principal_stresses",
     "kirsch_tensor",
 ]
@@ -298,3 +299,37 @@ def kirsch_tensor(
     out = np.stack([gxx, gyy, gxy], axis=1)
     out[r2 < radius * radius * (1 - 1e-12)] = np.nan
     return out
+
+
+class RotatedField(StressField):
+    """A field whose principal directions are another's turned by ``angle`` (magnitudes kept).
+
+    The tensor at every point is the base tensor rotated, ``R(angle) T R(angle)^T``, so paths that
+    follow it cross the base field's principal directions at ``angle``: layers at ``+angle`` and
+    ``-angle`` about sigma1 brace each other (``principal = "cross"`` of the pipeline).
+
+    Parameters
+    ----------
+    base : StressField
+    angle : float, rad
+        Counter-clockwise.
+    """
+
+    def __init__(self, base: StressField, angle: float) -> None:
+        self.base = base
+        self.angle = float(angle)
+        self.scale = base.scale
+        self.principal = base.principal
+        self.load_entry = getattr(base, "load_entry", None)
+
+    def tensor(self, points: Points2) -> Stress2:  # noqa: D102 (documented in the base class)
+        t = self.base.tensor(points)
+        c, s = np.cos(self.angle), np.sin(self.angle)
+        sxx, syy, sxy = t[:, 0], t[:, 1], t[:, 2]
+        return np.column_stack(
+            [
+                c * c * sxx + s * s * syy - 2.0 * c * s * sxy,
+                s * s * sxx + c * c * syy + 2.0 * c * s * sxy,
+                c * s * (sxx - syy) + (c * c - s * s) * sxy,
+            ]
+        )

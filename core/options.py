@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from loadpath import engines
+from loadpath.density import CRITERIA as DENSITY_CRITERIA
 from loadpath.errors import SettingsError
 
 __all__ = [
@@ -36,8 +37,9 @@ __all__ = [
     "user_pitch",
 ]
 
-PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate")
-"""Principal stresses a path can follow (``alternate``: ``max_abs`` and ``min_abs`` by layer)."""
+PRINCIPALS = ("max_abs", "min_abs", "tensile", "compressive", "alternate", "cross")
+"""Principal stresses a path can follow (``alternate``: ``max_abs`` and ``min_abs`` by layer;
+``cross``: layers at +-``cross_angle`` about ``max_abs``)."""
 REPLACE_KINDS = ("solid", "sparse", "top", "bottom")
 """Infill kinds that can be replaced."""
 
@@ -108,7 +110,8 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         "str",
         "max_abs",
         "",
-        "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers)",
+        "principal stress the paths follow ('alternate': sigma1 and sigma2 paths in alternating layers; "
+        "'cross': layers at +-cross_angle about the largest principal stress)",
         PRINCIPALS,
         cli="--principal",
         toolpath=True,
@@ -122,6 +125,45 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         REPLACE_KINDS,
         cli="--replace",
         toolpath=True,
+    ),
+    Field(
+        "cross_angle",
+        "float",
+        30.0,
+        "deg",
+        "principal = cross: layers turned this much either way from the largest principal stress",
+        minimum=0.0,
+        maximum=90.0,
+    ),
+    Field(
+        "density",
+        "str",
+        "energy",
+        "",
+        "where replaced sparse infill puts its plastic: 'energy' (dense where the strain energy is, "
+        "the stiffest at the same mass), 'failure' (fully stressed, von Mises) or 'uniform' (the slicer's)",
+        DENSITY_CRITERIA,
+        toolpath=True,
+    ),
+    Field(
+        "sparse_fill",
+        "optional_float",
+        None,
+        "fraction",
+        "mean fill of the replaced sparse infill (0.25 or 25%); "
+        "default the slicer's, so the part keeps its mass",
+        minimum=0.01,
+        maximum=1.0,
+        toolpath=True,
+    ),
+    Field(
+        "density_max_pitch",
+        "float",
+        8.0,
+        "mm",
+        "widest pitch of replaced sparse infill (top skins bridge from line to line)",
+        minimum=0.5,
+        maximum=50.0,
     ),
     Field(
         "width_min",

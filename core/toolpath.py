@@ -36,6 +36,10 @@ class EngineInput:
         or None when it does not enter here; the swarm starts its first front there.
     seed : int
         Seed for any randomised choice, so the same input gives the same paths.
+    density : loadpath.density.DensityField or None
+        A spatially varying pitch (sparse infill dense where the part works): ``pitch`` is then the
+        nominal pitch at the field's mean fill and the local pitch is
+        ``density.pitch_at(x) * pitch / density.base_pitch`` (:func:`loadpath.engines.generate`).
     """
 
     region: Region
@@ -43,6 +47,7 @@ class EngineInput:
     pitch: float
     load_entry: BaseGeometry | None = None
     seed: int = 0
+    density: Any = None
 
     def __post_init__(self) -> None:
         if not (self.pitch > 0 and np.isfinite(self.pitch)):

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from loadpath import engines
+from loadpath.density import DensityOptions
 from loadpath.errors import LoadpathError, SettingsError
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
@@ -391,11 +392,13 @@ def _run(
         engine_params=params,
         pitch=s.pitch,
         principal=s.principal,
+        cross_angle=s.cross_angle,
         replace=tuple(s.replace),
         stagger=s.stagger,
         link=s.link,
         workers=s.jobs or default_workers(),
         check=s.check,
+        density=DensityOptions(s.density, fill=s.sparse_fill, max_pitch=s.density_max_pitch),
     )
     cache = None
     if s.cache:

@@ -263,6 +263,10 @@ class Settings:
     K: float = 5.0  # noqa: N815 (the paper's symbol)
     principal: str = "max_abs"
     replace: tuple[str, ...] = ("solid",)
+    cross_angle: float = 30.0
+    density: str = "energy"
+    sparse_fill: float | None = None
+    density_max_pitch: float = 8.0
     width_min: float = 0.6
     width_max: float = 1.6
     link_max: float = 2.0

@@ -35,6 +35,7 @@ STACK: tuple[tuple[str, ...], ...] = (
         "loadpath.engines.registry",
         "loadpath.options",
         "loadpath.metrics",
+        "loadpath.density",
     ),
     ("loadpath.gcode",),  # the reader, and its binary container (loadpath.gcode.bgcode)
     ("loadpath.geometry",),

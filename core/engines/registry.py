@@ -179,8 +179,37 @@ def generate(engine: str, inp: EngineInput, machine: Machine | None = None, **op
     """
     entry = get(engine)
     module = importlib.import_module(entry.module)
-    result: Toolpaths = module.generate(inp, **{**entry.machine_options(machine), **options})
+    params = {**entry.machine_options(machine), **options}
+    if inp.density is not None:
+        return _zoned(module, inp, params)
+    result: Toolpaths = module.generate(inp, **params)
     return result
+
+
+DENSITY_LEVELS = 5
+"""Pitch levels of a density field (zones); engine parameter ``density_levels``."""
+
+
+def _zoned(module: Any, inp: EngineInput, params: dict[str, Any]) -> Toolpaths:
+    """Run the engine once per zone of the density field (:mod:`loadpath.engines`' docstring)."""
+    from dataclasses import replace
+
+    from loadpath.engines.zones import zones
+
+    params = dict(params)
+    levels = int(params.pop("density_levels", DENSITY_LEVELS))
+    scale = inp.pitch / inp.density.base_pitch
+    paths: list[Any] = []
+    runs = []
+    for z in zones(inp.density, inp.region, levels):
+        if z.region.is_empty or z.region.area < (z.pitch * scale) ** 2:
+            continue
+        sub = replace(inp, region=z.region, pitch=z.pitch * scale, density=None)
+        tp: Toolpaths = module.generate(sub, **params)
+        paths.extend(tp.paths)
+        area = round(float(z.region.area), 2)
+        runs.append({"pitch": round(sub.pitch, 4), "area": area, "paths": len(tp.paths)})
+    return Toolpaths(tuple(paths), {"zones": runs, "density_mean": inp.density.mean})
 
 
 def warm_up(engine: str) -> None:

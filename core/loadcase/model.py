@@ -226,6 +226,11 @@ class ToolpathOptions:
         ``"max_abs"``, ``"min_abs"``, ``"tensile"``, ``"compressive"`` or ``"alternate"``.
     replace : tuple of str or None
         Infill kinds replaced: any of ``"solid"``, ``"sparse"``, ``"top"``, ``"bottom"``.
+    density : str or None
+        Where replaced sparse infill puts its plastic: ``"energy"``, ``"failure"`` or ``"uniform"``
+        (:mod:`loadpath.density`).
+    sparse_fill : float or None
+        Mean fill of the replaced sparse infill, 0-1 (default: the slicer's, same mass).
     """
 
     engine: str | None = None
@@ -233,6 +238,8 @@ class ToolpathOptions:
     K: float | None = None  # noqa: N815 (the paper's symbol)
     principal: str | None = None
     replace: tuple[str, ...] | None = None
+    density: str | None = None
+    sparse_fill: float | None = None
 
 
 @dataclass(frozen=True)

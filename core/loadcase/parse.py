@@ -393,4 +393,21 @@ def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
         for kind in r:
             c.string(kind, "toolpath.replace[]", options.REPLACE_KINDS)
         replace = tuple(dict.fromkeys(r))
-    return ToolpathOptions(engine=engine, pitch=pitch, K=k, principal=principal, replace=replace)
+    density = (
+        c.string(t["density"], "toolpath.density", options.field("density").choices) if "density" in t else None
+    )
+    fill = None
+    if "sparse_fill" in t:
+        fill = c.number(t["sparse_fill"], "toolpath.sparse_fill", "fraction")
+        if not 0.0 < fill <= 1.0:
+            raise c.fail(f"toolpath.sparse_fill = {fill} must be a fraction in (0, 1] (e.g. 0.2 for 20 %)")
+        fill = bounded("sparse_fill", fill)
+    return ToolpathOptions(
+        engine=engine,
+        pitch=pitch,
+        K=k,
+        principal=principal,
+        replace=replace,
+        density=density,
+        sparse_fill=fill,
+    )

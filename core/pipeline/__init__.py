@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -47,7 +47,9 @@ from loadpath import options
 from loadpath.engines import Machine
 from loadpath.engines.linking import link_paths
 from loadpath.errors import SpliceError
+from loadpath.field import RotatedField
 from loadpath.gcode import Program, parse
+from loadpath.density import DensityOptions, density_field
 from loadpath.pipeline.paths import (
     Job,
     assign,
@@ -57,6 +59,7 @@ from loadpath.pipeline.paths import (
     plan_jobs,
     run_jobs,
     stagger,
+    volume_scale,
 )
 from loadpath.pipeline.units import (
     Unit,
@@ -92,8 +95,10 @@ class PipelineOptions:
     pitch : float or None, mm
         None: each unit's slicer pitch.
     principal : str
-        ``"max_abs"``, ``"min_abs"``, ``"tensile"``, ``"compressive"`` or ``"alternate"`` (``max_abs``
-        on even layers, ``min_abs`` on odd ones).
+        ``"max_abs"``, ``"min_abs"``, ``"tensile"``, ``"compressive"``, ``"alternate"`` (``max_abs``
+        on even layers, ``min_abs`` on odd ones) or ``"cross"`` (``max_abs`` turned by
+        ``+cross_angle`` on even layers, ``-cross_angle`` on odd ones: families that brace each other).
+    cross_angle : float, degrees
     replace : tuple of str
     stagger : bool
     workers : int
@@ -108,12 +113,17 @@ class PipelineOptions:
     link : bool
         Link each job's paths (and its staggered copy) end to end into continuous runs
         (:mod:`loadpath.engines.linking`), whatever the engine.
+    density : DensityOptions or None
+        Where replaced sparse infill puts its plastic (:mod:`loadpath.density`): dense where the
+        part works, at the slicer's mass unless ``density.fill`` is set.  None or criterion
+        ``"uniform"``: the slicer's uniform density.
     """
 
     engine: str = options.field("engine").default
     engine_params: Mapping[str, Any] = field(default_factory=dict)
     pitch: float | None = options.field("pitch").default
     principal: str = options.field("principal").default
+    cross_angle: float = options.field("cross_angle").default
     replace: tuple[str, ...] = options.field("replace").default
     stagger: bool = options.field("stagger").default
     workers: int = 1
@@ -121,6 +131,7 @@ class PipelineOptions:
     volume_tol: float = 0.03
     overlap: bool = True
     link: bool = options.field("link").default
+    density: DensityOptions | None = None
 
     def __post_init__(self) -> None:
         # the toolpath options' own checks (loadpath.options), so a caller that builds these
@@ -350,15 +361,22 @@ def run(
     def field_of(u: Unit, principal: str):
         key = (u.object, "2d" if kind_of[u.object] == "2d" else round(u.z_mid, 6), principal)
         if key not in fields:
-            fields[key] = analyses[u.object].field(u.z_mid, principal)
+            base, _, turn = principal.partition("@")
+            f = analyses[u.object].field(u.z_mid, base)
+            fields[key] = RotatedField(f, np.radians(float(turn))) if turn else f
         return fields[key]
 
     def principal_of(u: Unit) -> str:
         if options.principal == "alternate":
             return "max_abs" if u.layer % 2 == 0 else "min_abs"
+        if options.principal == "cross":  # +-angle about the max-|sigma| direction, layer by layer
+            return f"max_abs@{options.cross_angle if u.layer % 2 == 0 else -options.cross_angle:g}"
         return options.principal
 
     jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])
+    if options.density is not None and options.density.criterion != "uniform":
+        nu = float(loadcase.material.poissons_ratio)
+        jobs = [with_density(j, options.density, nu) if j.unit.fixed_width else j for j in jobs]
     # the engine lays the staggered copy of a run of identical layers itself, from seeds half a
     # pitch on (option ``phase``): a whole layer again, where shifting the paths sideways and
     # clipping them left a poorer one (stiffness benchmark, share of the model's ceiling gain:
@@ -457,6 +475,16 @@ def _field_id(fea_key: str, kind: str, unit: Unit, principal: str) -> str:
     """Name of the stress field a unit's paths follow (its analysis, its cut, the principal stress)."""
     cut = "2d" if kind == "2d" else f"{unit.z_mid:.6f}"
     return f"{fea_key} {cut} {principal}"
+def with_density(job: Job, density: DensityOptions, poissons_ratio: float) -> Job:
+    """The job with the density field of its region (:func:`loadpath.density.density_field`).
+
+    The field is scaled to the unit's own fill (its slicer pitch), or to ``density.fill`` with the
+    job's pitch rescaled to that fill, so each layer keeps the plastic the slicer gave it.
+    """
+    u, inp = job.unit, job.input
+    df = density_field(inp.field, inp.region, u.flow_width, inp.pitch, density, poissons_ratio)
+    pitch = df.base_pitch if density.fill is not None else inp.pitch
+    return replace(job, input=replace(inp, density=df, pitch=pitch))
 
 
 def geo_kind(geo, block: int) -> str | None:
@@ -527,7 +555,9 @@ def _fills(
                 paths = clip_to(paths, u.fill_region, 2.0 * u.pitch)
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():
-                entry = per_block.setdefault(block, {"paths": [], "regions": [], "unit": u})
+                entry = per_block.setdefault(
+                    block, {"paths": [], "regions": [], "unit": u, "scale": volume_scale(job)}
+                )
                 entry["paths"].extend(ps)
                 entry["regions"].append(u.fill_region)
         job_results.append(
@@ -555,6 +585,7 @@ def _fills(
                 flow_width=u.flow_width if u.fixed_width else None,
                 nominal_pitch=u.pitch,
                 simplified=True,
+                volume_scale=e["scale"],
             )
         )
     return job_results, fills

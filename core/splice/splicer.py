@@ -109,6 +109,10 @@ class BlockFill:
     simplified : bool
         The paths were already simplified with the splice's plan options (the pipeline does it once
         for all the layers that reuse them).
+    volume_scale : float
+        The block's new volume over the slicer's (1: the same plastic; the user's sparse fill over
+        the slicer's when it was set, :mod:`loadpath.density`); volume matching and the checks aim
+        at ``volume_scale`` times the slicer's volume.
     """
 
     block: int
@@ -118,6 +122,7 @@ class BlockFill:
     nominal_pitch: float | None = None
     feedrate: float | None = None
     simplified: bool = False
+    volume_scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -144,6 +149,7 @@ class BlockReport:
     height: float
     width_min: float
     width_max: float
+    volume_scale: float = 1.0
 
     @property
     def volume_ratio(self) -> float:
@@ -289,18 +295,19 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
             region=fill.region,
             nominal_pitch=fill.nominal_pitch,
             flow_width=fill.flow_width,
-            target_filament=b.e,
+            target_filament=b.e * fill.volume_scale,
             simplified=fill.simplified,
         )
         unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
         ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
         plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, options.runs)
-        if options.volume_tol is not None and b.e > 0 and abs(plan.filament / b.e - 1) > options.volume_tol:
+        aim = b.e * fill.volume_scale
+        if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
             skipped.append(
                 (
                     fill.block,
-                    f"the new paths would extrude {plan.filament / b.e:.0%} of the slicer's "
-                    "volume (the engine covered too little or too much of the region)",
+                    f"the new paths would extrude {plan.filament / aim:.0%} of the "
+                    "volume aimed at (the engine covered too little or too much of the region)",
                 )
             )
             continue
@@ -333,6 +340,7 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
                 height=height,
                 width_min=plan.stats.get("width_min", float("nan")),
                 width_max=plan.stats.get("width_max", float("nan")),
+                volume_scale=fill.volume_scale,
             )
         )
     delta = sum(r.seconds_new - r.seconds_old for r in reports)

@@ -215,11 +215,13 @@ def check_splice(
         got = 0.0
         for a, z in spans[rep.block]:
             got += float(np.ascontiguousarray(_extrusions(output, a, z)["e"]).sum())
-        ratio[rep.block] = got / b.e if b.e > 0 else float("nan")
+        aim = b.e * rep.volume_scale  # the user's sparse fill may differ from the slicer's
+        ratio[rep.block] = got / aim if aim > 0 else float("nan")
         if not abs(ratio[rep.block] - 1.0) <= volume_tol:
             problems.append(
                 f"block {rep.block} (layer {b.layer + 1}, {b.feature}): new infill extrudes "
-                f"{got:.3f} mm of filament, the original {b.e:.3f} mm ({ratio[rep.block]:.3f}x)"
+                f"{got:.3f} mm of filament, the original {b.e:.3f} mm x {rep.volume_scale:.3f} "
+                f"({ratio[rep.block]:.3f}x)"
             )
     # 4. retraction bounds in new lines
     new_lines = np.ones(output.n_lines, dtype=bool)

@@ -1,0 +1,288 @@
+"""Where sparse infill puts its plastic: a density field from the stress analysis.
+
+The replaced sparse infill keeps the slicer's bead width, so its local density (fill) is set by
+its pitch alone: lines of flow width ``w`` at pitch ``p`` fill ``rho = w / p`` of the layer.  This
+module turns the layer's stress field into ``rho(x)`` and hence a pitch field ``p(x) = w / rho(x)``.
+
+Criterion: an optimality criterion at fixed stress (statically determinate reading of the FE field).
+With fill ``rho`` the layer's stiffness along its lines scales as ``rho**k`` (``k = 1`` for lines
+that follow the stress, the thesis's linear-density model ``C* = v C(alpha)``, Eq. 3.13-3.15), so
+the compliance ``int e0(x) / rho(x)**k dA`` (``e0``: strain energy density of the solid part) at a
+fixed plastic ``int rho dA`` is least where ``rho ~ e0 ** (1 / (1 + k))`` (Lagrange condition
+``k e0 rho**-(k+1) = lambda``); for ``k = 1`` that is ``rho ~ sqrt(e0)``, which for a uniaxial
+state is ``rho ~ |sigma|``: the fully stressed design, the same field the failure index (strength
+proportional to fill) asks for.  So:
+
+* ``criterion = "energy"`` (default): ``rho ~ e0 ** exponent`` with ``exponent = 1 / 2``.
+* ``criterion = "failure"``: ``rho ~ sigma_vm ** exponent`` (von Mises over the yield-type
+  strength), ``exponent = 1``: the fully stressed design.
+* ``criterion = "uniform"``: the slicer's own uniform density (nothing moves).
+
+The two stress criteria differ only in multiaxial states (``sqrt(e0)`` weighs shear by
+``2 (1 + nu)`` where von Mises weighs it by 3); ``benchmarks/bench_sparse.py`` prints both.
+
+``rho`` is clamped to ``[rho_min, 1]``.  ``rho_min = w / max_pitch``: a top skin laid over the infill
+bridges from line to line, so lines must stay closer than the bridging distance (the thesis's
+no-sag limit ``l_max``, 8 mm for its 20 % ABS MBB, §3.1.2 and §3.6).  The clamped field is scaled
+(bisection on the Lagrange multiplier) so its mean over the region is the requested fill: by default
+the slicer's own, so the part keeps the slicer's mass.  The stress field is smoothed over about a
+slicer pitch first: a load point or a support corner is singular in the FE field and would
+otherwise take the plastic of a whole region for one cell.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from loadpath._typing import Floats, Points2, Region
+from loadpath.errors import SettingsError
+from loadpath.field import StressField
+
+__all__ = ["CRITERIA", "DensityOptions", "DensityField", "density_field", "MAX_PITCH_MM"]
+
+CRITERIA = ("energy", "failure", "uniform")
+
+MAX_PITCH_MM = 8.0
+"""Default widest pitch: the thesis's no-sag limit for its 20 % MBB beam (§3.1.2, §3.6), mm."""
+
+_EXPONENT = {"energy": 0.5, "failure": 1.0, "uniform": 0.0}
+
+
+@dataclass(frozen=True)
+class DensityOptions:
+    """How the density field is made.
+
+    Attributes
+    ----------
+    criterion : {"energy", "failure", "uniform"}
+        What sets the density (module docstring).
+    exponent : float or None
+        ``rho ~ measure ** exponent``; None: the criterion's optimum (energy 1/2, failure 1).
+    fill : float or None
+        Mean fill of the replaced sparse infill, 0-1; None: the slicer's own (same mass).
+    max_pitch : float, mm
+        Widest pitch (sets ``rho_min = w / max_pitch``): top skins need supports this close.
+    cell : float or None, mm
+        Grid cell; None: a quarter of the slicer's pitch, at least 0.25 mm.
+    """
+
+    criterion: str = "energy"
+    exponent: float | None = None
+    fill: float | None = None
+    max_pitch: float = MAX_PITCH_MM
+    cell: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.criterion not in CRITERIA:
+            raise SettingsError(f"density = {self.criterion!r} is unknown; use one of {', '.join(CRITERIA)}")
+        if self.fill is not None and not (0.0 < self.fill <= 1.0):
+            raise SettingsError(
+                f"sparse_fill = {self.fill!r} must be a fraction in (0, 1], e.g. 0.2 for 20 %"
+            )
+        if not (self.max_pitch > 0 and np.isfinite(self.max_pitch)):
+            raise SettingsError(f"density_max_pitch = {self.max_pitch!r} mm must be a positive number")
+        if self.exponent is not None and not (0.0 <= self.exponent <= 4.0):
+            raise SettingsError(f"density_exponent = {self.exponent!r} must lie in [0, 4]")
+
+    @property
+    def power(self) -> float:
+        """The exponent in use."""
+        return _EXPONENT[self.criterion] if self.exponent is None else float(self.exponent)
+
+
+@dataclass(frozen=True)
+class DensityField:
+    """Fill and pitch of the sparse infill on a grid over one region.
+
+    Attributes
+    ----------
+    origin : (2,) float, mm
+        Centre of cell ``[0, 0]``.
+    cell : float, mm
+    rho : (ny, nx) float
+        Fill 0-1 (``rho[j, i]`` at ``origin + (i, j) * cell``); NaN outside the region.
+    pitch : (ny, nx) float, mm
+        ``flow_width / rho``; NaN outside.
+    flow_width : float, mm
+    mean : float
+        Area mean of ``rho`` over the region (the fill it was scaled to, unless ``reached`` is False).
+    rho_min : float
+    criterion : str
+    exponent : float
+    reached : bool
+        Whether the requested mean fill was reached (False: it lies outside ``[rho_min, 1]``, the
+        field is then all ``rho_min`` or all 1).
+    """
+
+    origin: Floats
+    cell: float
+    rho: np.ndarray
+    pitch: np.ndarray
+    flow_width: float
+    mean: float
+    rho_min: float
+    criterion: str
+    exponent: float
+    reached: bool
+
+    def sample(self, points: Points2) -> Floats:
+        """Fill at points (nearest cell; cells outside the region take the nearest inside), (n,)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        ny, nx = self.rho.shape
+        i = np.clip(np.rint((pts[:, 0] - self.origin[0]) / self.cell).astype(int), 0, nx - 1)
+        j = np.clip(np.rint((pts[:, 1] - self.origin[1]) / self.cell).astype(int), 0, ny - 1)
+        return self._filled[j, i]
+
+    def pitch_at(self, points: Points2) -> Floats:
+        """Pitch at points, (n,) mm."""
+        return self.flow_width / self.sample(points)
+
+    @property
+    def _filled(self) -> np.ndarray:
+        cached = self.__dict__.get("_filled_cache")
+        if cached is None:
+            from scipy.ndimage import distance_transform_edt
+
+            bad = ~np.isfinite(self.rho)
+            if bad.all():
+                cached = np.full(self.rho.shape, self.mean)
+            else:
+                idx = distance_transform_edt(bad, return_distances=False, return_indices=True)
+                cached = self.rho[tuple(idx)]
+            object.__setattr__(self, "_filled_cache", cached)
+        return cached
+
+    @property
+    def base_pitch(self) -> float:
+        """Pitch of a uniform fill at the field's mean, mm (the run's nominal pitch scales the zones)."""
+        return self.flow_width / self.mean
+
+    def levels(self, n: int) -> Floats:
+        """``n`` pitches (mm, ascending) spaced evenly in ``log(pitch)`` over the field's range."""
+        p = self.pitch[np.isfinite(self.pitch)]
+        lo, hi = float(np.min(p)), float(np.max(p))
+        if hi <= lo * 1.0001 or n <= 1:
+            return np.array([self.flow_width / self.mean])
+        return np.exp(np.linspace(np.log(lo), np.log(hi), n))
+
+
+def _measure(field: StressField, pts: Points2, criterion: str, nu: float) -> Floats:
+    t = field.tensor(pts)
+    sxx, syy, sxy = t[:, 0], t[:, 1], t[:, 2]
+    if criterion == "failure":
+        m = np.sqrt(np.maximum(sxx**2 - sxx * syy + syy**2 + 3.0 * sxy**2, 0.0))
+    else:  # strain energy density * 2E (E only scales it)
+        m = np.maximum(sxx**2 + syy**2 - 2.0 * nu * sxx * syy + 2.0 * (1.0 + nu) * sxy**2, 0.0)
+    return m
+
+
+def _smooth(values: np.ndarray, inside: np.ndarray, sigma_cells: float) -> np.ndarray:
+    """Gaussian smoothing of ``values`` over the cells ``inside`` only (normalised convolution)."""
+    from scipy.ndimage import gaussian_filter
+
+    v = np.where(inside, values, 0.0)
+    w = gaussian_filter(inside.astype(float), sigma_cells, mode="constant")
+    s = gaussian_filter(v, sigma_cells, mode="constant")
+    return np.where(inside, s / np.maximum(w, 1e-12), np.nan)
+
+
+def _scale_to_mean(s: Floats, target: float, rho_min: float) -> tuple[Floats, bool]:
+    """``clip(c * s, rho_min, 1)`` with ``c`` such that its mean is ``target`` (bisection)."""
+    if target <= rho_min + 1e-12:
+        return np.full_like(s, rho_min), target >= rho_min - 1e-9
+    if target >= 1.0 - 1e-12:
+        return np.ones_like(s), target <= 1.0 + 1e-9
+    if np.ptp(s) <= 1e-12 * max(float(np.max(s)), 1e-30):
+        return np.full_like(s, target), True
+    top = float(np.max(s))
+    lo, hi = 0.0, 1.0 / max(float(np.min(s[s > 0], initial=top)), 1e-30) * 2.0
+    for _ in range(200):
+        c = 0.5 * (lo + hi)
+        m = float(np.mean(np.clip(c * s, rho_min, 1.0)))
+        if abs(m - target) < 1e-10:
+            break
+        if m < target:
+            lo = c
+        else:
+            hi = c
+    rho = np.clip(c * s, rho_min, 1.0)
+    return rho, bool(abs(float(np.mean(rho)) - target) < 1e-6)
+
+
+def density_field(
+    field: StressField,
+    region: Region,
+    flow_width: float,
+    slicer_pitch: float,
+    options: DensityOptions | None = None,
+    poissons_ratio: float = 0.35,
+) -> DensityField:
+    """Density (fill) and pitch of new sparse infill over one region.
+
+    Parameters
+    ----------
+    field : StressField
+        The layer's stress field (isotropic analysis of the load case).
+    region : Polygon or MultiPolygon, mm
+        The replace region.
+    flow_width : float, mm
+        Bead flow width of the sparse infill (fixed; density is set by the pitch).
+    slicer_pitch : float, mm
+        The pitch that lays the slicer's plastic per area (its fill is ``flow_width / slicer_pitch``).
+    options : DensityOptions, optional
+    poissons_ratio : float
+        Of the analysis' material (weighs shear in the strain energy density).
+
+    Returns
+    -------
+    DensityField
+    """
+    opt = options or DensityOptions()
+    if not (flow_width > 0 and slicer_pitch > 0):
+        raise SettingsError(f"flow width {flow_width!r} and pitch {slicer_pitch!r} mm must be positive")
+    target = float(opt.fill) if opt.fill is not None else min(1.0, flow_width / slicer_pitch)
+    rho_min = min(1.0, flow_width / opt.max_pitch)
+    cell = float(opt.cell or max(0.25, 0.25 * slicer_pitch))
+    x0, y0, x1, y1 = region.bounds
+    xs = np.arange(x0 + 0.5 * cell, x1, cell)
+    ys = np.arange(y0 + 0.5 * cell, y1, cell)
+    if len(xs) == 0 or len(ys) == 0:
+        xs, ys = np.array([0.5 * (x0 + x1)]), np.array([0.5 * (y0 + y1)])
+    gx, gy = np.meshgrid(xs, ys)
+    inside = shapely.contains_xy(region, gx, gy)
+    if not inside.any():
+        c = region.representative_point()
+        gx, gy = np.array([[c.x]]), np.array([[c.y]])
+        xs, ys = gx[0], gy[:, 0]
+        inside = np.ones((1, 1), dtype=bool)
+    power = opt.power
+    if opt.criterion == "uniform" or power == 0.0:
+        s = np.ones(int(inside.sum()))
+    else:
+        m = np.full(gx.shape, np.nan)
+        m[inside] = _measure(field, np.column_stack([gx[inside], gy[inside]]), opt.criterion, poissons_ratio)
+        ok = inside & np.isfinite(m)
+        # cells the field does not reach (a sliver outside the mesh) take the region's median
+        m = np.where(inside & ~np.isfinite(m), np.nanmedian(m[ok]) if ok.any() else 1.0, m)
+        sm = _smooth(m, inside, max(1.0, slicer_pitch / cell))
+        s = np.maximum(sm[inside], 0.0) ** power
+        if not np.any(s > 0):
+            s = np.ones_like(s)
+    rho_in, reached = _scale_to_mean(s, target, rho_min)
+    rho = np.full(gx.shape, np.nan)
+    rho[inside] = rho_in
+    return DensityField(
+        origin=np.array([xs[0], ys[0]]),
+        cell=cell,
+        rho=rho,
+        pitch=flow_width / rho,
+        flow_width=float(flow_width),
+        mean=float(np.mean(rho_in)),
+        rho_min=rho_min,
+        criterion=opt.criterion,
+        exponent=power,
+        reached=reached,
+    )
+
