@@ -294,8 +294,8 @@ class Settings:
     only_retract_when_crossing_perimeters: bool = False
     wipe: bool = False
     retract_before_wipe: float = 0.0
-    use_firmware_retraction: bool = False
     avoid_crossing_perimeters: bool = False
+    use_firmware_retraction: bool = False
     max_volumetric_speed: float = 0.0
     sources: Mapping[str, str] = field(default_factory=dict, compare=False)
 
