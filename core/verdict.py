@@ -41,7 +41,7 @@ class Verdict:
     layers : tuple of int
         1-based layers with replaced blocks.
     kinds : tuple of str
-        Slicer features replaced (``"Internal infill"``, ``"Solid infill"``, ...).
+        Infill kinds replaced, loadpath's words whatever the slicer (``"solid"``, ``"sparse"``, ...).
     engine : str
     stiffness : float or None
         Predicted stiffness change, absolute (``+0.08``: 8 % stiffer); None: not predicted.
@@ -84,7 +84,7 @@ class Verdict:
         w = f"{self.warnings} warning{'s' * (self.warnings != 1)}"
         if not self.changed:
             return head + f"nothing replaced ({self.note or 'no infill to replace'}); the G-code is the slicer's; {w}"
-        parts = [f"replaced {', '.join(self.kinds)} on {_layers(self.layers)} with {self.engine}"]
+        parts = [f"replaced {', '.join(self.kinds)} infill on {_layers(self.layers)} with {self.engine}"]
         if self.stiffness is not None and math.isfinite(self.stiffness):
             fl = (
                 f", failure load {_pct(self.failure_load)}"
@@ -177,7 +177,8 @@ def build(
         return Verdict(__version__, date, False, engine=engine, warnings=warnings, note=why)
     blocks = result.splice.blocks
     layers = tuple(sorted({b.layer + 1 for b in blocks}))
-    kinds = tuple(dict.fromkeys(b.feature for b in blocks))
+    kind_of = {b.block_index: u.kind for jr in result.jobs for u in jr.units for b in u.blocks}
+    kinds = tuple(dict.fromkeys(kind_of.get(b.block, b.feature) for b in blocks))
     farea = math.pi * filament_diameter**2 / 4
     dmass = sum(b.filament_new - b.filament_old for b in blocks) * farea * density * 1e-3
     dt = float(result.splice.seconds_delta)

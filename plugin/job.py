@@ -7,11 +7,15 @@ Cura plugin through the command line, batch and serve)::
     result = run_job(JobRequest(Path("part.gcode"), Path("case.toml"), cli={"engine": "swarm"}))
     result.output, result.warnings
 
-Guarantees (interface.md, "Exit status"): the output is written to a temporary file in the target
-folder and renamed over the target only when everything succeeded, so the input (and an existing
-output) is never left half-written; on any failure the input is untouched.  With
-``on_failure = "keep"`` a failure becomes a warning and the slicer's G-code is kept (copied to the
-output when the output is another file).  Binary G-code is written back as binary G-code.
+Guarantees (interface.md, "Exit status"): everything that can fail (engines, splice, check, the
+verdict, the report's data and figures) runs first; the output is then written to a temporary file
+in the target folder and renamed over the target, so the input (and an existing output) is never
+left half-written, and on any failure the input is untouched and no output written.  Every failure
+message ends with what became of the files (:func:`fate`).  Only the report's files and the run log
+(``$XDG_STATE_HOME/loadpath/runs.log``) are written after the G-code; their failure is a warning.
+With ``on_failure = "keep"`` a failure becomes a warning and the slicer's G-code is kept (copied to
+the output when the output is another file).  Binary G-code is written back as binary G-code.  A
+file whose header carries loadpath's verdict line is refused unless ``force``.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from loadpath.errors import LoadpathError, SettingsError
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
 from loadpath.plugin.lifecycle import note_written
+from loadpath.plugin.job_record import already_processed, fate, log, own_warnings, with_header
 
 __all__ = ["JobRequest", "JobResult", "run_job", "default_output", "write_atomic", "infer_cura_filament"]
 
@@ -192,34 +197,6 @@ def infer_cura_filament(program, geo) -> float | None:
     return solid_infill_diameter(program, geo)
 
 
-def fate(inp: Path, out: Path, written: bool) -> str:
-    """What became of the input and the output, in words, for a message."""
-    if written:
-        return f"{str(out)!r} was written" + ("" if out == inp else f"; the input {str(inp)!r} is untouched")
-    if out == inp:
-        return f"the G-code {str(inp)!r} is untouched"
-    return f"the input {str(inp)!r} is untouched and {str(out)!r} was not written"
-
-
-def state_folder(env: Mapping[str, str] | None = None) -> Path:
-    """``$XDG_STATE_HOME/loadpath`` (default ``~/.local/state/loadpath``): where the run log goes."""
-    env = os.environ if env is None else env
-    base = env.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
-    return Path(base) / "loadpath"
-
-
-def _log(line: str) -> str | None:
-    """Append one line to the run log; a warning when it cannot be written (None when it was)."""
-    folder = state_folder()
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        with open(folder / "runs.log", "a", encoding="utf-8") as fh:
-            fh.write(line.rstrip("\n") + "\n")
-    except OSError as exc:
-        return f"the run log {str(folder / 'runs.log')!r} could not be written ({exc.strerror or exc})"
-    return None
-
-
 def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | None = None) -> JobResult:
     """Run one job (see the module docstring).
 
@@ -243,7 +220,7 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
             result = _run(request, inp, out, result, progress, caught)
         result.warnings.extend(own_warnings(caught))
         if result.verdict is not None:
-            w = _log(f"{result.verdict.line()} [{inp}]")
+            w = log(f"{result.verdict.line()} [{inp}]")
             if w:
                 result.warnings.append(w)
         return result
@@ -258,7 +235,7 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
         )
     keep = on_failure == "keep" or (result.settings is not None and result.settings.on_failure == "keep")
     if not keep:
-        _log(f"loadpath failed: {error}; {fate(inp, out, result.written)} [{inp}]")
+        log(f"loadpath failed: {error}; {fate(inp, out, result.written)} [{inp}]")
         raise LoadpathError(f"{error}; {fate(inp, out, result.written)}")
     from loadpath import verdict as verdict_mod
 
@@ -276,7 +253,7 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     result.verdict = verdict_mod.build(
         None, str(request.cli.get("engine") or "?"), 1.75, len(result.warnings), note=f"failed: {error}"
     )
-    _log(f"{result.verdict.line()} [{inp}]")
+    log(f"{result.verdict.line()} [{inp}]")
     return result
 
 
@@ -290,39 +267,6 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
     why = check_output(out, None if in_place else inp, in_place)
     if why:
         raise SettingsError(why)
-
-
-def own_warnings(caught: list) -> list[str]:
-    """Python / numpy warnings recorded during a run as one-line warnings of ours (each once); clears them.
-
-    No library warning reaches the user's stderr as Python prints it (file, line, source line):
-    a numerical warning is a check the code missed, so it says where and asks for a report.
-    """
-    seen: dict[tuple, str] = {}
-    for w in caught:
-        key = (w.category.__name__, str(w.message), w.filename, w.lineno)
-        where = f"{Path(w.filename).parent.name}/{Path(w.filename).name}:{w.lineno}"
-        seen.setdefault(
-            key, f"{w.category.__name__} in {where}: {' '.join(str(w.message).split())} (please report this)"
-        )
-    caught.clear()
-    return list(seen.values())
-
-
-def already_processed(program) -> tuple[str, str] | None:
-    """``(version, date)`` when the program's first lines carry loadpath's header comment."""
-    from loadpath.verdict import find_header
-
-    head = "\n".join(program.line(i) for i in range(min(program.n_lines, 64)))
-    return find_header(head.encode("utf-8", "replace"))
-
-
-def _with_header(data: bytes, line: str) -> bytes:
-    """Insert ``line`` as the second line of the G-code text (the slicer's own first line stays first)."""
-    nl = b"\r\n" if b"\r\n" in data[:4096] else b"\n"
-    i = data.find(b"\n")
-    cut = 0 if i < 0 else i + 1
-    return data[:cut] + line.encode("utf-8") + nl + data[cut:]
 
 
 def _prediction(pres, s, warnings: list[str]):
@@ -446,7 +390,7 @@ def _run(
 
     t = time.perf_counter()
     if pres.changed:  # the verdict as the file's second line, an insertion the splice result records
-        text = _with_header(pres.data, verdict_mod.header_line(v))
+        text = with_header(pres.data, verdict_mod.header_line(v))
         edits = tuple(sorted((*pres.splice.edits, (1, 1, 1))))
         pres = dataclasses.replace(pres, data=text, splice=dataclasses.replace(pres.splice, data=text, edits=edits))
         result.pipeline = pres

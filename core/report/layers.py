@@ -17,6 +17,7 @@ from loadpath import metrics
 from loadpath.field import StressField
 from loadpath.gcode import Program
 from loadpath.gcode.rowindex import move_rows
+from loadpath.report.closeup import detail_centre
 from loadpath.report.svg import Canvas, histogram
 from loadpath.toolpath import Path
 
@@ -157,51 +158,6 @@ def clip_segments(a: np.ndarray, b: np.ndarray, box: tuple[float, float, float, 
     return (a + t0[:, None] * d)[keep], (a + t1[:, None] * d)[keep], keep
 
 
-def _most_stressed(field_: StressField, pts: np.ndarray) -> np.ndarray | None:
-    """The point of ``pts`` where ``|s|`` is largest (None when the field is valid at none)."""
-    if len(pts) == 0:
-        return None
-    smp = field_.sample(pts)
-    mass = np.where(smp.valid, np.nan_to_num(smp.mass, nan=-np.inf), -np.inf)
-    return pts[int(np.argmax(mass))] if np.isfinite(mass.max()) else pts[len(pts) // 2]
-
-
-def _detail_centre(region, field_: StressField, ww: float, wh: float) -> np.ndarray:
-    """Centre of the close-up window (``ww`` x ``wh`` mm): always a point with material in view.
-
-    The largest hole when one is small enough to sit inside the window with its wall around it;
-    a hole larger than the window (a lightening cut-out) would put the whole window inside the
-    hole, so then the most stressed point of its edge.  Without a hole, the most stressed point of
-    the region away from its ends (supports and loads sit there); a region too thin for that, or
-    several islands with nothing in between, falls back to a point inside the largest island.
-    """
-    polys = [p for p in getattr(region, "geoms", [region]) if not p.is_empty]
-    holes = [shapely.Polygon(r) for p in polys for r in p.interiors]
-    if holes:
-        hole = max(holes, key=lambda h: h.area)
-        hx0, hy0, hx1, hy1 = hole.bounds
-        if hx1 - hx0 < 0.8 * ww and hy1 - hy0 < 0.8 * wh:
-            return np.asarray(hole.centroid.coords[0])
-        ring = hole.exterior
-        pts = np.asarray([ring.interpolate(t, normalized=True).coords[0] for t in np.linspace(0, 1, 73)[:-1]])
-        inner = np.asarray(hole.buffer(-1e-3).representative_point().coords[0]) if hole.area > 0 else pts[0]
-        # sample just inside the material: a point on the ring is on the region's boundary
-        out = pts + 0.5 * (pts - inner) / np.maximum(np.hypot(*(pts - inner).T), 1e-9)[:, None]
-        inside = shapely.contains_xy(region, out[:, 0], out[:, 1])
-        c = _most_stressed(field_, out[inside] if inside.any() else out)
-        if c is not None:
-            return c
-    x0, y0, x1, y1 = region.bounds
-    gx, gy = np.meshgrid(np.linspace(x0, x1, 60)[6:-6], np.linspace(y0, y1, 60)[6:-6])
-    pts = np.column_stack([gx.ravel(), gy.ravel()])
-    pts = pts[shapely.contains_xy(region, pts[:, 0], pts[:, 1])]
-    c = _most_stressed(field_, pts)
-    if c is not None:
-        return c
-    biggest = max(polys, key=lambda p: p.area) if polys else region
-    return np.asarray(biggest.representative_point().coords[0])
-
-
 def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, width: int = 960) -> str:
     """Draw the slicer's and the new paths side by side, zoomed on the region's largest hole.
 
@@ -215,7 +171,7 @@ def _detail(region, field_: StressField, old: tuple, new: tuple, pitch: float, w
     big = max(x1 - x0, y1 - y0)
     ww = min(x1 - x0, max(25 * pitch, 0.2 * big))
     wh = min(y1 - y0, 0.7 * ww)
-    c = _detail_centre(region, field_, ww, wh)
+    c = detail_centre(region, field_, ww, wh)
     bx0 = float(np.clip(c[0] - ww / 2, x0, x1 - ww))
     by0 = float(np.clip(c[1] - wh / 2, y0, y1 - wh))
     bounds = (bx0, by0, bx0 + ww, by0 + wh)

@@ -1,9 +1,12 @@
 """Reprocess one G-code file: replace the chosen infill with stress-aligned paths.
 
 Without -o the result goes next to the input as IN.loadpath.gcode; --in-place rewrites the input
-atomically.  On any failure the exit status is non-zero, one line on stderr says what is wrong and
-how to fix it, and the input is untouched; with --on-failure keep the slicer's G-code is kept, a
-warning is printed and the exit status is 0.
+atomically.  On any failure the exit status is non-zero, one line on stderr says what is wrong, how
+to fix it and what became of the files, and the input is untouched; with --on-failure keep the
+slicer's G-code is kept, a warning says what was kept and the exit status is 0.  Every run ends
+with one verdict line on stderr (what was replaced, the predicted stiffness change, print time,
+mass, warnings), which also goes into the G-code's header and $XDG_STATE_HOME/loadpath/runs.log.
+A file loadpath already processed is refused unless --force.
 """
 
 from __future__ import annotations

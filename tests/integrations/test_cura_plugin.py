@@ -80,9 +80,10 @@ def test_script_replaces_infill_in_curas_chunks_with_curas_settings(cura_file, t
     # the same chunks come back: header first, then one per layer with its own marker, end G-code last
     assert len(new) == len(chunks)
     assert new[0].endswith(PROCESSED)
-    assert [ln for ln in new[0].splitlines(True) if not ln.startswith(";loadpath: ")] == (
+    assert [ln for ln in new[0].splitlines(True) if not ln.startswith((";loadpath: ", "; loadpath: "))] == (
         chunks[0] + PROCESSED
-    ).splitlines(True)  # the header, with loadpath's notes on the estimates
+    ).splitlines(True)  # the header, with loadpath's notes on the estimates and its verdict line
+    assert sum(ln.startswith("; loadpath: loadpath ") for ln in new[0].splitlines()) == 1
     assert new[1] == chunks[1]
     assert [c.split("\n", 1)[0] for c in new[2:-1]] == [c.split("\n", 1)[0] for c in chunks[2:-1]]
     assert sum(a != b for a, b in zip(new, chunks, strict=True)) >= 2  # some layers were rewritten
@@ -190,6 +191,8 @@ def test_extensions_menu_processes_on_save_and_shows_the_report(sliced, tmp_path
     assert res["plugin_dir_searched"]  # so Modify G-Code finds scripts/LoadpathScript.py
     new = res["chunks"]
     assert res["saved_message"].startswith("Stress-aligned infill written"), res["saved_message"]
+    verdict = res["saved_message"].splitlines()[1]  # the run's verdict, as loadpath printed it
+    assert verdict.startswith("loadpath ") and "replaced" in verdict and "(stiffness only)" in verdict
     assert len(new) == len(chunks) and new != chunks and new[0].endswith(PROCESSED)
     assert res["again"] == new  # a list already processed is left alone
     assert "infill replaced" in res["report_message"] and "beta" in res["report_message"], res[

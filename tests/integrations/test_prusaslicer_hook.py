@@ -92,7 +92,7 @@ def test_failure_is_reported_by_prusaslicer_and_the_file_is_untouched(tmp_path, 
     assert "Post-processing script" in proc.stderr + proc.stdout
     lines = [ln for ln in (proc.stderr + proc.stdout).splitlines() if ln.startswith("loadpath-prusaslicer:")]
     assert len(set(lines)) == 1, lines  # one line (PrusaSlicer 2.5 repeats the whole error once)
-    assert "[[loads]]" in lines[0] and "unchanged" in lines[0], lines
+    assert "[[loads]]" in lines[0] and lines[0].endswith("part.gcode' is untouched"), lines
     before = out.with_name(out.name + ".before")
     assert out.read_bytes() == before.read_bytes()
 
@@ -103,10 +103,8 @@ def test_on_failure_keep_exits_0_with_a_warning(tmp_path, prusa_ohs, capsys):
     status = main(["--loadcase", str(write_bad_case(tmp_path)), "--on-failure", "keep", str(path)], env={})
     err = capsys.readouterr().err
     assert status == 0 and path.read_bytes() == prusa_ohs.read_bytes()
-    assert (
-        err.startswith("loadpath-prusaslicer: warning: kept the slicer's G-code unchanged")
-        and "[[loads]]" in err
-    )
+    assert err.startswith("loadpath-prusaslicer: warning: kept the slicer's G-code: ") and "[[loads]]" in err
+    assert f"the slicer's G-code {str(path)!r} is untouched" in err
 
 
 def test_slic3r_variables_are_read_whatever_their_case(tmp_path, prusa_ohs, capsys):
@@ -241,6 +239,5 @@ def test_descendants_markers(tmp_path, prusa_ohs, bambu):
     assert gcode.read(other).dialect.family == ("bambu" if bambu else "prusa")
     assert main([*args, str(prusa)], env={}) == 0 and main([*args, str(other)], env={}) == 0
     assert other.read_text(encoding="utf-8") != text  # rewritten
-    assert _translate(other.read_text(encoding="utf-8"), bambu, back=True) == prusa.read_text(
-        encoding="utf-8"
-    )
+    back = _translate(other.read_text(encoding="utf-8"), bambu, back=True)
+    assert without_verdict(back.encode()) == without_verdict(prusa.read_bytes())  # but the verdict's minute

@@ -117,6 +117,9 @@ def test_service_processes_and_caches_the_fea(server, sliced, tmp_path):
     assert ans["fea_solved"] == 1 and ans["fea_cached"] is False
     assert 0.9 <= ans["summary"]["beta"] <= 1.0 and 0.9 <= ans["summary"]["coverage"] <= 1.0
     assert ans["metrics"]["layers"] and ans["settings"]["engine"] == "streamlines"
+    v = ans["verdict"]  # the run's verdict: a field, and the line every front end shows
+    assert v["changed"] and v["engine"] == "streamlines" and v["model"] == "stiffness only"
+    assert v["line"].startswith("loadpath ") and ans["gcode"].splitlines()[1] == "; loadpath: " + v["line"]
     assert_spliced(first, ans["gcode"].encode(), reference(first, case, tmp_path / "ref.gcode"))
 
     # the same part re-sliced with other print settings (100 % infill): the FEA is not solved again
