@@ -231,18 +231,21 @@ def crossing_spacing(density: np.ndarray, c2: np.ndarray, s2: np.ndarray, order:
         Direction moments ``<cos 2t>, <sin 2t>`` of each ply.
     order : (L,) int
         Plies in stacking order (indices into the first axis); neighbours in it are bonded.
+        The plies above and below count once, the larger of the two: in a repeated stack (0/90,
+        +-45) the lines above and below a ply lie over each other, so their crossings coincide.
 
     Returns
     -------
     (L, m) float
         ``1 / n_c`` with ``n_c`` the crossings per unit length: from the plies just above and below,
-        ``density_j <|sin(t - t_j)|>`` (``<sin^2> = (1 - <cos 2t><cos 2t_j> - <sin 2t><sin 2t_j>)/2``),
+        the larger ``density_j <|sin(t - t_j)|>`` (``<sin^2> = (1 - <cos 2t><cos 2t_j> - <sin 2t><sin 2t_j>)/2``),
         and within the ply from its own spread of directions, ``density (1 - R) / 2`` with ``R`` the
         length of ``(<cos 2t>, <sin 2t>)`` (two families at 90 degrees: half the beads cross the
         other half).
     """
     L = density.shape[0]
-    n_c = density * (1.0 - np.hypot(c2, s2)) / 2.0
+    own = density * (1.0 - np.hypot(c2, s2)) / 2.0
+    across = np.zeros_like(density)
     pos = np.empty(L, dtype=np.int64)
     pos[np.asarray(order)] = np.arange(L)
     for k in range(L):
@@ -250,8 +253,8 @@ def crossing_spacing(density: np.ndarray, c2: np.ndarray, s2: np.ndarray, order:
             if 0 <= j < L:
                 q = order[j]
                 sin2 = np.clip(0.5 * (1.0 - c2[k] * c2[q] - s2[k] * s2[q]), 0.0, 1.0)
-                n_c[k] = n_c[k] + density[q] * np.sqrt(sin2)
-    return 1.0 / np.maximum(n_c, 1e-3)
+                across[k] = np.maximum(across[k], density[q] * np.sqrt(sin2))
+    return 1.0 / np.maximum(own + across, 1e-3)
 
 
 def bead_ply_matrices(
