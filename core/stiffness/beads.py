@@ -47,10 +47,11 @@ from loadpath.stiffness.deposits import Deposits
 
 __all__ = ["BeadState", "subdivide", "bead_state", "neck_fraction", "crossing_spacing", "bead_ply_matrices"]
 
-PIECE = 1.0
+PIECE = 2.0
 """mm: longest piece a bead is cut into, so that fusion and transfer are resolved along it."""
 
 _PARALLEL = np.cos(np.radians(25.0))
+_CANDIDATES = 8  # nearest bead pieces looked at per piece (both sides, both neighbours' pieces)
 _CONE = np.tan(np.radians(60.0))  # a neighbour lies within 60 degrees of the bead's normal
 _TURN = np.cos(np.radians(35.0))
 _NECK_REF = float(np.sqrt(1.0 - (np.pi / 4.0) ** 2))  # b/h at the slicer's solid spacing
@@ -137,11 +138,11 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
         # far enough to see a neighbour whose stadium still touches (1.2 x the widest usual bead)
         touch = 1.2 * float(np.quantile(w[rows], 0.99) + np.quantile(h[rows], 0.99))
         reach = 0.5 * float(np.max(length[rows])) + touch
-        pairs = cKDTree(mid[rows]).query_pairs(reach, output_type="ndarray")
-        if len(pairs) == 0:
-            continue
-        i = rows[np.concatenate([pairs[:, 0], pairs[:, 1]])]
-        j = rows[np.concatenate([pairs[:, 1], pairs[:, 0]])]
+        k = min(_CANDIDATES + 1, len(rows))
+        dd, nb = cKDTree(mid[rows]).query(mid[rows], k=k, distance_upper_bound=reach)
+        ok = np.isfinite(dd[:, 1:])
+        i = rows[np.repeat(np.arange(len(rows)), k - 1).reshape(-1, k - 1)[ok]]
+        j = rows[nb[:, 1:][ok]]
         t = np.clip(np.einsum("ij,ij->i", mid[i] - a[j], u[j]) / length[j], 0.0, 1.0)
         r = a[j] + (t * length[j])[:, None] * u[j] - mid[i]
         along = np.einsum("ij,ij->i", r, u[i])
