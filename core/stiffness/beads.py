@@ -47,10 +47,11 @@ from loadpath.stiffness.deposits import Deposits
 
 __all__ = ["BeadState", "subdivide", "bead_state", "neck_fraction", "crossing_spacing", "bead_ply_matrices"]
 
-PIECE = 1.0
+PIECE = 2.0
 """mm: longest piece a bead is cut into, so that fusion and transfer are resolved along it."""
 
 _PARALLEL = np.cos(np.radians(25.0))
+_CANDIDATES = 8  # nearest bead pieces looked at per piece (both sides, both neighbours' pieces)
 _CONE = np.tan(np.radians(60.0))  # a neighbour lies within 60 degrees of the bead's normal
 _TURN = np.cos(np.radians(35.0))
 _NECK_REF = float(np.sqrt(1.0 - (np.pi / 4.0) ** 2))  # b/h at the slicer's solid spacing
@@ -137,11 +138,11 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
         # far enough to see a neighbour whose stadium still touches (1.2 x the widest usual bead)
         touch = 1.2 * float(np.quantile(w[rows], 0.99) + np.quantile(h[rows], 0.99))
         reach = 0.5 * float(np.max(length[rows])) + touch
-        pairs = cKDTree(mid[rows]).query_pairs(reach, output_type="ndarray")
-        if len(pairs) == 0:
-            continue
-        i = rows[np.concatenate([pairs[:, 0], pairs[:, 1]])]
-        j = rows[np.concatenate([pairs[:, 1], pairs[:, 0]])]
+        k = min(_CANDIDATES + 1, len(rows))
+        dd, nb = cKDTree(mid[rows]).query(mid[rows], k=k, distance_upper_bound=reach)
+        ok = np.isfinite(dd[:, 1:])
+        i = rows[np.repeat(np.arange(len(rows)), k - 1).reshape(-1, k - 1)[ok]]
+        j = rows[nb[:, 1:][ok]]
         t = np.clip(np.einsum("ij,ij->i", mid[i] - a[j], u[j]) / length[j], 0.0, 1.0)
         r = a[j] + (t * length[j])[:, None] * u[j] - mid[i]
         along = np.einsum("ij,ij->i", r, u[i])
@@ -231,18 +232,21 @@ def crossing_spacing(density: np.ndarray, c2: np.ndarray, s2: np.ndarray, order:
         Direction moments ``<cos 2t>, <sin 2t>`` of each ply.
     order : (L,) int
         Plies in stacking order (indices into the first axis); neighbours in it are bonded.
+        The plies above and below count once, the larger of the two: in a repeated stack (0/90,
+        +-45) the lines above and below a ply lie over each other, so their crossings coincide.
 
     Returns
     -------
     (L, m) float
         ``1 / n_c`` with ``n_c`` the crossings per unit length: from the plies just above and below,
-        ``density_j <|sin(t - t_j)|>`` (``<sin^2> = (1 - <cos 2t><cos 2t_j> - <sin 2t><sin 2t_j>)/2``),
+        the larger ``density_j <|sin(t - t_j)|>`` (``<sin^2> = (1 - <cos 2t><cos 2t_j> - <sin 2t><sin 2t_j>)/2``),
         and within the ply from its own spread of directions, ``density (1 - R) / 2`` with ``R`` the
         length of ``(<cos 2t>, <sin 2t>)`` (two families at 90 degrees: half the beads cross the
         other half).
     """
     L = density.shape[0]
-    n_c = density * (1.0 - np.hypot(c2, s2)) / 2.0
+    own = density * (1.0 - np.hypot(c2, s2)) / 2.0
+    across = np.zeros_like(density)
     pos = np.empty(L, dtype=np.int64)
     pos[np.asarray(order)] = np.arange(L)
     for k in range(L):
@@ -250,8 +254,8 @@ def crossing_spacing(density: np.ndarray, c2: np.ndarray, s2: np.ndarray, order:
             if 0 <= j < L:
                 q = order[j]
                 sin2 = np.clip(0.5 * (1.0 - c2[k] * c2[q] - s2[k] * s2[q]), 0.0, 1.0)
-                n_c[k] = n_c[k] + density[q] * np.sqrt(sin2)
-    return 1.0 / np.maximum(n_c, 1e-3)
+                across[k] = np.maximum(across[k], density[q] * np.sqrt(sin2))
+    return 1.0 / np.maximum(own + across, 1e-3)
 
 
 def bead_ply_matrices(

@@ -27,9 +27,9 @@ direction), with the bead model's fused fraction ``phi``, transfer ``eta`` and c
   ``+- (1 - phi) 3/2 E1 w g12 / L_c`` to ``sigma_1`` (end moment ``6 E I psi / L`` with the joint
   rotation ``psi = g12 / 2`` of a rigid-jointed grid).
 
-Characteristic distance (Whitney & Nuismer, J. Compos. Mater. 8 (1974) 253): the strain is averaged
-over a disc of radius ``a0`` around every element (over the material only) before the criterion is
-applied, so the answer at a hole or a re-entrant corner converges under mesh refinement instead of
+Characteristic distance (Whitney & Nuismer, J. Compos. Mater. 8 (1974) 253, average-stress form):
+each ply's bead stresses are averaged over its material within a disc of radius ``a0`` around every
+element before the criterion is applied, so the answer at a hole or a re-entrant corner converges under mesh refinement instead of
 following the singular peak.  ``a0`` defaults to two bead widths (:data:`A0_BEADS`): the scale below
 which printed plastic is not a continuum (a bead carries its load as a whole).  It is a modelling
 choice, not fitted to any test.
@@ -124,23 +124,21 @@ def applied_force(an) -> float:  # type: ignore[no-untyped-def]
     return total
 
 
-def _averaging(mesh, a0: float, keep: np.ndarray):  # type: ignore[no-untyped-def]
-    """Row-normalised sparse ``(m, m)`` disc average over the elements with material (``keep``)."""
-    from scipy.sparse import csr_matrix, diags
+def _discs(mesh, a0: float):  # type: ignore[no-untyped-def]
+    """Sparse 0/1 ``(m, m)``: the elements whose centroids lie within ``a0`` of each other (and itself)."""
+    from scipy.sparse import csr_matrix
     from scipy.spatial import cKDTree
 
     nc = mesh.n_corners
     cen = mesh.points[mesh.cells[:, :nc]].mean(axis=1)
-    vol = np.abs(mesh.measures) * keep
     tree = cKDTree(cen)
     M = tree.sparse_distance_matrix(tree, a0, output_type="coo_matrix")  # noqa: N806
     m = len(cen)
     rows = np.concatenate([M.row, np.arange(m)])
     cols = np.concatenate([M.col, np.arange(m)])
-    W = csr_matrix((vol[cols], (rows, cols)), shape=(m, m))  # noqa: N806
-    W.sum_duplicates()
-    s = np.asarray(W.sum(axis=1)).ravel()
-    return diags(1.0 / np.maximum(s, 1e-300)) @ W
+    A = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(m, m))  # noqa: N806
+    A.data[:] = 1.0
+    return A
 
 
 def _rotate_strain(e: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -153,7 +151,9 @@ def _rotate_strain(e: np.ndarray, theta: np.ndarray) -> np.ndarray:
     return np.stack([e1, e2, g12], axis=1)
 
 
-def first_failure(prediction, card: MaterialCard, a0: float | None = None) -> Failure:  # type: ignore[no-untyped-def]
+def first_failure(  # type: ignore[no-untyped-def]
+    prediction, card: MaterialCard, a0: float | None = None, within: tuple[float, float, float, float] | None = None
+) -> Failure:
     """First-ply failure of a bead-model prediction (module docstring).
 
     Parameters
@@ -163,6 +163,9 @@ def first_failure(prediction, card: MaterialCard, a0: float | None = None) -> Fa
     card : MaterialCard
     a0 : float, mm, optional
         Averaging radius; default :data:`A0_BEADS` x the median flow width of the part's beads.
+    within : (x_min, y_min, x_max, y_max), mm, optional
+        Check only elements whose centroid lies in this box (a coupon's gauge length: a test
+        counts only a break there); default the whole part.
 
     Returns
     -------
@@ -184,12 +187,17 @@ def first_failure(prediction, card: MaterialCard, a0: float | None = None) -> Fa
     if dim == 3:
         eps = eps[:, [0, 1, 5]]
     has = np.any(fill > _MIN_FILL, axis=0)
-    eps = _averaging(mesh, a0, has) @ eps
+    disc = _discs(mesh, a0)
+    vol = np.abs(mesh.measures)
     # elements touching a support or a loaded face are not checked (module docstring)
     grip = np.zeros(len(mesh.points), dtype=bool)
     for mask in an.picked.values():
         grip[an.facets.nodes[mask].ravel()] = True
     checked = has & ~np.any(grip[mesh.cells], axis=1)
+    if within is not None:
+        c = mesh.points[mesh.cells[:, : mesh.n_corners]].mean(axis=1)
+        x0, y0, x1, y1 = within
+        checked &= (c[:, 0] >= x0) & (c[:, 0] <= x1) & (c[:, 1] >= y0) & (c[:, 1] <= y1)
     Q = card.elastic.plane_stress()  # noqa: N806
     E1 = card.elastic.E1  # noqa: N806
     Lc = crossings(fields)  # noqa: N806
@@ -205,12 +213,17 @@ def first_failure(prediction, card: MaterialCard, a0: float | None = None) -> Fa
         s2 = phi * (Q[0, 1] * e1 + Q[1, 1] * e2)
         t = phi * Q[2, 2] * g
         sb = (1 - phi) * 1.5 * E1 * width[k] * np.abs(g) / np.maximum(Lc[k], width[k])
-        lam_p, terms_p = tsai_wu_factor(s1 + sb, s2, t, card)
-        lam_m, terms_m = tsai_wu_factor(s1 - sb, s2, t, card)
+        # average stress criterion: the bead stresses of this ply averaged over its material in the disc
+        wk = vol * np.minimum(fill[k], 1.0)
+        den = np.maximum(disc @ wk, 1e-300)
+        s1p, s1m, s2, t = ((disc @ (wk * x)) / den for x in (s1 + sb, s1 - sb, s2, t))
+        sb = 0.5 * (s1p - s1m)
+        lam_p, terms_p = tsai_wu_factor(s1p, s2, t, card)
+        lam_m, terms_m = tsai_wu_factor(s1m, s2, t, card)
         lam = np.minimum(lam_p, lam_m)
         terms = np.where((lam_p <= lam_m)[None], terms_p, terms_m)
         mode = np.argmax(terms, axis=0)
-        mode = np.where((mode == 0) & (sb > np.abs(s1)), 3, mode)
+        mode = np.where((mode == 0) & (np.abs(sb) > np.abs(0.5 * (s1p + s1m))), 3, mode)
         lam = np.where(checked & (fill[k] > _MIN_FILL), lam, np.inf)
         better = lam < best
         best = np.where(better, lam, best)

@@ -1,0 +1,290 @@
+"""Mechanics benchmark (issue 14): the bead model and first-ply failure against published experiments.
+
+Usage::
+
+    python benchmarks/bench_mechanics.py [OUT_DIR] [--quick] [--no-swarm]
+
+Everything is real G-code sliced by PrusaSlicer 2.5 (MK3S presets, ``tests/slicing.py``) and
+evaluated by ``loadpath.stiffness.evaluate_file`` (what ``loadpath compare`` runs) with the default
+model (bead fill model, the file's card, Tsai-Wu first-ply failure).  No parameter is fitted to any
+of these cases.
+
+1. Paper Table 2 (swarm paper, benchmarks.md §1.4): the open-hole specimen at 100 % as
+   cross-hatching (rectilinear 45 degrees), aligned rectilinear (``alignedrectilinear`` 0 degrees)
+   and loadpath's swarm (K = 5, ``loadpath run`` on the cross-hatching file); specific modulus and
+   specific strength over cross-hatching against 1.117 / 1.243 and 1.796 / 1.794.
+2. Tension bar 100 x 12 x 2 mm (held on one end face, pulled on the other; failure counted in the
+   gauge length, the middle 60 mm, as a coupon test counts only a break there): cross-hatching against
+   aligned 0 degrees at 100 % and 40 % (no top/bottom skins at 40 %).
+3. Sparse 3-point bending: a beam 80 x 16 x 4 mm lying flat, bent in its plane (supports on its
+   lower edge 5 mm from each end, the load on the upper edge at mid-span), rectilinear 0/90 at 20 %
+   and 40 %: the stiffness ratio beside the published density scaling of rectilinear infill.
+4. Timing: the assessment of the shipped example against ``loadpath run``'s own time.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import trimesh  # noqa: E402
+from loadpath import loadcase, stiffness  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "tests"))
+sys.path.insert(0, str(REPO / "benchmarks"))
+import slicing  # noqa: E402
+
+PAPER_MODULUS = {"aligned": 19.53 / 17.48, "swarm K=5": 21.73 / 17.48}
+PAPER_STRENGTH = {"aligned": 44.14 / 24.57, "swarm K=5": 44.08 / 24.57}
+
+# Uniaxial tension: x held on one end face, y at the middle of that face, the pull on the other end
+# face, so the part contracts freely (a 2D model cannot clamp the faces a real grip presses on; a
+# clamped edge would be a singular corner that no grip has)
+SPECIMEN_CASE = """
+version = 1
+frame = "part"
+[[supports]]
+name = "end"
+where = { x_max = 0.3 }
+fix = ["x"]
+[[supports]]
+name = "centre"
+where = { x_max = 0.3, y_min = 17.0, y_max = 19.0 }
+fix = ["y"]
+[[loads]]
+name = "pull"
+where = { x_min = 149.7 }
+force = [1000.0, 0.0, 0.0]
+"""
+
+BAR_CASE = """
+version = 1
+frame = "part"
+[[supports]]
+name = "end"
+where = { x_max = 0.3 }
+fix = ["x"]
+[[supports]]
+name = "centre"
+where = { x_max = 0.3, y_min = 5.0, y_max = 7.0 }
+fix = ["y"]
+[[loads]]
+name = "pull"
+where = { x_min = 99.7 }
+force = [500.0, 0.0, 0.0]
+"""
+
+BEND_CASE = """
+version = 1
+frame = "part"
+[[supports]]
+name = "left"
+where = { x_min = 4.0, x_max = 6.0, y_max = 0.5 }
+fix = ["x", "y"]
+[[supports]]
+name = "right"
+where = { x_min = 74.0, x_max = 76.0, y_max = 0.5 }
+fix = ["y"]
+[[loads]]
+name = "press"
+where = { x_min = 39.0, x_max = 41.0, y_min = 15.5 }
+force = [0.0, -100.0, 0.0]
+"""
+
+CROSS = {"fill_pattern": "rectilinear", "fill_angle": "45", "top_fill_pattern": "rectilinear",
+         "bottom_fill_pattern": "rectilinear"}
+ALIGNED = {"fill_pattern": "alignedrectilinear", "fill_angle": "0", "top_fill_pattern": "alignedrectilinear",
+           "bottom_fill_pattern": "alignedrectilinear"}
+GRID0 = {"fill_pattern": "rectilinear", "fill_angle": "0", "top_fill_pattern": "rectilinear",
+         "bottom_fill_pattern": "rectilinear"}
+SOLID = {**slicing.PRUSA_SOLID, "top_solid_layers": "1", "bottom_solid_layers": "1"}
+SPARSE = {**slicing.PRUSA_MIXED, "top_solid_layers": "0", "bottom_solid_layers": "0"}
+
+
+def part_stl(name: str, folder: Path) -> Path:
+    out = folder / f"{name}.stl"
+    if not out.exists():
+        if name == "ohs":
+            mesh = slicing.ohs_mesh()
+        elif name == "bar":
+            mesh = trimesh.creation.box(extents=(100.0, 12.0, 2.0))
+        else:
+            mesh = trimesh.creation.box(extents=(80.0, 16.0, 4.0))
+        mesh.apply_translation(-mesh.bounds[0])
+        slicing.write_stl(mesh, out)
+    return out
+
+
+def sliced(folder: Path, part: str, label: str, **settings: str) -> Path:
+    out = folder / f"{part}_{label}.gcode"
+    if not out.exists():
+        slicing.slice_prusa(part_stl(part, folder), out, **settings)
+    return out
+
+
+def swarm(folder: Path, src: Path, case: Path) -> tuple[Path | None, float]:
+    out = folder / "ohs_swarm5.gcode"
+    if out.exists():
+        return out, float("nan")
+    cmd = [sys.executable, "-m", "loadpath.plugin.cli", "run", str(src), "--loadcase", str(case),
+           "-o", str(out), "--engine", "swarm", "--K", "5", "--replace", "solid,top,bottom"]
+    t = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
+    dt = time.perf_counter() - t
+    if proc.returncode != 0 or not out.exists():
+        print(f"  loadpath run failed: {(proc.stderr.strip().splitlines() or [''])[-1]}")
+        return None, dt
+    return out, dt
+
+
+GAUGE = (20.0, 80.0)
+"""Gauge length of the tension bar, part x from .. to, mm."""
+
+
+def rows_for(files: dict[str, Path], case_text: str, folder: Path, tag: str, gauge=None):  # type: ignore[no-untyped-def]
+    """Compare the files; with ``gauge`` (part x range) the failure is looked for in it only."""
+    from dataclasses import replace
+
+    from loadpath.stiffness.compare import row
+    from loadpath.stiffness.strength import first_failure
+
+    case = folder / f"{tag}.toml"
+    case.write_text(case_text)
+    lc = loadcase.read(case)
+    t = time.perf_counter()
+    rows, results = stiffness.compare_files([str(f) for f in files.values()], lc)
+    if gauge is not None:
+        new = []
+        for r in results:
+            fails = []
+            for p in r.predictions:
+                lo = min(float(s.outline.bounds[0]) for s in p.analysis.resolved.body.slabs)
+                fails.append(first_failure(p, r.card, within=(lo + gauge[0], -1e9, lo + gauge[1], 1e9)))
+            new.append(replace(r, failures=tuple(fails)))
+        results = new
+        rows = [row(r, results[0]) for r in results]
+    dt = time.perf_counter() - t
+    return dict(zip(files, rows, strict=True)), results, dt
+
+
+def show(title: str, rows: dict, targets: dict | None = None) -> None:  # type: ignore[type-arg]
+    print(f"\n{title}")
+    print(f"  {'design':<16} {'mass g':>7} {'rel. stiff':>10} {'per mass':>9} {'fail. N':>9} "
+          f"{'rel. str.':>9} {'per mass':>9}  where / mode")
+    for k, r in rows.items():
+        loc = "-" if r.failure_location is None else "({:.1f}, {:.1f})".format(*r.failure_location[:2])
+        print(f"  {k:<16} {r.mass:>7.3f} {r.relative_stiffness:>10.3f} {r.relative_specific_stiffness:>9.3f} "
+              f"{r.failure_load:>9.1f} {r.relative_failure_load:>9.3f} {r.relative_failure_load_per_mass:>9.3f}"
+              f"  {loc} {r.failure_mode}")
+    if targets:
+        for k, (tm, ts) in targets.items():
+            if k in rows:
+                r = rows[k]
+                print(f"  {k}: specific modulus {r.relative_specific_stiffness:.3f} vs paper {tm:.3f} "
+                      f"({100 * (r.relative_specific_stiffness / tm - 1):+.1f} %, target +-5 %); "
+                      f"specific strength {r.relative_failure_load_per_mass:.3f} vs paper {ts:.3f} "
+                      f"({100 * (r.relative_failure_load_per_mass / ts - 1):+.1f} %, target +-10 %)")
+
+
+def timing(quick: bool) -> None:
+    """CPU time of :func:`loadpath.stiffness.assess` on the shipped example against ``loadpath run``'s.
+
+    CPU seconds (user + system), not wall time, because the 2-core machine is shared: wall times
+    there move with the load, CPU times much less.
+    """
+    import resource
+
+    from loadpath import gcode, geometry
+    from loadpath.loadcase.resolve import resolve
+
+    ex = REPO / "examples"
+    lc = loadcase.read(ex / "ohs.toml")
+    n = 1 if quick else 3
+    run_cpu = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(n):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            subprocess.run([sys.executable, "-m", "loadpath.plugin.cli", "run", str(ex / "ohs.gcode"), "--loadcase",
+                            str(ex / "ohs.toml"), "-o", str(Path(tmp) / "out.gcode")], check=True,
+                           capture_output=True)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            run_cpu.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    cpu, parts = [], []
+    for _ in range(n):
+        t = time.process_time()
+        program = gcode.read(ex / "ohs.gcode")
+        geo = geometry.layer_geometry(program, check=False)
+        (rb,) = resolve(lc, geo.bodies())
+        card, _ = stiffness.card_for(program.config)
+        a = stiffness.assess(rb, stiffness.from_program(program, geo.object(rb.name).code), card)
+        cpu.append(time.process_time() - t)
+        parts.append(a.prediction.info["times"])
+    r, c = statistics.median(run_cpu), statistics.median(cpu)
+    print(f"\n4. timing (CPU s, median of {n}): loadpath run {r:.2f} s; assess (parse, regions, mesh, beads, "
+          f"solve, failure) {c:.2f} s = {c / r:.2f} of the run (target <= 0.25); wall split of the last "
+          f"assess: {', '.join(f'{k} {v:.2f} s' for k, v in parts[-1].items())}")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("out", nargs="?", default=None)
+    ap.add_argument("--quick", action="store_true", help="skip the swarm run and the bending beam")
+    ap.add_argument("--no-swarm", action="store_true")
+    args, _ = ap.parse_known_args()
+    folder = Path(args.out or tempfile.mkdtemp(prefix="bench_mechanics_"))
+    folder.mkdir(parents=True, exist_ok=True)
+    print(f"mechanics benchmark: PrusaSlicer {slicing.prusa_version()}, files in {folder}")
+
+    # 1. paper Table 2
+    files = {
+        "cross-hatching": sliced(folder, "ohs", "cross100", **{**SOLID, **CROSS}),
+        "aligned": sliced(folder, "ohs", "aligned100", **{**SOLID, **ALIGNED}),
+    }
+    run_time = float("nan")
+    if not (args.quick or args.no_swarm):
+        case = folder / "specimen.toml"
+        case.write_text(SPECIMEN_CASE)
+        out, run_time = swarm(folder, files["cross-hatching"], case)
+        if out is not None:
+            files["swarm K=5"] = out
+    rows, _, _ = rows_for(files, SPECIMEN_CASE, folder, "specimen")
+    show("1. swarm paper Table 2 (open-hole specimen, 100 %; ratios over cross-hatching)", rows,
+         {k: (PAPER_MODULUS[k], PAPER_STRENGTH[k]) for k in PAPER_MODULUS})
+
+    # 2. tension bar
+    for dens, base in (("100", SOLID), ("40", {**SPARSE, "fill_density": "40%"})):
+        files = {
+            "cross-hatching": sliced(folder, "bar", f"cross{dens}", **{**base, **CROSS}),
+            "aligned": sliced(folder, "bar", f"aligned{dens}", **{**base, **ALIGNED}),
+        }
+        rows, _, _ = rows_for(files, BAR_CASE, folder, "bar", GAUGE)
+        show(f"2. tension bar at {dens} % (done-when: 100 %: stronger [1.15, 2.2], stiffer [1.02, 1.25]; "
+             "40 %: both >= 1.3)", rows)
+
+    # 3. sparse 3-point bending, 0/90 at 20 % and 40 %
+    if not args.quick:
+        files = {
+            "0/90 20 %": sliced(folder, "beam", "grid20", **{**SPARSE, "fill_density": "20%", **GRID0}),
+            "0/90 40 %": sliced(folder, "beam", "grid40", **{**SPARSE, "fill_density": "40%", **GRID0}),
+        }
+        rows, _, _ = rows_for(files, BEND_CASE, folder, "bend")
+        show("3. sparse 3-point bending (0/90 rectilinear, same walls)", rows)
+
+    # 4. timing on the shipped example: CPU seconds of assess() against loadpath run's (same machine, same run)
+    timing(args.quick)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
