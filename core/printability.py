@@ -30,7 +30,15 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["Kinematics", "Printability", "kinematics_from_config", "measure", "print_time"]
+__all__ = [
+    "Kinematics",
+    "Printability",
+    "kinematics_from_config",
+    "measure",
+    "measure_lines",
+    "print_time",
+    "replaced_blocks",
+]
 
 
 @dataclass(frozen=True)
@@ -181,3 +189,38 @@ def measure_lines(program, ranges: Iterable[tuple[int, int]], kin: Kinematics | 
     for a, z in ranges:
         out += measure(program.moves[program.move_rows(a, z)], kin)
     return out
+
+
+def replaced_blocks(program, output, splice) -> dict[str, dict[str, float]]:
+    """Printability of the replaced blocks, the slicer's and loadpath's, side by side.
+
+    Each replaced block is counted with the moves that lead into it (its span: the entering
+    travel, retraction and lift, and its detached leaving wipe), in the input and in the output
+    (:meth:`loadpath.gcode.splice.SpliceResult.output_ranges`).
+
+    Parameters
+    ----------
+    program : Program
+        The input.
+    output : Program
+        The output parsed.
+    splice : SpliceResult
+
+    Returns
+    -------
+    dict
+        ``{"slicer": {...}, "loadpath": {...}, "ratio": {...}}`` with the fields of
+        :class:`Printability` (``ratio``: loadpath / slicer, None where the slicer's is 0).
+    """
+    kin = kinematics_from_config(program.config)
+    old, new = [], []
+    for rep in splice.blocks:
+        b = program.block(rep.block)
+        old.append((b.span_start, b.span_stop))
+        if b.exit_stop > b.exit_start and b.exit_start >= b.span_stop:
+            old.append((b.exit_start, b.exit_stop))
+        new += splice.output_ranges(program, rep.block)
+    s = measure_lines(program, old, kin).as_dict()
+    n = measure_lines(output, new, kin).as_dict()
+    ratio = {k: (round(n[k] / s[k], 4) if s[k] else None) for k in s}
+    return {"slicer": s, "loadpath": n, "ratio": ratio, "accel_mm_s2": kin.accel, "jerk_mm_s": kin.jerk}

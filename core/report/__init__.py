@@ -176,12 +176,43 @@ def build_report(
                 str(k): v for k, v in (result.check.volume_ratio if result.check else {}).items()
             },
         },
+        "printability": _printability(result),
         "layers": [lr.numbers for lr in layers],
         "blocks": [dict(vars(b)) for b in (result.splice.blocks if result.splice else ())],
     }
     rep.data, rep.layers, rep.settings = data, layers, settings
     rep.analyses = dict(result.analyses or {})
     return rep
+
+
+def _printability(result) -> dict | None:
+    """Paths, retractions, travel and print time of the replaced blocks, slicer and loadpath (issue 19)."""
+    if not result.changed or result.output is None:
+        return None
+    from loadpath.printability import replaced_blocks
+
+    return replaced_blocks(result.program, result.output, result.splice)
+
+
+def _printability_html(p: dict | None) -> str:
+    if not p:
+        return ""
+    labels = (
+        ("paths", "paths", "{:d}"),
+        ("retractions", "retractions", "{:d}"),
+        ("travel_mm", "travel, mm", "{:.0f}"),
+        ("print_s", "print time (acceleration, jerk), s", "{:.0f}"),
+        ("filament_mm", "filament, mm", "{:.1f}"),
+    )
+    rows = "".join(
+        f"<tr><td>{html.escape(lab)}</td><td>{f.format(p['slicer'][k])}</td>"
+        f"<td>{f.format(p['loadpath'][k])}</td></tr>"
+        for k, lab, f in labels
+    )
+    return (
+        "<h2>Printability of the replaced blocks (and the moves into them)</h2>"
+        f"<table><tr><th></th><th>slicer</th><th>loadpath</th></tr>{rows}</table>"
+    )
 
 
 def _json(o: Any) -> Any:
@@ -249,6 +280,7 @@ def _html(
         ),
         f"<h2>Warnings</h2><ul>{warn}</ul>",
         f"<h2>Time per stage (s)</h2><table>{rows}</table>",
+        _printability_html(data.get("printability")),
         "<details><summary>Settings and where they came from</summary>"
         f"<table><tr><th>setting</th><th>value</th>"
         f"<th>from</th></tr>{sett}</table></details>",

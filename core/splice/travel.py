@@ -135,6 +135,7 @@ class TravelState:
         self.n_travels = 0
         self.n_retracts = 0
         self._rings: list | None = None
+        self.cache: dict = {}
 
     @property
     def rings(self) -> list:
@@ -150,10 +151,13 @@ def _inside(st: TravelState, a: Points2, b: Points2) -> bool:
     return bool(st.region.covers(LineString([a, b])))
 
 
-def route(st: TravelState, a: Points2, b: Points2) -> Points2 | None:
+def route(st: TravelState, a: Points2, b: Points2, reach: float = 0.35) -> Points2 | None:
     """A travel from ``a`` to ``b`` inside the region: the straight segment, with each piece that leaves
     the region replaced by the shorter way round the edge it crosses; ``(k, 2)`` points after ``a``
     (ending with ``b``), or None when that is not possible (another island, several edges).
+
+    A piece at either end of at most ``reach`` mm stays straight: the nozzle comes from (or goes
+    to) the innermost perimeter, whose centre line lies that little outside the infill region.
     """
     from shapely.ops import substring
 
@@ -172,7 +176,11 @@ def route(st: TravelState, a: Points2, b: Points2) -> Points2 | None:
         t0, t1 = line.project(shapely.points(c[0])), line.project(shapely.points(c[-1]))
         pos_on_line.append((min(t0, t1), c[0] if t0 <= t1 else c[-1], c[-1] if t0 <= t1 else c[0]))
     pos_on_line.sort(key=lambda x: x[0])
-    for _, p, q in pos_on_line:
+    total_len = line.length
+    for t, p, q in pos_on_line:
+        piece_len = float(np.hypot(*(q - p)))
+        if piece_len <= reach and (t < 1e-6 or abs(t + piece_len - total_len) < 1e-6):
+            continue  # from or to the perimeter beside the region
         pp, qp = shapely.points(p), shapely.points(q)
         d = np.array([ring.distance(pp) + ring.distance(qp) for ring in st.rings])
         if not len(d) or d.min() > 0.01:
@@ -200,9 +208,18 @@ def route(st: TravelState, a: Points2, b: Points2) -> Points2 | None:
     full = np.vstack([np.asarray(a, dtype=float)[None], *pts])
     keep = np.r_[True, np.hypot(*np.diff(full, axis=0).T) > 1e-6]
     full = full[keep]
-    if len(full) < 2 or not st.region.covers(LineString(full)):
+    if len(full) < 2 or not _near_region(st, reach).covers(LineString(full)):
         return None
     return full[1:]
+
+
+def _near_region(st: TravelState, reach: float):
+    key = ("near", reach)
+    if key not in st.cache:
+        g = st.region.buffer(reach)
+        shapely.prepare(g)
+        st.cache[key] = g
+    return st.cache[key]
 
 
 def wipe_points(chain_pts: Points2, distance: float) -> Points2:

@@ -1,0 +1,134 @@
+"""Printable paths (issue 19): runs linked end to end, the slicer's retraction policy, the counts.
+
+On real PrusaSlicer 2.5 / CuraEngine 4.13 slices; one pipeline run per slicer (the bracket at
+100 %, the swarm engine), shared by the tests of this file.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+import shapely
+from cases import GRIP_PULL
+from loadpath import gcode, loadcase, metrics
+from loadpath.engines.linking import link_paths, pieces
+from loadpath.gcode.travel import Motion, TravelState, route
+from loadpath.pipeline import PipelineOptions, run
+from loadpath.plugin import settings as settings_mod
+from loadpath.plugin.slicers import infer_from_moves
+from loadpath.printability import Kinematics, measure, print_time, replaced_blocks
+from shapely.geometry import Point, box
+
+
+def _run(path):
+    program = gcode.read(path)
+    s = settings_mod.resolve(program)
+    case = loadcase.parse(GRIP_PULL)
+    opts = PipelineOptions(engine="swarm", engine_params={"K": s.K}, workers=1)
+    return program, run(program, case, opts, settings_mod.splice_options(s))
+
+
+@pytest.fixture(scope="module")
+def prusa_run(sliced):
+    return _run(sliced("prusa", "bracket", "solid"))
+
+
+@pytest.fixture(scope="module")
+def cura_run(sliced):
+    return _run(sliced("cura", "bracket", "solid"))
+
+
+def test_runs_are_fewer_never_cross_and_stay_inside(prusa_run):
+    _, res = prusa_run
+    assert res.check is not None and not res.check.problems
+    for jr in res.jobs:
+        u = jr.units[0]
+        engine, printed = jr.paths.paths, jr.printed
+        assert jr.links["links"] > 0 and len(printed) < 0.7 * len(engine), (len(engine), len(printed))
+        lines = [shapely.LineString(p.points) for p in printed]
+        assert metrics.crossings(printed) == 0
+        grown = u.fill_region.buffer(1e-3)
+        assert all(grown.covers(ln) for ln in lines)
+        # the same plastic path: linking adds only the links' length
+        assert sum(p.length for p in printed) >= 0.99 * sum(p.length for p in engine) - 1e-6 or jr.links["dropped"]
+
+
+def test_links_keep_coverage_and_count_their_overlap(prusa_run):
+    _, res = prusa_run
+    jr = res.jobs[0]
+    u = jr.units[0]
+    runs, st = link_paths(jr.paths.paths, u.fill_region, u.pitch)
+    before = metrics.coverage(jr.paths.paths, u.fill_region)
+    after = metrics.coverage(pieces(runs, st["links_at"]), u.fill_region)
+    assert after.coverage >= before.coverage - 0.005
+    assert after.overlap >= before.overlap  # the links' beads on the ends they join are counted
+    assert sum(len(p.points) for p in pieces(runs, st["links_at"])) >= sum(len(p.points) for p in runs)
+
+
+def test_prusa_retractions_follow_the_slicer_and_the_report_shows_them(prusa_run):
+    program, res = prusa_run
+    p = replaced_blocks(program, res.output, res.splice)
+    s, n = p["slicer"], p["loadpath"]
+    assert n["paths"] >= 1 and n["retractions"] <= n["paths"] + len(res.splice.blocks)
+    assert 0.97 <= n["filament_mm"] / s["filament_mm"] <= 1.03
+    # PrusaSlicer MK3S (retract_before_travel = 1, not only when crossing): every travel in the new
+    # blocks longer than 1 mm, or leaving the region, is retracted
+    out = res.output
+    st = out.state
+    for rep in res.splice.blocks:
+        for a, z in res.splice.output_ranges(program, rep.block):
+            mv = out.moves[out.move_rows(a, z)]
+            long = mv[mv["travel"] & (np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"]) > 1.0 + 1e-3)]
+            assert all(st.retracted[int(r["line"])] > 0 or st.fw_retracted[int(r["line"])] for r in long)
+
+
+def test_cura_combs_inside_the_infill_instead_of_retracting(cura_run):
+    program, res = cura_run
+    inferred = infer_from_moves(program)
+    assert inferred["only_retract_when_crossing_perimeters"] is True
+    assert inferred["avoid_crossing_perimeters"] is True
+    assert res.check is not None and not res.check.problems
+    p = replaced_blocks(program, res.output, res.splice)
+    # Cura retracts almost never; the new blocks add at most one retraction per block
+    assert p["loadpath"]["retractions"] <= p["slicer"]["retractions"] + len(res.splice.blocks) // 4 + 2
+    assert p["loadpath"]["paths"] < p["slicer"]["paths"]
+
+
+def test_prusa_file_does_not_comb(sliced):
+    program = gcode.read(sliced("prusa", "bracket", "solid"))
+    assert infer_from_moves(program).get("only_retract_when_crossing_perimeters") in (False, None)
+
+
+def test_counts_match_the_files_own_lines(sliced):
+    path = sliced("prusa", "bracket", "solid")
+    program = gcode.read(path)
+    text = path.read_text(encoding="utf-8")
+    m = measure(program.moves)
+    # PrusaSlicer MK3S: every retraction ends with an E-only pull after its wipe
+    assert m.retractions == len(re.findall(r"^G1 E-", text, re.M))
+    # the firmware-style time is within 5 % of PrusaSlicer's own estimate (normal mode)
+    est = re.search(r"estimated printing time \(normal mode\) = (?:(\d+)h )?(?:(\d+)m )?(\d+)s", text)
+    secs = int(est.group(1) or 0) * 3600 + int(est.group(2) or 0) * 60 + int(est.group(3))
+    assert abs(m.print_s / secs - 1) < 0.05, (m.print_s, secs)
+
+
+def test_print_time_of_one_move_is_a_trapezoid():
+    mv = np.zeros(1, dtype=gcode.MOVE_DTYPE)
+    mv["x1"], mv["f"] = 100.0, 6000.0  # 100 mm at 100 mm/s
+    kin = Kinematics(accel=1000.0, jerk=0.0)
+    # from rest to rest: 0.1 s accelerating over 5 mm, 0.9 s cruising, 0.1 s braking
+    assert print_time(mv, kin) == pytest.approx(1.1, rel=1e-6)
+
+
+def test_route_goes_round_a_hole():
+    region = box(0, 0, 40, 20).difference(Point(20, 10).buffer(4, quad_segs=16))
+    st = TravelState(None, region, Motion(), 0.2)  # program is not used by route
+    a, b = np.array([10.0, 10.0]), np.array([30.0, 10.0])
+    way = route(st, a, b)
+    assert way is not None and np.allclose(way[-1], b)
+    full = np.vstack([a[None], way])
+    assert region.buffer(2e-3).covers(shapely.LineString(full))
+    assert 20.0 < np.sum(np.hypot(*np.diff(full, axis=0).T)) < 20.0 + 4 * np.pi
+    assert route(st, np.array([10.0, 10.0]), np.array([10.0, 30.0])) is None  # outside the region
