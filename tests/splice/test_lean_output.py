@@ -1,0 +1,71 @@
+"""Lean output (issue 17): the default bead runs write far fewer lines than the fine ones, same beads.
+
+The same paths (from the result cache) are spliced twice into a real PrusaSlicer 2.5 solid part:
+with the former fine settings (width step 5 %, tolerance 10 % of the flow width) and with the
+defaults.  Both pass the splice check; the defaults' file is much smaller, and the beads it prints
+(each extruding move buffered by half its ``;WIDTH:``) cover the same area within 1 %.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import shapely
+from loadpath import gcode, loadcase, pipeline
+from loadpath.cache import Cache
+from loadpath.gcode.beadruns import RunOptions
+from loadpath.plugin import settings as settings_mod
+
+CASE = """version = 1
+[[supports]]
+name = "clamp"
+where = { side = "x_min", within = 10.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "pull"
+where = { side = "x_max", within = 1.0 }
+force = [1000.0, 0.0, 0.0]
+"""
+
+
+def _beads(program, result) -> dict[int, shapely.Geometry]:
+    """Per replaced block: the union of its printed beads in the output."""
+    moves = gcode.parse(result.data, strict=False).moves
+    out = {}
+    for br in result.splice.blocks:
+        parts = []
+        for a, z in result.splice.output_ranges(program, br.block):
+            m = moves[(moves["line"] >= a) & (moves["line"] < z) & moves["extrude"]]
+            a_, z_ = np.column_stack([m["x0"], m["y0"]]), np.column_stack([m["x1"], m["y1"]])
+            lines = shapely.linestrings(np.stack([a_, z_], axis=1))
+            parts.append(shapely.union_all(shapely.buffer(lines, m["width"] / 2, cap_style="flat")))
+        out[br.block] = shapely.union_all(parts)
+    return out
+
+
+def test_default_runs_write_fewer_lines_and_the_same_beads(sliced, tmp_path):
+    gpath = sliced("prusa", "ohs", "example")
+    program = gcode.read(gpath)
+    case_path = tmp_path / "case.toml"
+    case_path.write_text(CASE, encoding="utf-8")
+    case = loadcase.read(case_path)
+    s = settings_mod.resolve(program, toolpath=case.toolpath, cli={"engine": "streamlines"})
+    lean = settings_mod.splice_options(s)
+    assert lean.runs == RunOptions()
+    fine = dataclasses.replace(lean, runs=dataclasses.replace(lean.runs, width_step=0.05, resolution=0.10))
+    opts = pipeline.PipelineOptions(engine="streamlines", workers=1)
+    cache = Cache(tmp_path / "cache")
+    r_fine = pipeline.run(program, case, opts, fine, cache=cache)
+    r_lean = pipeline.run(program, case, opts, lean, cache=cache)
+    assert cache.stats.misses.get("paths", 0) == cache.stats.hits.get("paths", 0) > 0  # same paths
+    assert not r_fine.check.problems and not r_lean.check.problems
+    assert [b.block for b in r_lean.splice.blocks] == [b.block for b in r_fine.splice.blocks]
+    assert len(r_lean.data) < 0.8 * len(r_fine.data)
+    assert r_lean.data.count(b";WIDTH:") < 0.6 * r_fine.data.count(b";WIDTH:")
+    b_fine, b_lean = _beads(program, r_fine), _beads(program, r_lean)
+    area = sum(g.area for g in b_fine.values())
+    assert abs(sum(g.area for g in b_lean.values()) / area - 1.0) < 0.01
+    assert sum(b_fine[k].symmetric_difference(b_lean[k]).area for k in b_fine) / area < 0.02
+    for br in r_lean.splice.blocks:  # the volume of every block is still the slicer's
+        assert abs(br.filament_new / br.filament_old - 1.0) < 0.03
