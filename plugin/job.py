@@ -259,7 +259,9 @@ def _run(
         stagger=s.stagger,
         workers=s.jobs or default_workers(),
         check=s.check,
-        density=DensityOptions(s.density, fill=s.sparse_fill, max_pitch=s.density_max_pitch),
+        density=DensityOptions(
+            s.density, s.density_exponent, fill=s.sparse_fill, max_pitch=s.density_max_pitch
+        ),
     )
     pres = pipeline.run(
         program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura,

@@ -181,6 +181,15 @@ SCHEMA: tuple[Field, ...] = (
         toolpath=True,
     ),
     Field(
+        "density_exponent",
+        "optional_float",
+        None,
+        "",
+        "fill ~ measure ** exponent; default the criterion's optimum (energy 0.5, failure 1)",
+        minimum=0.0,
+        maximum=4.0,
+    ),
+    Field(
         "density_max_pitch",
         "float",
         8.0,
@@ -401,6 +410,7 @@ class Settings:
     cross_angle: float = 30.0
     density: str = "energy"
     sparse_fill: float | None = None
+    density_exponent: float | None = None
     density_max_pitch: float = 8.0
     width_min: float = 0.6
     width_max: float = 1.6
