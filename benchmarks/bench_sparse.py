@@ -153,6 +153,7 @@ VARIANTS = {
     "density": {"density": "energy"},
     "uniform": {"density": "uniform"},
     "failure": {"density": "failure"},
+    "energy1": {"density": "energy", "density_exponent": 1.0},
     "alternate": {"density": "energy", "principal": "alternate"},
     "cross30": {"density": "energy", "principal": "cross", "cross_angle": 30.0},
     "cross45": {"density": "energy", "principal": "cross", "cross_angle": 45.0},

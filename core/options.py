@@ -146,6 +146,15 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         toolpath=True,
     ),
     Field(
+        "density_exponent",
+        "optional_float",
+        None,
+        "",
+        "fill ~ measure ** exponent; default the criterion's optimum (energy 0.5, failure 1)",
+        minimum=0.0,
+        maximum=4.0,
+    ),
+    Field(
         "sparse_fill",
         "optional_float",
         None,

@@ -342,7 +342,9 @@ def _run(
         link=s.link,
         workers=s.jobs or default_workers(),
         check=s.check,
-        density=DensityOptions(s.density, fill=s.sparse_fill, max_pitch=s.density_max_pitch),
+        density=DensityOptions(
+            s.density, s.density_exponent, fill=s.sparse_fill, max_pitch=s.density_max_pitch
+        ),
     )
     cache = None
     if s.cache:

@@ -265,6 +265,7 @@ class Settings:
     replace: tuple[str, ...] = ("solid",)
     cross_angle: float = 30.0
     density: str = "energy"
+    density_exponent: float | None = None
     sparse_fill: float | None = None
     density_max_pitch: float = 8.0
     width_min: float = 0.6
