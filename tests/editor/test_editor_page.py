@@ -208,6 +208,11 @@ def test_gcode_click_hole_and_edge_solve_save_run(browser, editor, prusa_bracket
     rel = browser.find_element(By.ID, "relative-stiffness").text
     assert re.match(r"Predicted stiffness \d+\.\d{3}x the slicer's infill", rel), rel
     assert "layer" in browser.find_element(By.ID, "paths-note").text
+    browser.find_element(By.ID, "show-slicer").click()  # the slicer's infill of the same layer beside it
+    n_pts = browser.execute_script(
+        "return [...document.querySelectorAll('#g-slicer polyline')].reduce((n, p) => n + p.points.length, 0)"
+    )
+    assert n_pts > 20  # PrusaSlicer's zig-zag of the replaced sparse layer
     saved = _save(browser, ed)
     assert 'frame = "bed"' in saved
     # the comments say what each selector picked on this part (the hole's centre, the edge's extent)
