@@ -5,7 +5,8 @@ Routes::
     GET  /  /editor.js  /editor.css    the page (package data of loadpath.plugin.editor, read once)
     GET  /api/start                    the part, the case to show, materials and [toolpath] help
     POST /api/resolve  {"case"}        what each selector picks, errors, the TOML Save would write
-    POST /api/solve    {"case", "layer"}   stress field, path preview, predicted stiffness
+    POST /api/solve    {"case", "layer"}   starts the solve (stress, path preview, stiffness)
+    POST /api/solve-result  {"job"}    its answer, or "running" and the seconds so far
     POST /api/save     {"case"}        writes the TOML to the one file named on the command line
 
 Protections are :mod:`loadpath.plugin.localhttp`'s (the ones ``loadpath serve`` uses), with the
@@ -132,7 +133,7 @@ class _Handler(BaseHTTPRequestHandler):
         try:
             check_host_origin(self.headers, port=self.editor.port)
             path = urlsplit(self.path).path
-            if path not in ("/api/resolve", "/api/solve", "/api/save"):
+            if path not in ("/api/resolve", "/api/solve", "/api/solve-result", "/api/save"):
                 raise RequestError(404, "not_found", f"no POST {path}")
             req = read_json_body(self.headers, self.rfile, MAX_BODY_MB, "a load case is a few kB")
             if not isinstance(req, dict):
@@ -143,11 +144,13 @@ class _Handler(BaseHTTPRequestHandler):
                 answer = s.resolve(case)
             elif path == "/api/save":
                 answer = s.save(case)
+            elif path == "/api/solve-result":
+                answer = s.solve_result(req.get("job"))
             else:
                 layer = req.get("layer", 0)
                 if not isinstance(layer, int) or isinstance(layer, bool):
                     raise RequestError(400, "bad_request", "layer must be an integer")
-                answer = s.solve(case, layer)
+                answer = s.solve_start(case, layer)
             self._json(200, answer)
         except RequestError as exc:
             self._error(exc)

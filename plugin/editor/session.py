@@ -14,6 +14,7 @@ import re
 import sys
 import tempfile
 import threading
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -98,6 +99,8 @@ class EditorSession:
         default_factory=lambda: tempfile.TemporaryDirectory(prefix="loadpath-edit-")
     )
     _solving: threading.Lock = field(default_factory=threading.Lock)
+    _job: dict[str, Any] | None = None
+    _job_id: int = 0
 
     def __post_init__(self) -> None:
         frame = self.initial.frame if self.initial is not None else self.part.frame
@@ -233,20 +236,60 @@ class EditorSession:
         return {**answer, "saved": str(self.save_path)}
 
     def solve(self, data: Any, layer: int) -> dict[str, Any]:
-        """POST /api/solve: stress field of the shown layer, new paths there, predicted stiffness."""
+        """Solve now: stress field of the shown layer, new paths there, predicted stiffness."""
         answer = self.resolve(data)
         if not answer["ok"]:
             return answer
         if not self._solving.acquire(blocking=False):
             return {**answer, "ok": False, "errors": [{"item": None, "message": "a solve is running; wait"}]}
         try:
+            return self._solve_checked(answer, data, layer)
+        finally:
+            self._solving.release()
+
+    def _solve_checked(self, answer: dict[str, Any], data: Any, layer: int) -> dict[str, Any]:
+        try:
             return {**answer, **self._solve(self._case(data), layer)}
         except LoadpathError as exc:
             msg = str(exc)
             item = _item_of(msg) or ("supports" if "free to" in msg else None)
             return {**answer, "ok": False, "errors": [{"item": item, "message": msg}]}
-        finally:
-            self._solving.release()
+        except Exception as exc:  # a bug: one line to the page
+            msg = f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); please report it"
+            return {**answer, "ok": False, "errors": [{"item": None, "message": msg}]}
+
+    def solve_start(self, data: Any, layer: int) -> dict[str, Any]:
+        """POST /api/solve: check the case and start solving in the background.
+
+        A G-code solve runs the whole pipeline and can take minutes; the page then asks
+        :meth:`solve_result` once a second.
+        """
+        answer = self.resolve(data)
+        if not answer["ok"]:
+            return answer
+        if not self._solving.acquire(blocking=False):
+            return {**answer, "ok": False, "errors": [{"item": None, "message": "a solve is running; wait"}]}
+        self._job_id += 1
+        job = {"id": self._job_id, "result": None, "t0": time.monotonic()}
+        self._job = job
+
+        def work() -> None:
+            try:
+                job["result"] = self._solve_checked(answer, data, layer)
+            finally:
+                self._solving.release()
+
+        threading.Thread(target=work, name="loadpath-edit-solve", daemon=True).start()
+        return {**answer, "running": True, "job": job["id"]}
+
+    def solve_result(self, job_id: Any) -> dict[str, Any]:
+        """POST /api/solve-result: the answer of a started solve, or ``running`` and the seconds so far."""
+        job = self._job
+        if job is None or job["id"] != job_id:
+            return {"ok": False, "errors": [{"item": None, "message": f"no solve {job_id!r}; press Solve"}]}
+        if job["result"] is None:
+            return {"ok": True, "running": True, "job": job_id, "seconds": time.monotonic() - job["t0"]}
+        return {**job["result"], "running": False, "job": job_id}
 
     def _solve(self, lc: lcmod.LoadCase, layer: int) -> dict[str, Any]:
         from loadpath.plugin.editor.preview import gcode_preview, stl_preview, stress_grid

@@ -208,6 +208,11 @@ def test_gcode_click_hole_and_edge_solve_save_run(browser, editor, prusa_bracket
     rel = browser.find_element(By.ID, "relative-stiffness").text
     assert re.match(r"Predicted stiffness \d+\.\d{3}x the slicer's infill", rel), rel
     assert "layer" in browser.find_element(By.ID, "paths-note").text
+    browser.find_element(By.ID, "show-slicer").click()  # the slicer's infill of the same layer beside it
+    n_pts = browser.execute_script(
+        "return [...document.querySelectorAll('#g-slicer polyline')].reduce((n, p) => n + p.points.length, 0)"
+    )
+    assert n_pts > 20  # PrusaSlicer's zig-zag of the replaced sparse layer
     saved = _save(browser, ed)
     assert 'frame = "bed"' in saved
     # the comments say what each selector picked on this part (the hole's centre, the edge's extent)
@@ -397,3 +402,77 @@ def test_page_fits_the_screen_and_every_control_has_a_label(browser, editor, pru
     assert m["ox"] >= m["vx"] and m["ox"] + m["ow"] <= m["vx"] + m["vw"] + 1
     assert m["selections"] >= 2
     assert m["font"] >= (18 if size[0] > 2400 else 13)
+
+
+def _screen(drv, x, y):
+    return drv.execute_script(
+        "const p = new DOMPoint(arguments[0], arguments[1])"
+        ".matrixTransform(document.getElementById('flip').getScreenCTM()); return [p.x, p.y];",
+        x,
+        y,
+    )
+
+
+def _drag(drv, a, b, steps=8):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    chain = ActionChains(drv)
+    pa = chain.w3c_actions.pointer_action
+    pa.move_to_location(int(a[0]), int(a[1]))
+    pa.pointer_down()
+    for k in range(1, steps + 1):
+        pa.move_to_location(int(a[0] + (b[0] - a[0]) * k / steps), int(a[1] + (b[1] - a[1]) * k / steps))
+    pa.pointer_up()
+    chain.perform()
+
+
+def test_drag_the_arrow_and_a_box_and_step_through_regions(browser, editor, test_stls, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    (stl,) = test_stls("bracket")
+    case = tmp_path / "case.toml"
+    case.write_text(HAND_STL, encoding="utf-8")
+    ed = editor(stl, case)
+    _open(browser, ed)
+    # the arrow of the 500 N load (pointing -y from the hole): drag its head to 1.5 times its length, +x
+    hit = browser.find_element(By.CSS_SELECTOR, '#g-arrows [data-item="loads/0"] .arrow-hit')
+    cx, cy = float(hit.get_attribute("cx")), float(hit.get_attribute("cy"))
+    x0, y0 = 52.5, 7.5
+    length = abs(cy - y0)
+    _drag(browser, _screen(browser, cx, cy), _screen(browser, x0 + 1.5 * length, y0))
+    _settled(browser)
+    fx, fy, fz = browser.execute_script("return editorState.c.loads[0].force")
+    assert fx == pytest.approx(750, rel=0.05) and abs(fy) < 1e-6 and fz == 0
+    load = _item(browser, "loads/0")
+    assert load.find_element(By.CSS_SELECTOR, "input.direction").get_attribute("value") == "0"
+    # drag a box over the top of the short leg: a box selector, resolved by the server
+    _drag(browser, _screen(browser, -3.0, 34.0), _screen(browser, 18.0, 43.0))
+    assert browser.execute_script("return editorState.picked.kind") == "box"
+    browser.find_element(By.ID, "as-support").click()
+    _settled(browser)
+    where = browser.execute_script("return editorState.c.supports[1].where")
+    assert set(where) == {"x_min", "x_max", "y_min", "y_max"}
+    assert where["x_min"] < 0 < 15 < where["x_max"] and where["y_min"] < 40 < where["y_max"]
+    picked = _item(browser, "supports/1").find_element(By.CSS_SELECTOR, ".picked").text
+    assert picked.startswith("bracket.stl: picks ") and "y 34." in picked, picked
+    assert _errors(browser) == []
+
+
+def test_parts_whose_outline_changes_get_a_region_slider(browser, editor, tmp_path):
+    import slicing
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    stl = slicing.write_stl(slicing.tower_mesh(), tmp_path / "tower.stl")
+    ed = editor(stl, tmp_path / "tower.toml")
+    _open(browser, ed)
+    slider = browser.find_element(By.ID, "layer")
+    n = int(slider.get_attribute("max")) + 1
+    assert n > 5 and slider.is_enabled()
+    first = browser.find_element(By.ID, "layer-info").text
+    outline0 = browser.find_element(By.CSS_SELECTOR, "#g-outline path").get_attribute("d")
+    slider.send_keys(Keys.END)  # keyboard: the top region
+    last = browser.find_element(By.ID, "layer-info").text
+    assert first.startswith("z 0.00 to ") and last.endswith(f"(region {n} of {n})") and last != first
+    assert browser.find_element(By.CSS_SELECTOR, "#g-outline path").get_attribute("d") != outline0
+    assert browser.find_elements(By.CSS_SELECTOR, "#g-holes .feature")  # the twisted tower keeps its hole

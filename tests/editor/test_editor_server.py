@@ -122,3 +122,38 @@ def test_bodies_are_bounded_and_checked(running):
     assert status == 415
     status, _, body = _request(port, "POST", "/api/solve", {"case": {}, "layer": "0"})
     assert status == 400 and "layer must be an integer" in json.loads(body)["error"]["message"]
+
+
+def test_bad_input_is_one_line_naming_the_fix(test_stls, tmp_path):
+    import subprocess
+
+    from editor_fixtures import LOADPATH
+
+    (stl,) = test_stls("bracket")
+    bad_case = tmp_path / "bad.toml"
+    bad_case.write_text(
+        'version = 1\n[[supports]]\nwhere = { side = "x_min" }\nfix = ["x"]\n', encoding="utf-8"
+    )
+    open_mesh = tmp_path / "open.stl"
+    open_mesh.write_text(
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 1\nvertex 0 1 1\nendloop\n"
+        "endfacet\nendsolid t\n",
+        encoding="utf-8",
+    )
+    cases = [
+        ([str(tmp_path / "missing.gcode")], "does not exist or is not a file; give a G-code or STL file"),
+        (
+            [str(stl), "--loadcase", str(bad_case)],
+            "bad.toml: missing section [[loads]]; add at least one load",
+        ),
+        ([str(open_mesh)], "is not closed; repair the mesh (it must be watertight)"),
+        ([str(stl), "--port", "70000"], "--port 70000 must lie within 0..65535"),
+    ]
+    for args, words in cases:
+        r = subprocess.run(
+            [str(LOADPATH), "edit", *args, "--no-browser"], capture_output=True, text=True, timeout=120
+        )
+        assert r.returncode == 1, (args, r.stderr)
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("loadpath: ") and words in lines[0], r.stderr
+    assert not (tmp_path / "missing.toml").exists()

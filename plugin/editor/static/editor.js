@@ -587,7 +587,13 @@ async function solve() {
   document.body.dataset.solved = "0";
   $("status").textContent = "Solving: stress analysis" + (S.part.kind === "gcode" ? ", new paths for the whole G-code and the stiffness of both files (this takes a while)" : " and path preview") + "...";
   try {
-    const r = await api("/api/solve", { case: caseForServer(), layer: S.layer });
+    let r = await api("/api/solve", { case: caseForServer(), layer: S.layer });
+    const base = $("status").textContent;
+    while (r.running) {  // a G-code solve runs the whole pipeline: ask until it is done
+      await new Promise((ok) => setTimeout(ok, 1000));
+      r = await api("/api/solve-result", { job: r.job });
+      if (r.running) $("status").textContent = `${base} ${Math.round(r.seconds)} s`;
+    }
     S.resolved = r.selections ? r : S.resolved;
     showErrors(r.errors);
     drawSelections();
