@@ -196,7 +196,7 @@ def replaced_blocks(program, output, splice) -> dict[str, dict[str, float]]:
 
     Each replaced block is counted with the moves that lead into it (its span: the entering
     travel, retraction and lift, and its detached leaving wipe), in the input and in the output
-    (:meth:`loadpath.gcode.splice.SpliceResult.output_ranges`).
+    (:meth:`loadpath.splice.splicer.SpliceResult.output_ranges`).
 
     Parameters
     ----------

@@ -14,7 +14,7 @@ import shapely
 from cases import GRIP_PULL
 from loadpath import gcode, loadcase, metrics
 from loadpath.engines.linking import link_paths, pieces
-from loadpath.gcode.travel import Motion, TravelState, route
+from loadpath.splice.travel import Motion, TravelState, route
 from loadpath.pipeline import PipelineOptions, run
 from loadpath.plugin import settings as settings_mod
 from loadpath.plugin.slicers import infer_from_moves

@@ -14,7 +14,7 @@ import numpy as np
 import shapely
 from loadpath import gcode, loadcase, pipeline
 from loadpath.cache import Cache
-from loadpath.gcode.beadruns import RunOptions
+from loadpath.splice.beadruns import RunOptions
 from loadpath.plugin import settings as settings_mod
 
 CASE = """version = 1
