@@ -122,6 +122,7 @@ def test_paper_table2_specific_modulus_of_aligned_over_cross_hatching(specimen):
 def test_failure_load_converges_under_mesh_refinement(folder, specimen):
     """Refining the hole's elements from 2 to 1 to 1/2 pitch keeps the failure load within 5 %.
 
+    Measured on the aligned specimen: 1620, 1624, 1558 N (the top of the hole every time).
     The beads are sampled at a third of the finest element (coarser samples leave small elements
     with a handful of points: a noisy fill, not a converging one).  A peak-stress criterion would follow the hole's stress peak as
     it sharpens; the averaged bead stresses do not.
