@@ -507,7 +507,7 @@ def model_variants(name, data):
         f"  fitted G12 = {g12:.0f} MPa (default {PLA_PRINTED.G12:.0f}) makes E_x(0)/E_x(+-45) = {ratio:.3f}"
     )
     for label, mat, model in (
-        ("PLA linear (default)", PLA_PRINTED, LINEAR),
+        ("PLA linear", PLA_PRINTED, LINEAR),
         ("PLA NMO (thesis)", PLA_PRINTED, NMO),
         ("PLA G12 fitted", cal, LINEAR),
     ):

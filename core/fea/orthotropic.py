@@ -59,21 +59,9 @@ import numpy as np
 from loadpath.errors import SettingsError
 
 __all__ = [
-    "PrintedMaterial",
-    "FillModel",
-    "PLA_PRINTED",
-    "ABS_PRINTED",
-    "LINEAR",
-    "NMO",
-    "BEADS",
-    "VOID_FILL",
-    "orientation_average",
-    "rotation_voigt",
-    "rotate",
-    "direction_moments",
-    "averaging_weights",
-    "ply_matrices",
-    "printed_matrices",
+    "PrintedMaterial", "FillModel", "PLA_PRINTED", "ABS_PRINTED", "LINEAR", "NMO", "BEADS", "VOID_FILL",
+    "orientation_average", "rotation_voigt", "rotate", "direction_moments", "averaging_weights",
+    "ply_matrices", "printed_matrices",
 ]
 
 VOID_FILL = 1e-3

@@ -47,8 +47,9 @@ from loadpath.stiffness.deposits import Deposits
 
 __all__ = ["BeadState", "subdivide", "bead_state", "neck_fraction", "crossing_spacing", "bead_ply_matrices"]
 
-PIECE = 2.0
-"""mm: longest piece a bead is cut into, so that fusion and transfer are resolved along it."""
+PIECE = 1.0
+"""mm: longest piece a bead is cut into, so that fusion and transfer are resolved along it (about the
+stiffness mesh's finest elements, two pitches; 2 mm pieces miss a sliver gap beside a hole)."""
 
 _PARALLEL = np.cos(np.radians(25.0))
 _CANDIDATES = 8  # nearest bead pieces looked at per piece (both sides, both neighbours' pieces)

@@ -37,17 +37,8 @@ from loadpath.stiffness.strength import Failure, first_failure
 from loadpath.stiffness.predict import Prediction, StiffnessOptions, predict, stiffness_mesh
 from loadpath.toolpath import Path
 
-__all__ = [
-    "FileResult",
-    "CompareRow",
-    "evaluate_file",
-    "compare_files",
-    "gains",
-    "infill_paths",
-    "row",
-    "ROW_KEYS",
-    "MECHANICS_KEYS",
-]
+__all__ = ["FileResult", "CompareRow", "evaluate_file", "compare_files", "gains", "infill_paths", "row"]
+__all__ += ["ROW_KEYS", "MECHANICS_KEYS"]
 
 ROW_KEYS = ("file", "compliance", "peak_displacement", "relative_stiffness", "beta", "coverage")
 """The keys every row has (interface.md); rows also carry :data:`MECHANICS_KEYS`."""

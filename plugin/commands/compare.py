@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     analyses = ", ".join(sorted({p.analysis.resolved.analysis for r in results for p in r.predictions}))
     print(
         f"model: {opts.fill_model.kind} fill model ({_FILL_SOURCE[opts.fill_model.kind]}); "
-        f"first-ply failure: Tsai-Wu on strains averaged over "
+        f"first-ply failure: Tsai-Wu on bead stresses averaged over "
         f"{results[0].failures[0].a0 if results[0].failures else float('nan'):.2f} mm (Whitney-Nuismer); "
         f"{analyses} analysis"
     )

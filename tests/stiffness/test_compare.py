@@ -79,10 +79,20 @@ def test_compare_prints_and_writes_rows_relative_to_the_first_file(prusa_pair, t
     assert c["coverage"] > 0.97 and a["coverage"] > 0.97
     # 1000 N on 36 x 2 mm over 150 mm of PLA (E about 3 GPa): about 0.7 mm
     assert 0.4 < c["peak_displacement"] < 1.2
+    # issue 14: failure load, safety factor, per-mass figures, where it fails
+    for r in rows:
+        assert r["failure_load"] > 0 and r["safety_factor"] > 0 and len(r["failure_location"]) == 3
+    assert c["relative_failure_load"] == 1.0 and c2["failure_load"] == c["failure_load"]
+    assert a["relative_failure_load"] > 1.05  # along its beads the aligned specimen is stronger
+    assert a["relative_stiffness_per_mass"] == a["relative_specific_stiffness"]
+    assert "at equal mass" in text and "card PLA" in text and "beads fill model" in text
     assert sorted(p.name for p in rep.glob("*.png")) == sorted(
-        f"{i:02d}_{stem}_ohs.stl_{kind}.png"
-        for i, stem in ((1, cross.stem), (2, aligned.stem), (3, again.stem))
-        for kind in ("energy", "orientation")
+        [
+            f"{i:02d}_{stem}_ohs.stl_{kind}.png"
+            for i, stem in ((1, cross.stem), (2, aligned.stem), (3, again.stem))
+            for kind in ("energy", "orientation")
+        ]
+        + [f"{i:02d}_gain_{stem}_vs_{cross.stem}_ohs.stl.png" for i, stem in ((2, aligned.stem), (3, again.stem))]
     )
     assert {p: digest(p) for p in (cross, aligned)} == before  # inputs untouched
 

@@ -48,7 +48,7 @@ def _compare(folder: Path, files: list[Path], text: str, name: str, gauge=None):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="measured at 100 %: aligned 1.015x stiffer and 1.131x stronger (1.037x / 1.155x per mass: the "
+    reason="measured at 100 %: aligned 1.015x stiffer and 1.121x stronger (1.037x / 1.145x per mass: the "
     "aligned file has 2 % less plastic); the nearly isotropic PLA coupon card (Li et al. 2024) puts a fused "
     "+-45 ply 1.13x below 0 degrees in Tsai-Wu strength and 1.02x in modulus, just under the bands",
 )
@@ -89,10 +89,10 @@ def specimen(folder):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="measured 1.587 against the paper's 1.796 (-11.7 %, band +-10 %): the aligned specimen fails at "
-    "the top of the hole along its beads (right), the cross-hatched one beside the hole where a -45 line "
-    "runs tangent to the hole's wall with a sliver gap (unfused, bending between crossings); the card's "
-    "shear strength (35 MPa) leaves fused +-45 plies only 1.13x weaker than 0 degrees",
+    reason="measured 1.110 against the paper's 1.796 (-38 %, band +-10 %): in both specimens the first bead to "
+    "fail is the wall bead running round the top of the hole (hoop stress along it, the same walls in both "
+    "designs); the paper's strength is the ultimate load, reached after the walls crack and the infill "
+    "carries the net section: first-ply failure without progressive damage cannot see that",
 )
 def test_paper_table2_specific_strength_of_aligned_over_cross_hatching(specimen):
     rows, results = specimen
@@ -122,7 +122,9 @@ def test_paper_table2_specific_modulus_of_aligned_over_cross_hatching(specimen):
 def test_failure_load_converges_under_mesh_refinement(folder, specimen):
     """Refining the hole's elements from 2 to 1 to 1/2 pitch keeps the failure load within 5 %.
 
-    (Measured: 1620, 1624, 1566 N.)  A peak-stress criterion would follow the hole's stress peak as
+    Measured on the aligned specimen: 1620, 1624, 1558 N (the top of the hole every time).
+    The beads are sampled at a third of the finest element (coarser samples leave small elements
+    with a handful of points: a noisy fill, not a converging one).  A peak-stress criterion would follow the hole's stress peak as
     it sharpens; the averaged bead stresses do not.
     """
     from loadpath import gcode, geometry
@@ -138,6 +140,7 @@ def test_failure_load_converges_under_mesh_refinement(folder, specimen):
     loads = []
     for h_min in (0.9, 0.45, 0.225):
         mesh = stiffness.stiffness_mesh(rb, size=MeshSize(3.6, h_min, h_min, 1.3))
-        loads.append(stiffness.assess(rb, dep, PLA_CARD, mesh=mesh).failure_load)
+        opts = stiffness.StiffnessOptions(resolution=min(0.1, h_min / 3))  # samples finer than the elements
+        loads.append(stiffness.assess(rb, dep, PLA_CARD, opts, mesh=mesh).failure_load)
     assert max(abs(v / loads[-1] - 1) for v in loads) <= 0.05, loads
     assert slicing  # real slices only (tests/slicing.py via the benchmark's helpers)
