@@ -20,10 +20,10 @@ boundary link
 A link is accepted when
 
 * it is at most ``max_link`` pitches long;
-* it leaves each end forward or sideways (at most ``max_turn`` degrees off the end's own
-  direction), so it never doubles back over the path it starts from;
-* it lies inside the region and keeps ``clearance`` pitches from every other path (sampled every
-  quarter pitch; so it crosses nothing) and from every link accepted before it;
+* it leaves each end at most ``max_turn`` degrees off the end's own direction;
+* it lies inside the region and keeps ``clearance`` pitches from every other path, and from its
+  own two paths except within a pitch of the ends it joins (sampled every quarter pitch; so it
+  crosses nothing and never runs back along its own path), and from every link accepted before it;
 
 shortest links first, each end once, never closing a loop (union-find), so the result is chains.
 Each link is printed with the pitch of its ends (interpolated along it): the flow of the local
@@ -88,7 +88,7 @@ class LinkOptions:
     max_link: float = 3.0
     max_edge_link: float = 12.0
     max_long_link: float = 8.0
-    max_turn: float = 135.0
+    max_turn: float = 180.0
     clearance: float = 0.5
     edge_reach: float = 1.2
     min_fragment: float = 3.0
@@ -243,12 +243,26 @@ def link_paths(
     shapely.prepare(grown)
     edge_d = shapely.distance(region.boundary, shapely.points(e_pt))
 
-    def clear_of_paths(pts: Points2, pa: int, pb: int) -> bool:
+    # arc length of every sample from its path's head, and the path lengths: a link may come near
+    # its own two paths only within ``own`` of the ends it joins (a link that turns back runs
+    # alongside its own path otherwise)
+    s_arc = np.concatenate([np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(x, axis=0).T))]) for x in samp])
+    p_len = np.array([float(np.sum(np.hypot(*np.diff(x, axis=0).T))) for x in samp])
+    own = 2.0 * pitch
+
+    def exempt(h: np.ndarray, e: int) -> np.ndarray:
+        pid = e // 2
+        d = s_arc[h] if e % 2 == 0 else p_len[pid] - s_arc[h]
+        return (s_pid[h] == pid) & (d <= own)
+
+    def clear_of_paths(pts: Points2, ea: int, eb: int) -> bool:
         s = _samples(pts, 0.25 * pitch)
         hits = tree.query_ball_point(s, clear - 0.125 * pitch)
         for h in hits:
-            if h and np.any((s_pid[h] != pa) & (s_pid[h] != pb)):
-                return False
+            if h:
+                h = np.asarray(h)
+                if np.any(~exempt(h, ea) & ~exempt(h, eb)):
+                    return False
         return True
 
     straight_dir = (np.sum(e_dir[a] * u, axis=1) >= cos_t) & (np.sum(-e_dir[b] * u, axis=1) >= cos_t)
@@ -290,7 +304,7 @@ def link_paths(
         boundary = False
         if straight_ok:
             cand = np.vstack([e_pt[ea], e_pt[eb]])
-            if clear_of_paths(cand, pa, pb):
+            if clear_of_paths(cand, ea, eb):
                 pts = cand
         if pts is None and edge_ok:
             inset = float(np.clip(0.5 * (edge_d[ea] + edge_d[eb]), 0.0, options.edge_reach * pitch))
@@ -300,7 +314,7 @@ def link_paths(
                 and forward(cand, ea, eb)
                 and float(np.sum(np.hypot(*np.diff(cand, axis=0).T))) <= edge_limit
                 and grown.covers(shapely.LineString(cand))
-                and clear_of_paths(cand, pa, pb)
+                and clear_of_paths(cand, ea, eb)
             ):
                 pts, boundary = cand, True
         if pts is None:

@@ -15,8 +15,8 @@ Steps
    shortens the travel further (:func:`order_paths`).  The first path starts where the nozzle
    is (the seam follows the previous block or layer).
 3. Join consecutive paths into one chain with a printed **link** when the gap is at most
-   ``link_max`` and the straight link lies inside the replace region (PrusaSlicer links its
-   rectilinear lines the same way); otherwise the splicer travels.
+   ``link_max``, the straight link lies inside the replace region and crosses no other path
+   (PrusaSlicer links its rectilinear lines the same way); otherwise the splicer travels.
 4. Flow width per segment: the mean local pitch of its two vertices (variable width, solid infill),
    or a fixed flow width (sparse infill keeps the slicer's width).  Bead width from the flow model,
    clamped to ``width_range`` times the nozzle diameter (variable widths only: a fixed flow width is
@@ -455,10 +455,21 @@ def plan_block(
     # chains: consecutive paths joined by printed links
     groups: list[list[tuple[Points2, Floats]]] = [[prepared[0]]]
     n_links = 0
-    for pts, pitch in prepared[1:]:
+    tree = None
+    if inner is not None and len(prepared) > 2:
+        lines = [LineString(p) for p, _ in prepared]
+        tree = shapely.STRtree(lines)
+    for k, (pts, pitch) in enumerate(prepared[1:], start=1):
         prev_end = groups[-1][-1][0][-1]
         gap = float(np.hypot(*(pts[0] - prev_end)))
-        if inner is not None and gap <= link_max and inner.covers(LineString([prev_end, pts[0]])):
+        ok = inner is not None and gap <= link_max
+        if ok:
+            seg = LineString([prev_end, pts[0]])
+            ok = inner.covers(seg)
+            if ok and tree is not None:  # a link never crosses another path
+                hit = tree.query(seg, predicate="intersects")
+                ok = not np.any((hit != k) & (hit != k - 1))
+        if ok:
             groups[-1].append((pts, pitch))
             n_links += 1
         else:
