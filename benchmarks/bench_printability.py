@@ -161,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--engine", default="swarm,streamlines")
     ap.add_argument("--parts", default=None)
     ap.add_argument("--principal", default="max_abs")
+    ap.add_argument("--slicers", default="prusa,cura", help="which slicers' files (prusa, cura)")
     ap.add_argument("--work", default=None, help="folder for the slices (kept, reused when present)")
     args, _ = ap.parse_known_args(argv)
     engines = ["swarm"] if args.quick else args.engine.split(",")
@@ -174,6 +175,8 @@ def main(argv: list[str] | None = None) -> int:
         case = work / f"{name}.toml"
         case.write_text(case_text, encoding="utf-8")
         for slicer, label, sets, kind in _slices(name):
+            if slicer not in args.slicers.split(","):
+                continue
             tag = f"{name}-{slicer}-{label.replace('%', '').replace(' ', '')}"
             g = work / f"{tag}.gcode"
             if not g.exists():

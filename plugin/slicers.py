@@ -257,24 +257,32 @@ def infer_from_moves(program) -> dict[str, Any]:
             out["travel_speed_z"] = fz / 60.0
     out["wipe"] = bool(np.any(m["wipe"] & (m["e"] < 0)))
     combing = _combs(program)
+    if combing is None and getattr(program.dialect, "family", "") == "cura":
+        combing = True  # CuraEngine's default, retraction_combing = "all" (fdmprinter.def.json)
     if combing is not None:
         out["only_retract_when_crossing_perimeters"] = combing
         out["avoid_crossing_perimeters"] = combing
     return {k: v for k, v in out.items() if v is not None}
 
 
-def _combs(program, long: float = 3.0, least: int = 20) -> bool | None:
-    """Whether the file combs: most of its travels of ``long`` mm or more, between two extrusions of
-    one layer, are made without a retraction (Cura's combing; CuraEngine 4.13 retracts 0-11 times in
-    a file with thousands of travels).  None when it has fewer than ``least`` such travels.
+def _combs(program, long: float = 2.0, least: int = 20) -> bool | None:
+    """Whether the file combs: most of its travels of ``long`` mm or more between two extrusions of
+    one layer are made without a retraction (Cura's combing; CuraEngine 4.13 retracts 0-11 times in
+    a file with thousands of travels).  A travel is everything between two extrusions (a combed
+    travel is several moves).  None when the file has fewer than ``least`` such travels.
     """
     m = program.moves
-    xy = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])
-    t = np.flatnonzero(m["travel"] & (m["layer"] >= 0) & (xy >= long))
-    if len(t) < least:
+    ext = np.flatnonzero(m["extrude"])
+    if len(ext) < 2:
         return None
-    held = program.state.retracted[m["line"][t]] > 1e-9
-    fw = getattr(program.state, "fw_retracted", None)
-    if fw is not None:
-        held |= np.asarray(fw[m["line"][t]], dtype=bool)
-    return bool(np.mean(held) < 0.3)
+    xy = np.where(m["travel"], np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"]), 0.0)
+    c_len = np.concatenate([[0.0], np.cumsum(xy)])
+    c_ret = np.concatenate([[0], np.cumsum(m["retract"] | (m["wipe"] & (m["e"] < 0)))])
+    i, j = ext[:-1], ext[1:]
+    length = c_len[j] - c_len[i + 1]
+    pulled = (c_ret[j] - c_ret[i + 1]) > 0
+    same = (m["layer"][i] == m["layer"][j]) & (m["layer"][i] >= 0)
+    t = same & (length >= long)
+    if int(t.sum()) < least:
+        return None
+    return bool(np.mean(pulled[t]) < 0.5)

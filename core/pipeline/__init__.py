@@ -528,31 +528,35 @@ def _fills(
         by_engine = ji in shifted_paths and bool(shifted_paths[ji].paths)
         link_stats: dict = {}
 
-        def linked(ps: tuple[Path, ...]) -> tuple[Path, ...]:
+        def linked(ps: tuple[Path, ...], u: Unit, count: bool = True) -> tuple[Path, ...]:
             if not options.link or len(ps) < 2:
                 return ps
-            runs, st = link_paths(ps, job.unit.fill_region, job.unit.pitch)
-            for k, v in st.items():
-                if isinstance(v, (int, float)):
-                    link_stats[k] = link_stats.get(k, 0) + v
+            runs, st = link_paths(ps, u.fill_region, u.pitch)
+            if count:
+                for k, v in st.items():
+                    if isinstance(v, (int, float)):
+                        link_stats[k] = link_stats.get(k, 0) + v
             return runs
 
-        base = linked(_simplified(tp.paths, plan))
-        shifted = None
+        base_raw = _simplified(tp.paths, plan)
+        base = linked(base_raw, job.unit)
+        shifted = shifted_raw = None
         flags = []
         for k, u in enumerate(sorted(members, key=lambda m: m.layer)):
             use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
             if use_shift and shifted is None:
                 u0 = job.unit
                 if by_engine:
-                    shifted = linked(_simplified(shifted_paths[ji].paths, plan))
+                    shifted_raw = _simplified(shifted_paths[ji].paths, plan)
                 else:
-                    shifted = linked(
-                        _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
-                    )
+                    shifted_raw = _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
+                shifted = linked(shifted_raw, u0)
             paths = shifted if use_shift else base
             if not u.fill_region.equals(job.unit.fill_region):
-                paths = clip_to(paths, u.fill_region, 2.0 * u.pitch)
+                # a region that differs a little: the paths clipped to it, linked in it (links along
+                # the representative's edge would be cut by the clipping)
+                raw = shifted_raw if use_shift else base_raw
+                paths = linked(clip_to(raw, u.fill_region, 2.0 * u.pitch), u, count=False)
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():
                 entry = per_block.setdefault(

@@ -15,8 +15,8 @@ Steps
    shortens the travel further (:func:`order_paths`).  The first path starts where the nozzle
    is (the seam follows the previous block or layer).
 3. Join consecutive paths into one chain with a printed **link** when the gap is at most
-   ``link_max`` and the straight link lies inside the replace region (PrusaSlicer links its
-   rectilinear lines the same way); otherwise the splicer travels.
+   ``link_max``, the straight link lies inside the replace region and crosses no other path
+   (PrusaSlicer links its rectilinear lines the same way); otherwise the splicer travels.
 4. Flow width per segment: the mean local pitch of its two vertices (variable width, solid infill),
    or a fixed flow width (sparse infill keeps the slicer's width).  Bead width from the flow model,
    clamped to ``width_range`` times the nozzle diameter (variable widths only: a fixed flow width is
@@ -336,6 +336,33 @@ def order_paths(
     return out
 
 
+def _order_by_island(
+    paths: list[tuple[Points2, Floats]], start: Points2, region: Region | None
+) -> list[tuple[Points2, Floats]]:
+    """:func:`order_paths` island by island: all of one island's paths before the next island's.
+
+    Travel between islands leaves the region and retracts; an order that hops between them (2-opt
+    weighs only distance) costs a retraction per hop where the slicer pays one per island.  The
+    next island is the one with the path end nearest to where the nozzle is.
+    """
+    parts = list(getattr(region, "geoms", [])) if region is not None else []
+    if len(parts) < 2 or len(paths) < 2:
+        return order_paths(paths, start)
+    mids = shapely.points(np.array([p[len(p) // 2] for p, _ in paths]))
+    island = np.argmin(np.stack([shapely.distance(g, mids) for g in parts], axis=1), axis=1)
+    groups = {int(k): [paths[i] for i in np.flatnonzero(island == k)] for k in np.unique(island)}
+    out: list[tuple[Points2, Floats]] = []
+    pos = np.asarray(start, dtype=float)
+    while groups:
+        near = {
+            k: min(min(np.hypot(*(p[0] - pos)), np.hypot(*(p[-1] - pos))) for p, _ in g) for k, g in groups.items()
+        }
+        k = min(near, key=near.__getitem__)
+        out += order_paths(groups.pop(k), pos)
+        pos = out[-1][0][-1]
+    return out
+
+
 def _two_opt(
     seq: list[tuple[int, bool]], heads: Points2, tails: Points2, start: Points2, passes: int
 ) -> list[tuple[int, bool]]:
@@ -420,7 +447,7 @@ def plan_block(
         raw = simplify(raw, options.resolution, options.pitch_resolution, options.min_segment)
     prepared = [(pts, pitch) for pts, pitch in raw if len(pts) >= 2 and np.any(pts[1:] != pts[:-1])]
     if options.order:
-        prepared = order_paths(prepared, start)
+        prepared = _order_by_island(prepared, start, region)
     if not prepared:
         return BlockPlan((), 0, 0, 1.0, 0.0)
     all_pitch = np.concatenate([pp for _, pp in prepared])
@@ -434,10 +461,21 @@ def plan_block(
     # chains: consecutive paths joined by printed links
     groups: list[list[tuple[Points2, Floats]]] = [[prepared[0]]]
     n_links = 0
-    for pts, pitch in prepared[1:]:
+    tree = None
+    if inner is not None and len(prepared) > 2:
+        lines = [LineString(p) for p, _ in prepared]
+        tree = shapely.STRtree(lines)
+    for k, (pts, pitch) in enumerate(prepared[1:], start=1):
         prev_end = groups[-1][-1][0][-1]
         gap = float(np.hypot(*(pts[0] - prev_end)))
-        if inner is not None and gap <= link_max and inner.covers(LineString([prev_end, pts[0]])):
+        ok = inner is not None and gap <= link_max
+        if ok:
+            seg = LineString([prev_end, pts[0]])
+            ok = inner.covers(seg)
+            if ok and tree is not None:  # a link never crosses another path
+                hit = tree.query(seg, predicate="intersects")
+                ok = not np.any((hit != k) & (hit != k - 1))
+        if ok:
             groups[-1].append((pts, pitch))
             n_links += 1
         else:
