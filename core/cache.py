@@ -62,11 +62,16 @@ def default_folder(env: dict[str, str] | None = None) -> Path:
 
 _STAMP: str | None = None
 
+UNRELATED = ("gcode", "splice", "report", "plugin", "stiffness", "examples", "prusaslicer_postproc")
+"""Sub-packages of loadpath no cached result depends on (reading and writing G-code, reports, the
+front ends): editing them keeps the cache.  Everything else is in :func:`code_stamp`."""
+
 
 def code_stamp() -> str:
-    """Hash of the loadpath version and the bytes of every ``.py`` file of the package (once per process).
+    """Hash of the loadpath version and the bytes of the package's ``.py`` files (once per process).
 
-    About 5 ms; it keeps a result from one version of the code out of every other.
+    Every file but those under :data:`UNRELATED` (and this module), so a result made by one version
+    of the geometry, FEA or engine code is never read by another.  About 5 ms.
     """
     global _STAMP
     if _STAMP is None:
@@ -76,7 +81,10 @@ def code_stamp() -> str:
         roots = sorted({Path(p).resolve() for p in loadpath.__path__})
         for root in roots:
             for p in sorted(root.rglob("*.py")):
-                h.update(str(p.relative_to(root)).encode() + b"\0")
+                rel = p.relative_to(root)
+                if rel.parts[0] in UNRELATED or rel.parts == ("cache.py",):
+                    continue
+                h.update(str(rel).encode() + b"\0")
                 h.update(p.read_bytes())
         _STAMP = h.hexdigest()
     return _STAMP
