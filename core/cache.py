@@ -56,7 +56,14 @@ def default_folder(env: dict[str, str] | None = None) -> Path:
     env = os.environ if env is None else env
     if env.get(ENV_DIR):
         return Path(env[ENV_DIR]).expanduser()
-    base = env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    base = env.get("XDG_CACHE_HOME")
+    if not base:
+        try:
+            base = str(Path.home() / ".cache")
+        except RuntimeError:  # no home folder (a service account): a per-user temporary folder
+            import tempfile
+
+            return Path(tempfile.gettempdir()) / f"loadpath-cache-{os.getuid()}"
     return Path(base).expanduser() / "loadpath"
 
 
@@ -196,8 +203,11 @@ class Cache:
         self.stats.count(self.stats.hits, kind)
         return value
 
-    def put(self, kind: str, key: str, value: Any) -> bool:
+    def put(self, kind: str, key: str, value: Any, evict: bool = True) -> bool:
         """Keep ``value`` under ``key`` (atomically), then evict down to ``max_bytes``.
+
+        ``evict=False`` leaves the eviction (a scan of the folder) to one :meth:`evict` call after a
+        series of puts.
 
         Returns False (and keeps nothing) when the folder cannot be written, e.g. a read-only home:
         the run goes on without the cache.
@@ -217,7 +227,8 @@ class Cache:
         except OSError:
             tmp.unlink(missing_ok=True)
             return False
-        self.evict()
+        if evict:
+            self.evict()
         return True
 
     def entries(self) -> list[tuple[float, int, Path]]:
