@@ -56,17 +56,29 @@ def default_folder(env: dict[str, str] | None = None) -> Path:
     env = os.environ if env is None else env
     if env.get(ENV_DIR):
         return Path(env[ENV_DIR]).expanduser()
-    base = env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    base = env.get("XDG_CACHE_HOME")
+    if not base:
+        try:
+            base = str(Path.home() / ".cache")
+        except RuntimeError:  # no home folder (a service account): a per-user temporary folder
+            import tempfile
+
+            return Path(tempfile.gettempdir()) / f"loadpath-cache-{os.getuid()}"
     return Path(base).expanduser() / "loadpath"
 
 
 _STAMP: str | None = None
 
+UNRELATED = ("gcode", "splice", "report", "plugin", "stiffness", "examples", "prusaslicer_postproc")
+"""Sub-packages of loadpath no cached result depends on (reading and writing G-code, reports, the
+front ends): editing them keeps the cache.  Everything else is in :func:`code_stamp`."""
+
 
 def code_stamp() -> str:
-    """Hash of the loadpath version and the bytes of every ``.py`` file of the package (once per process).
+    """Hash of the loadpath version and the bytes of the package's ``.py`` files (once per process).
 
-    About 5 ms; it keeps a result from one version of the code out of every other.
+    Every file but those under :data:`UNRELATED` (and this module), so a result made by one version
+    of the geometry, FEA or engine code is never read by another.  About 5 ms.
     """
     global _STAMP
     if _STAMP is None:
@@ -76,7 +88,10 @@ def code_stamp() -> str:
         roots = sorted({Path(p).resolve() for p in loadpath.__path__})
         for root in roots:
             for p in sorted(root.rglob("*.py")):
-                h.update(str(p.relative_to(root)).encode() + b"\0")
+                rel = p.relative_to(root)
+                if rel.parts[0] in UNRELATED or rel.parts == ("cache.py",):
+                    continue
+                h.update(str(rel).encode() + b"\0")
                 h.update(p.read_bytes())
         _STAMP = h.hexdigest()
     return _STAMP
@@ -188,8 +203,11 @@ class Cache:
         self.stats.count(self.stats.hits, kind)
         return value
 
-    def put(self, kind: str, key: str, value: Any) -> bool:
+    def put(self, kind: str, key: str, value: Any, evict: bool = True) -> bool:
         """Keep ``value`` under ``key`` (atomically), then evict down to ``max_bytes``.
+
+        ``evict=False`` leaves the eviction (a scan of the folder) to one :meth:`evict` call after a
+        series of puts.
 
         Returns False (and keeps nothing) when the folder cannot be written, e.g. a read-only home:
         the run goes on without the cache.
@@ -209,7 +227,8 @@ class Cache:
         except OSError:
             tmp.unlink(missing_ok=True)
             return False
-        self.evict()
+        if evict:
+            self.evict()
         return True
 
     def entries(self) -> list[tuple[float, int, Path]]:

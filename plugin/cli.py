@@ -35,14 +35,20 @@ COMMANDS = {
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the argument parser with every available subcommand."""
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """Build the argument parser with every available subcommand (``only``: that one alone).
+
+    Each subcommand's module is imported to add its options; ``loadpath run`` builds only its own,
+    so a run does not import the service's HTTP server or the report's modules at start-up.
+    """
     parser = argparse.ArgumentParser(
         prog="loadpath", description="Stress-aligned infill for PrusaSlicer and Cura G-code."
     )
     parser.add_argument("--version", action="version", version=f"loadpath {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module_name in COMMANDS.items():
+        if only is not None and name != only:
+            continue
         try:
             module = importlib.import_module(module_name)
         except ModuleNotFoundError as exc:
@@ -69,7 +75,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         Exit status: 0 on success, 1 on a loadpath error, 2 on a usage error, 130 on SIGINT (Ctrl-C),
         143 on SIGTERM.
     """
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(command if command in COMMANDS else None)
     args = parser.parse_args(argv)
     debug = os.environ.get("LOADPATH_DEBUG", "") not in ("", "0")
     if not debug:  # Python and numpy warnings are for developers; users get loadpath's own lines

@@ -26,7 +26,6 @@ from loadpath.field import principal_stresses
 from loadpath.loadcase.resolve import ResolvedBody, resolve_body
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.sizing import DEFAULT_MAX_TETS, MeshSize, default_mesh_size
-from scipy.spatial import cKDTree
 from shapely.geometry.base import BaseGeometry
 
 __all__ = ["Analysis", "analyze", "field_for_layer", "build_mesh", "covered_body", "stress_scale"]
@@ -324,6 +323,8 @@ def stress_scale(
     reach = 0.05 * float(np.linalg.norm((hi - lo)[: mesh.dim]))
     keep = (w > 0) & np.isfinite(mag)
     if len(bc_points):
+        from scipy.spatial import cKDTree  # here: a cached analysis is loaded without scipy
+
         d, _ = cKDTree(bc_points).query(mesh.points, k=1)
         far = keep & (d > reach)
         if np.sum(w[far]) > 0.2 * np.sum(w[keep]):

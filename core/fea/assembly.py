@@ -15,9 +15,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
+from loadpath._lazy import lazy
 from loadpath.fea.elements import ELEMENTS, tetra_rule, triangle_rule
 from loadpath.mesh.data import MeshData
+
+sp = lazy("scipy.sparse")  # imported when a stiffness matrix is built, not when a result is loaded
 
 __all__ = ["Gradients", "gradients", "strain_matrix", "stiffness", "cell_dofs", "constitutive", "n_voigt"]
 

@@ -23,8 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
+from loadpath._lazy import lazy
 from loadpath.errors import SolverError
 from loadpath.fea.assembly import constitutive, stiffness
 from loadpath.fea.boundary import rigid_modes
@@ -32,6 +31,9 @@ from loadpath.fea.elements import ELEMENTS
 from loadpath.fea.stress import nodal_stress
 from loadpath.mesh.data import MeshData
 from loadpath.tolerances import TOL
+
+sp = lazy("scipy.sparse")  # imported when a problem is solved, not when a cached result is loaded
+spla = lazy("scipy.sparse.linalg")
 
 __all__ = ["Problem", "FEAResult", "solve", "DIRECT_LIMIT", "FALLBACK_LIMIT"]
 

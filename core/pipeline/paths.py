@@ -378,7 +378,9 @@ def run_jobs(
         for i in todo:
             o = out[i]
             if o is not None:
-                cache.put("paths", keys[i], o[0])
+                cache.put("paths", keys[i], o[0], evict=False)
+        if todo:
+            cache.evict()
     return [o for o in out if o is not None]
 
 

@@ -151,3 +151,29 @@ def test_two_processes_never_see_a_torn_entry(tmp_path):
     assert not list((tmp_path / "paths").glob("*.tmp"))
     for i in range(5):
         assert np.all(cache.get("paths", f"k{i}") == float(i))
+
+
+_RUN_AND_LIST = """
+import sys
+from loadpath.plugin.cli import main
+rc = main(sys.argv[1:])
+print(rc, sorted({m.split(".")[0] for m in sys.modules} & {"scipy", "numba", "gmsh"}))
+"""
+
+
+def test_a_run_from_the_cache_imports_no_solver_and_no_engine(sliced, tmp_path):
+    gpath = sliced("prusa", "ohs", "example")
+    case = write_case(tmp_path)
+    env = {**os.environ, "LOADPATH_CACHE_DIR": str(tmp_path / "cache")}
+    argv = ["run", str(gpath), "--loadcase", str(case), "--engine", "streamlines"]
+    argv += ["-o", str(tmp_path / "o.gcode")]
+
+    def run() -> str:
+        proc = subprocess.run(
+            [sys.executable, "-c", _RUN_AND_LIST, *argv], env=env, capture_output=True, text=True, timeout=600
+        )
+        assert proc.returncode == 0, proc.stderr
+        return proc.stdout.strip().splitlines()[-1]
+
+    assert run() == "0 ['gmsh', 'scipy']"  # solved and run: the mesher, the solver, the engine
+    assert run() == "0 []"  # loaded: none of them
