@@ -7,19 +7,28 @@ module turns the layer's stress field into ``rho(x)`` and hence a pitch field ``
 Criterion: an optimality criterion at fixed stress (statically determinate reading of the FE field).
 With fill ``rho`` the layer's stiffness along its lines scales as ``rho**k`` (``k = 1`` for lines
 that follow the stress, the thesis's linear-density model ``C* = v C(alpha)``, Eq. 3.13-3.15), so
-the compliance ``int e0(x) / rho(x)**k dA`` (``e0``: strain energy density of the solid part) at a
-fixed plastic ``int rho dA`` is least where ``rho ~ e0 ** (1 / (1 + k))`` (Lagrange condition
-``k e0 rho**-(k+1) = lambda``); for ``k = 1`` that is ``rho ~ sqrt(e0)``, which for a uniaxial
-state is ``rho ~ |sigma|``: the fully stressed design, the same field the failure index (strength
-proportional to fill) asks for.  So:
+at a fixed stress field the compliance ``int e0(x) / rho(x)**k dA`` (``e0``: strain energy density
+of the uniform part) at a fixed plastic ``int rho dA`` is least where ``rho ~ e0 ** (1 / (1 + k))``
+(Lagrange condition ``k e0 rho**-(k+1) = lambda``); for ``k = 1`` that is ``rho ~ sqrt(e0)``, which
+for a uniaxial state is ``rho ~ |sigma|``: the fully stressed design, the same field the failure
+index (strength proportional to fill) asks for.  So:
 
-* ``criterion = "energy"`` (default): ``rho ~ e0 ** exponent`` with ``exponent = 1 / 2``.
+* ``criterion = "energy"`` (default): ``rho ~ e0 ** exponent`` with ``exponent = 1``.
 * ``criterion = "failure"``: ``rho ~ sigma_vm ** exponent`` (von Mises over the yield-type
   strength), ``exponent = 1``: the fully stressed design.
 * ``criterion = "uniform"``: the slicer's own uniform density (nothing moves).
 
-The two stress criteria differ only in multiaxial states (``sqrt(e0)`` weighs shear by
-``2 (1 + nu)`` where von Mises weighs it by 3); ``benchmarks/bench_sparse.py`` prints both.
+Why the energy exponent is 1 and not the fixed-stress optimum 1/2: ``e0`` is the strain energy of the
+*uniform* part.  Once the plastic moves to where that energy is, those zones are stiffer and draw
+still more of the load (the part is statically indeterminate), so the optimality criterion's fixed
+point, which re-solves and updates ``rho`` until it stops changing, has a sharper contrast than one
+step from the uniform field; ``exponent = 1`` is that sharper field without the re-solves.
+Measured with ``benchmarks/bench_sparse.py`` (PrusaSlicer 2.5 gyroid 20 %, swarm, current model of
+``loadpath compare``, stiffness over the slicer's at the same mass): 3-point beam 1.100 (exponent
+1/2) -> 1.185 (exponent 1); L-bracket 1.092 -> 1.107.  The failure criterion (von Mises, exponent
+1) gave 1.090 (beam), 1.088 (bracket), 1.064 (shelf; energy 1/2: 1.070): below the energy
+criterion on every part, so energy is the default.  The two stress criteria differ in multiaxial
+states only (``sqrt(e0)`` weighs shear by ``2 (1 + nu)`` where von Mises weighs it by 3).
 
 ``rho`` is clamped to ``[rho_min, 1]``.  ``rho_min = w / max_pitch``: a top skin laid over the infill
 bridges from line to line, so lines must stay closer than the bridging distance (the thesis's
@@ -47,7 +56,7 @@ CRITERIA = ("energy", "failure", "uniform")
 MAX_PITCH_MM = 8.0
 """Default widest pitch: the thesis's no-sag limit for its 20 % MBB beam (§3.1.2, §3.6), mm."""
 
-_EXPONENT = {"energy": 0.5, "failure": 1.0, "uniform": 0.0}
+_EXPONENT = {"energy": 1.0, "failure": 1.0, "uniform": 0.0}
 
 
 @dataclass(frozen=True)
@@ -59,7 +68,7 @@ class DensityOptions:
     criterion : {"energy", "failure", "uniform"}
         What sets the density (module docstring).
     exponent : float or None
-        ``rho ~ measure ** exponent``; None: the criterion's optimum (energy 1/2, failure 1).
+        ``rho ~ measure ** exponent``; None: the criterion's default (energy 1, failure 1).
     fill : float or None
         Mean fill of the replaced sparse infill, 0-1; None: the slicer's own (same mass).
     max_pitch : float, mm

@@ -150,7 +150,7 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         "optional_float",
         None,
         "",
-        "fill ~ measure ** exponent; default the criterion's optimum (energy 0.5, failure 1)",
+        "fill ~ measure ** exponent; default 1 (energy: strain energy density, failure: von Mises)",
         minimum=0.0,
         maximum=4.0,
     ),

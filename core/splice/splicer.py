@@ -302,12 +302,13 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
         ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
         plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, options.runs)
         aim = b.e * fill.volume_scale
+        whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
         if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
             skipped.append(
                 (
                     fill.block,
-                    f"the new paths would extrude {plan.filament / aim:.0%} of the "
-                    "volume aimed at (the engine covered too little or too much of the region)",
+                    f"the new paths would extrude {plan.filament / aim:.0%} of the {whose} "
+                    "(the engine covered too little or too much of the region)",
                 )
             )
             continue
