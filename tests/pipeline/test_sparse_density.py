@@ -70,7 +70,10 @@ def _run(beam, name, **cli):
 
 
 def test_density_follows_the_bending_stress_at_the_slicers_mass(beam):
-    out, res = _run(beam, "dense.gcode")
+    # exponent 1/2: with the default 1 the streamline engine lays too few lines in the sparsest zones
+    # of this 2 mm beam (5.5 mm pitch) and the splicer keeps those blocks as sliced (known, reported)
+    out, res = _run(beam, "dense.gcode", density_exponent=0.5)
+    assert not [w for w in res.warnings if "kept as sliced" in w], res.warnings
     _, old = _sparse(beam[0])
     prog, new = _sparse(out)
     # the same plastic as the slicer's sparse infill (the splice check holds each block to 3 %)
