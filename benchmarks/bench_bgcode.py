@@ -29,8 +29,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from loadpath.gcode import bgcode, heatshrink, meatpack
-from loadpath.gcode.bgcode_blocks import BlockType, ChecksumType, decompress, iter_blocks
+from loadpath.gcode import bgcode
+from loadpath.gcode.bgcode import heatshrink, meatpack
+from loadpath.gcode.bgcode.blocks import BlockType, ChecksumType, decompress, iter_blocks
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))

@@ -151,9 +151,9 @@ NUMPY_COMMIT = "2344ebc^"
 
 _CHILD = (
     "import time; t0 = time.process_time(); w0 = time.perf_counter();"
-    "from loadpath.engines.swarm import _numba, kernel_step;"
+    "from loadpath.engines.swarm import kernel_step, warmup;"
     "t1 = time.process_time(); w1 = time.perf_counter();"
-    "_numba.warm_up();"
+    "warmup.warm_up();"
     "print('TIMES', t1 - t0, time.process_time() - t1, time.perf_counter() - w1)"
 )
 

@@ -597,9 +597,9 @@ def cura_setting_definitions(groups: Sequence[str] = ("toolpath",)) -> dict[str,
 
 
 def splice_options(s: Settings):
-    """Build the splicer's options (:class:`loadpath.gcode.splice.SpliceOptions`) for these settings."""
-    from loadpath.gcode.flow import FlowModel
-    from loadpath.gcode.splice import Motion, PlanOptions, Retraction, SpliceOptions
+    """Build the splicer's options (:class:`loadpath.splice.SpliceOptions`) for these settings."""
+    from loadpath.splice.flow import FlowModel
+    from loadpath.splice import Motion, PlanOptions, Retraction, SpliceOptions
 
     flow = FlowModel(s.flow_model, s.filament_diameter, s.extrusion_multiplier, s.volumetric_e)
     retraction = Retraction(

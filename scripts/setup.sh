@@ -61,11 +61,12 @@ import logging
 import sys
 
 logging.getLogger("loadpath.engines.swarm").setLevel(logging.ERROR)  # setup says it itself
-from loadpath.engines.swarm import _numba
+from loadpath.engines.swarm import warmup
+from loadpath.engines.swarm._jit import COMPILE_SECONDS
 
-if not _numba.kernels_cached():
-    print(f"setup: compiling the swarm engine (first time only, about {_numba.COMPILE_SECONDS} s)", file=sys.stderr)
-    seconds = _numba.warm_up()
+if not warmup.kernels_cached():
+    print(f"setup: compiling the swarm engine (first time only, about {COMPILE_SECONDS} s)", file=sys.stderr)
+    seconds = warmup.warm_up()
     print(f"setup: swarm engine compiled in {seconds:.0f} s", file=sys.stderr)
 PY
 then

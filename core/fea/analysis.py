@@ -22,7 +22,7 @@ from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice
 from loadpath.fea.material import elasticity_matrix
 from loadpath.fea.solver import FEAResult, Problem, solve
 from loadpath.field import principal_stresses
-from loadpath.loadcase.body import cover_slabs
+from loadpath.body import cover_slabs
 from loadpath.loadcase.resolve import ResolvedBody, resolve_body
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.sizing import DEFAULT_MAX_TETS, MeshSize, default_mesh_size
@@ -80,7 +80,7 @@ def build_mesh(
     """Mesh a resolved body for its analysis (2D outline or 3D prism stack).
 
     A 3D stack is first coarsened to prisms the mesh can resolve
-    (:func:`~loadpath.loadcase.body.cover_slabs` of the layers, with a tolerance of half the bulk
+    (:func:`~loadpath.body.cover_slabs` of the layers, with a tolerance of half the bulk
     element size and a snapping grid of a quarter of the finest size, at most 0.25 mm), so a part
     whose outline drifts every layer does not force elements as small as the drift. With the
     default size, a 3D mesh keeps within an element budget: when the layered mesh would have more
@@ -178,7 +178,7 @@ def _cover(rb: ResolvedBody, size: MeshSize) -> tuple[float, float | None]:
 
 
 def covered_body(rb: ResolvedBody, tol: float, grid: float | None) -> ResolvedBody:
-    """Return the load case resolved on :func:`~loadpath.loadcase.body.cover_slabs` of the layers.
+    """Return the load case resolved on :func:`~loadpath.body.cover_slabs` of the layers.
 
     The layers as sliced (``rb.layers``; the merged slabs when it is unknown) are covered, so every
     layer's outline lies in the mesh; the selectors keep the frame origin of ``rb``. The selections

@@ -17,7 +17,7 @@ from loadpath.geometry.classify import DEFAULT_REPLACE, REPLACEABLE
 from loadpath.geometry.ops import EMPTY, as_region, clean
 
 if TYPE_CHECKING:  # the load case is optional here: imported when a body is asked for
-    from loadpath.loadcase import Body
+    from loadpath.body import Body
 
 __all__ = ["InfillBlock", "Island", "LayerGeometry", "ObjectGeometry", "PrintGeometry"]
 
@@ -218,8 +218,8 @@ class ObjectGeometry:
         return [(g.z_bottom, g.z, g.outline) for g in self.layers]
 
     def body(self) -> Body:
-        """Return the object as a :class:`loadpath.loadcase.Body` (one slab per layer, not merged)."""
-        from loadpath.loadcase import Body
+        """Return the object as a :class:`loadpath.body.Body` (one slab per layer, not merged)."""
+        from loadpath.body import Body
 
         return Body.from_layers(self.name, self.layer_stack())
 
@@ -258,6 +258,6 @@ class PrintGeometry:
         return [g for o in self.objects for g in o.layers if g.layer_index == layer_index]
 
     def bodies(self, names: Sequence[str] | None = None) -> list[Body]:
-        """:class:`loadpath.loadcase.Body` of each object (or of the named ones), for ``resolve``."""
+        """:class:`loadpath.body.Body` of each object (or of the named ones), for ``resolve``."""
         objs = self.objects if names is None else [self.object(n) for n in names]
         return [o.body() for o in objs]

@@ -5,7 +5,7 @@ to :class:`Body` stacks of slabs and gives one :class:`ResolvedBody` per body, r
 ``loadpath.fea``.
 """
 
-from loadpath.loadcase.body import Body, Slab, merge_slabs, outline_difference
+from loadpath.body import Body, Slab, merge_slabs, outline_difference
 from loadpath.loadcase.model import (
     PLA,
     BoxSelector,

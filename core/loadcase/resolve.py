@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 from loadpath.errors import LoadCaseError
-from loadpath.loadcase.body import Body, merge_slabs
+from loadpath.body import Body, merge_slabs
 from loadpath.loadcase.model import HoleSelector, Load, LoadCase, Support
 from loadpath.loadcase.select import Selection, nearest_hole, select
 from shapely.geometry.base import BaseGeometry
@@ -41,7 +41,7 @@ class ResolvedBody:
         Why this analysis was chosen (for reports).
     layers : Body, optional
         The body as given, before merging (one slab per layer): what a 3D mesh must cover
-        (:func:`~loadpath.loadcase.body.cover_slabs`).
+        (:func:`~loadpath.body.cover_slabs`).
     origin : (3,) float, mm, optional
         Origin of the selector coordinates (the body's minimum corner for ``frame = "part"``).
     """

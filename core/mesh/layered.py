@@ -29,7 +29,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from loadpath.errors import MeshingError
-from loadpath.loadcase.body import Slab
+from loadpath.body import Slab
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.gmsh_mesher import mesh_2d, orient_tets
 from loadpath.mesh.sizing import MeshSize
@@ -204,7 +204,7 @@ def mesh_3d(
     Parameters
     ----------
     slabs : sequence of Slab
-        Bottom first, contiguous (e.g. ``Body.slabs`` after :func:`~loadpath.loadcase.body.merge_slabs`).
+        Bottom first, contiguous (e.g. ``Body.slabs`` after :func:`~loadpath.body.merge_slabs`).
     size : MeshSize or float, mm
         In-plane element sizes, graded as in :func:`~loadpath.mesh.gmsh_mesher.mesh_2d`.
     refine_at : sequence of shapely geometry
@@ -217,7 +217,7 @@ def mesh_3d(
     grid : float, mm, optional
         Snap the outlines, their union and their crossings to this grid (snap rounding), so lines
         that nearly touch do not make sliver elements (see
-        :func:`~loadpath.loadcase.body.cover_slabs`).
+        :func:`~loadpath.body.cover_slabs`).
     max_cells : int, optional
         Raise :class:`TooManyCells` (before the quadratic nodes are made) when the mesh would have
         more tetrahedra.

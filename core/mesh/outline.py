@@ -16,7 +16,7 @@ import numpy as np
 import shapely
 from loadpath._typing import Points2
 from loadpath.errors import MeshingError
-from loadpath.loadcase.body import polygons_of
+from loadpath.body import polygons_of
 from loadpath.mesh.sizing import MeshSize, reentrant_corners
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry

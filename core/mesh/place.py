@@ -15,7 +15,7 @@ import numpy as np
 import shapely
 from loadpath._typing import Region
 from loadpath.errors import GeometryError, MeshingError, ToolMissingError
-from loadpath.loadcase.body import outline_difference
+from loadpath.body import outline_difference
 from shapely.geometry import Polygon
 
 __all__ = ["place_stl", "footprint"]

@@ -22,9 +22,9 @@ Stages (each timed in :attr:`PipelineResult.times`):
     from seeds half a pitch on, :func:`~loadpath.pipeline.paths.lays_phase`: the swarm and the
     streamlines' default mode; otherwise the paths are shifted sideways by half a pitch);
 ``splice``
-    the new paths written into the slicer's G-code (:func:`loadpath.gcode.splice.splice`);
+    the new paths written into the slicer's G-code (:func:`loadpath.splice.splice`);
 ``check``
-    the result re-read and checked against the original (:func:`loadpath.gcode.verify.check_output`,
+    the result re-read and checked against the original (:func:`loadpath.splice.verify.check_output`,
     from the new bytes: no second Program is built); a failure raises
     :class:`~loadpath.errors.SpliceError` and nothing is returned.
 
@@ -43,9 +43,9 @@ import numpy as np
 import shapely
 from loadpath.errors import SpliceError
 from loadpath.gcode import Program, parse
-from loadpath.gcode.plan import PlanOptions, simplify
-from loadpath.gcode.splice import BlockFill, SpliceOptions, SpliceResult, splice
-from loadpath.gcode.verify import SpliceCheck, check_output
+from loadpath.splice.plan import PlanOptions, simplify
+from loadpath.splice import BlockFill, SpliceOptions, SpliceResult, splice
+from loadpath.splice.verify import SpliceCheck, check_output
 from loadpath.pipeline.paths import Job, assign, clip_to, lays_phase, plan_jobs, run_jobs, stagger
 from loadpath.pipeline.units import (
     Unit,
@@ -84,7 +84,7 @@ class PipelineOptions:
     workers : int
         Processes for the engine runs.
     check : bool
-        Re-read and check the result (:mod:`loadpath.gcode.verify`).
+        Re-read and check the result (:mod:`loadpath.splice.verify`).
     volume_tol : float
         Largest relative difference of a block's volume accepted by the check.
     overlap : bool
@@ -184,7 +184,7 @@ class PipelineResult:
         """The output parsed (None when nothing was replaced), on first use only (the report's).
 
         A whole Program of a large output is several times the file (1.1 GB for 4.6M lines); the
-        check reads the bytes without it (:func:`loadpath.gcode.verify.check_output`).
+        check reads the bytes without it (:func:`loadpath.splice.verify.check_output`).
         """
         return parse(self.data, strict=False) if self.splice is not None else None
 

@@ -242,7 +242,7 @@ def run_jobs(
             if engine == "swarm":
                 # compile (or load) the numba kernels once here: forked workers inherit them, where
                 # each would otherwise compile them on its own on a cold cache
-                from loadpath.engines.swarm._numba import warm_up
+                from loadpath.engines.swarm.warmup import warm_up
 
                 warm_up()
             ctx = multiprocessing.get_context("fork")
@@ -298,9 +298,9 @@ def stagger(
 
     With ``pitch`` (the nominal pitch) the shifted layer is then made whole again, as the engines
     make theirs: the bead widths are measured on the shifted paths (the outermost path on the side
-    the paths moved away from widens to reach the edge; :func:`loadpath.engines.swarm.widths.local_pitch`)
+    the paths moved away from widens to reach the edge; :func:`loadpath.engines.finish.widths.local_pitch`)
     and the path ends clipped short are carried on to the next bead or the edge
-    (:func:`loadpath.engines.swarm.ends.extend_ends`).  Without that a staggered layer lost a half
+    (:func:`loadpath.engines.finish.ends.extend_ends`).  Without that a staggered layer lost a half
     pitch strip along every wall parallel to the paths and a void at every clipped end (bench
     L-bracket: coverage 93.7 % against 95.6 % unstaggered).
     """
@@ -325,8 +325,8 @@ def stagger(
                 out.append(Path(piece, p.pitch[a:z], p.kind))
     if pitch is None or not out:
         return tuple(out)
-    from loadpath.engines.swarm.ends import extend_ends
-    from loadpath.engines.swarm.widths import local_pitch
+    from loadpath.engines.finish.ends import extend_ends
+    from loadpath.engines.finish.widths import local_pitch
 
     width = local_pitch([p.points for p in out], region, pitch)
     pts, width, _ = extend_ends([p.points for p in out], width, region, pitch, edge_gap=inset / pitch)

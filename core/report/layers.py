@@ -329,7 +329,7 @@ def _printed(paths) -> list[Path]:
     -> 0.99992, spacing variance 0.00705 -> 0.00706, coverage 0.9984 -> 0.9962 and overlap 0.0027
     -> 0.0049 (the pitch tolerance evens out per-vertex width noise; the splicer smooths it more).
     """
-    from loadpath.gcode.plan import PlanOptions, simplify
+    from loadpath.splice.plan import PlanOptions, simplify
 
     o = PlanOptions()
     simple = simplify([(p.points, p.pitch) for p in paths], o.resolution, o.pitch_resolution, o.min_segment)

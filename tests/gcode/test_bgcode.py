@@ -13,7 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from loadpath.errors import GCodeParseError, UnsupportedFlavorError
-from loadpath.gcode import bgcode, meatpack
+from loadpath.gcode import bgcode
+from loadpath.gcode.bgcode import meatpack
 from loadpath.gcode.bgcode import (
     BlockType,
     ChecksumType,

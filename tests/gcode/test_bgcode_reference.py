@@ -17,9 +17,10 @@ from pathlib import Path
 import pytest
 from conftest import IN_CI
 from loadpath.errors import GCodeParseError
-from loadpath.gcode import bgcode, meatpack
+from loadpath.gcode import bgcode
+from loadpath.gcode.bgcode import meatpack
 from loadpath.gcode.bgcode import BlockType, ChecksumType, Compression, GCodeEncoding, ThumbnailFormat
-from loadpath.gcode.bgcode_blocks import decompress, iter_blocks
+from loadpath.gcode.bgcode.blocks import decompress, iter_blocks
 
 try:
     pybgcode = importlib.import_module("pybgcode")

@@ -14,7 +14,7 @@ What is checked, per file: the parse is lossless, the slicer and marker family a
 layers and their Z are found, the infill the default replace set selects (internal solid) is found
 on the expected layers with the pitch the slicer's configured line width gives, the embedded
 configuration is read, and ``run_job`` either splices (every kept line untouched,
-:func:`loadpath.gcode.verify.check_splice`), passes the file through with the "nothing to replace"
+:func:`loadpath.splice.verify.check_splice`), passes the file through with the "nothing to replace"
 warning, or fails with the one-line error expected for that file.
 
 The tests at the end pin the parser fixes these files showed, on a few lines shaped like them.
@@ -33,7 +33,7 @@ import pytest
 from loadpath import gcode, geometry
 from loadpath.errors import LoadpathError
 from loadpath.gcode import Role, role_of
-from loadpath.gcode.verify import check_splice
+from loadpath.splice.verify import check_splice
 from loadpath.plugin.job import JobRequest, run_job
 
 COMMITTED = Path(__file__).resolve().parents[1] / "data" / "published"

@@ -4,7 +4,7 @@ The integrations (PrusaSlicer hook, Cura script, service, batch) are thin shells
 :func:`loadpath.plugin.job.run_job`.  Their output files are checked the way the splicer's own
 tests check a splice: the same input is run once in-process (the *reference*), which gives the
 splice's edits; the shell's output must be that output byte for byte, and
-:func:`loadpath.gcode.verify.check_splice` on the shell's file (parsed from disk) must find no
+:func:`loadpath.splice.verify.check_splice` on the shell's file (parsed from disk) must find no
 problem: every line outside the replaced blocks unchanged, machine state on kept lines, volume of
 each replaced block within 3 %, retraction bounds, absolute E continuity, same layers and features,
 new extrusions inside their regions.
@@ -19,7 +19,7 @@ from pathlib import Path
 from fixtures import without_verdict
 
 from loadpath import gcode
-from loadpath.gcode.verify import check_splice
+from loadpath.splice.verify import check_splice
 from loadpath.plugin.job import JobRequest, run_job
 
 REPO = Path(__file__).resolve().parents[2]

@@ -19,7 +19,7 @@ from conftest import require_tool
 from fixtures import without_verdict
 from integration_helpers import VENV_BIN, assert_spliced, reference, write_bad_case, write_case
 from loadpath import gcode
-from loadpath.gcode.verify import check_splice
+from loadpath.splice.verify import check_splice
 from loadpath.prusaslicer_postproc import main
 
 HOOK = VENV_BIN / "loadpath-prusaslicer"

@@ -9,7 +9,7 @@ import pytest
 import shapely
 import slicing
 from loadpath.loadcase import Body, merge_slabs, parse, resolve
-from loadpath.loadcase.body import cover_slabs
+from loadpath.body import cover_slabs
 from shapely.geometry import Point, box
 
 

@@ -15,7 +15,7 @@ import slicing
 import trimesh
 from loadpath import gcode
 from loadpath.gcode.flavors import Role
-from loadpath.gcode.verify import layer_features
+from loadpath.splice.verify import layer_features
 from pipeline_helpers import new_lines, replaced_blocks, run, span_lines_kept, write_case
 
 DATA = Path(__file__).resolve().parents[1] / "data"

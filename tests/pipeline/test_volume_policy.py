@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
-from loadpath.gcode.flow import FlowModel
-from loadpath.gcode.plan import PlanOptions, plan_block
+from loadpath.splice.flow import FlowModel
+from loadpath.splice.plan import PlanOptions, plan_block
 from loadpath.toolpath import Path
 
 FLOW = FlowModel("rounded", 1.75)

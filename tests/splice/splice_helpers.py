@@ -13,8 +13,8 @@ import numpy as np
 import shapely
 from loadpath import gcode
 from loadpath.gcode.flavors import Role
-from loadpath.gcode.splice import BlockFill, splice
-from loadpath.gcode.verify import check_splice
+from loadpath.splice import BlockFill, splice
+from loadpath.splice.verify import check_splice
 from loadpath.metrics import rectilinear
 from loadpath.plugin import settings as S
 from loadpath.toolpath import Path

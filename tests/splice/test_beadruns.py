@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from loadpath.gcode.beadruns import RunOptions, bead_runs, runs_of_widths, smooth_filament
-from loadpath.gcode.flow import FlowModel
-from loadpath.gcode.plan import PlanOptions, plan_block
+from loadpath.splice.beadruns import RunOptions, bead_runs, runs_of_widths, smooth_filament
+from loadpath.splice.flow import FlowModel
+from loadpath.splice.plan import PlanOptions, plan_block
 from loadpath.toolpath import Path
 from shapely.geometry import LineString
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from loadpath import gcode
 from loadpath.gcode.blocks import EXTRUDE
-from loadpath.gcode.lineview import read_lines
-from loadpath.gcode.verify import check_output, check_splice, layer_features
+from loadpath.splice.lineview import read_lines
+from loadpath.splice.verify import check_output, check_splice, layer_features
 from splice_helpers import SLICED_CASES, infill_blocks, rectilinear_fills, run_splice
 
 # every real case of the splice tests but the second Cura part

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from loadpath.gcode.plan import simplify, simplify_mask
+from loadpath.splice.plan import simplify, simplify_mask
 
 
 def _errors(pts, pit, a, z, tol, pitch_tol):

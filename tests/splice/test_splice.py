@@ -16,7 +16,7 @@ import shapely
 from loadpath import gcode
 from loadpath.gcode.blocks import EXTRUDE, RETRACT, TRAVEL, UNRETRACT, WIPE
 from loadpath.gcode.flavors import Role
-from loadpath.gcode.verify import layer_features
+from loadpath.splice.verify import layer_features
 from loadpath.plugin import settings as S
 from loadpath.toolpath import Path as ToolPath
 from shapely.geometry import LineString
@@ -157,7 +157,7 @@ def test_extruded_width_matches_the_pitch_and_the_width_markers(spliced):
         said = marker[mv["line"] - a]
         assert not np.any(np.isnan(said))
         err = np.abs(bead - said) / said
-        # runs of one width (loadpath.gcode.beadruns): a marker per run, every segment longer than the
+        # runs of one width (loadpath.splice.beadruns): a marker per run, every segment longer than the
         # links within the run's 5 % band of it (and the marker's 0.001 mm rounding)
         long = seg > 2.0 * want
         assert err[long].max() <= 0.05 + 0.001 / 0.3, (name, f.block, err[long].max())
@@ -362,7 +362,7 @@ def test_current_prusaslicer_files_with_arcs_and_labels(name):
 def test_block_replaced_by_nothing_keeps_the_machine_state(sliced):
     program = gcode.read(sliced("cura", "ohs", "mixed"))
     i = infill_blocks(program)[3]
-    from loadpath.gcode.splice import BlockFill
+    from loadpath.splice import BlockFill
 
     result, out, check = run_splice(program, [BlockFill(i, ())], volume_tol=None)
     # only the volume and feature checks complain (the layer lost its FILL), nothing about the state

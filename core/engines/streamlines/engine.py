@@ -36,7 +36,7 @@ from loadpath.engines.streamlines.params import StreamlineParams, resolve_params
 from loadpath.engines.streamlines.seeding import boundary_seeds, lattice
 from loadpath.engines.streamlines.segindex import SegmentIndex
 from loadpath.engines.streamlines.widths import tile
-from loadpath.engines.swarm.ends import extend_ends
+from loadpath.engines.finish.ends import extend_ends
 from loadpath.errors import GeometryError, SettingsError
 from loadpath.toolpath import EngineInput, Path, Toolpaths
 

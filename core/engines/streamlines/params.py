@@ -80,7 +80,7 @@ class StreamlineParams:
         Principal stress to follow; None keeps the field's own (faithful: ``"tensile"``).
     extend_ends : bool
         Default mode: carry every path end on to the next bead or the region's edge
-        (:func:`loadpath.engines.swarm.ends.extend_ends`), so ends stopped by the spacing check
+        (:func:`loadpath.engines.finish.ends.extend_ends`), so ends stopped by the spacing check
         leave no void in front of them.
     phase : float, pitches
         Default mode: the boundary seeds, one pitch apart, move on along the boundary by this many

@@ -25,15 +25,15 @@ from dataclasses import fields
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Points2, Region
-from loadpath.engines.swarm.boundary import Domain
+from loadpath.engines.finish.boundary import Domain
 from loadpath.engines.swarm.caps import settle_ends
-from loadpath.engines.swarm.ends import extend_ends
+from loadpath.engines.finish.ends import extend_ends
 from loadpath.engines.swarm.gaps import gap_fill
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.joins import join_ends
 from loadpath.engines.swarm.raster import raster_for
 from loadpath.engines.swarm.step import Context, SwarmParams, SwarmState, run
-from loadpath.engines.swarm.widths import centre_points, local_pitch
+from loadpath.engines.finish.widths import centre_points, local_pitch
 from loadpath.errors import SettingsError
 from loadpath.field import StressField
 from loadpath.toolpath import EngineInput, Path, Toolpaths

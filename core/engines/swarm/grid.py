@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from loadpath._typing import Bools, Ints, Points2
-from loadpath.engines.swarm import kernel_geom as kg
+from loadpath.engines.finish import kernel_geom as kg
 
 __all__ = ["Occupancy"]
 

@@ -17,7 +17,7 @@ and :mod:`.kernel_step` fall back to OSQP when it is False.
 from __future__ import annotations
 
 import numpy as np
-from loadpath.engines.swarm._numba import njit, njit_inline
+from loadpath.engines.swarm._jit import njit, njit_inline
 
 __all__ = ["banded_matvec", "solve_box_qp", "chain_qp", "chain_potentials"]
 

@@ -13,7 +13,7 @@ across that edge).
 from __future__ import annotations
 
 import numpy as np
-from loadpath.engines.swarm._numba import njit
+from loadpath.engines.swarm._jit import njit
 
 __all__ = ["scan_triangles"]
 

@@ -32,9 +32,9 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from loadpath.engines.swarm import kernel_geom as kg
+from loadpath.engines.finish import kernel_geom as kg
 from loadpath.engines.swarm import qp as _qp
-from loadpath.engines.swarm._numba import announce_compile, njit, njit_inline, objmode
+from loadpath.engines.swarm._jit import announce_compile, njit, njit_inline, objmode
 from loadpath.engines.swarm.chain import BOUNDARY_SLIDE, BOX_ACROSS, BOX_ALONG, MASS_FLOOR, WEIGHT_FLOOR
 from loadpath.engines.swarm.kernel_qp import chain_positions, chain_potentials, chain_qp, solve_box_qp
 

@@ -22,7 +22,7 @@ import weakref
 
 import numpy as np
 from loadpath._typing import Bools, Floats, Points2
-from loadpath.engines.swarm import kernel_geom as kg
+from loadpath.engines.finish import kernel_geom as kg
 from loadpath.engines.swarm import kernel_raster as kr
 from loadpath.fea.field import FEStressField
 from loadpath.field import StressField

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from loadpath._typing import Bools, Floats, Ints, Points2
 from loadpath.engines.swarm import kernel_step as ks
-from loadpath.engines.swarm.boundary import Domain
+from loadpath.engines.finish.boundary import Domain
 from loadpath.engines.swarm.grid import Occupancy
 from loadpath.engines.swarm.raster import FieldRaster
 

@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import shapely
-from loadpath.engines.swarm.ends import extend_ends
+from loadpath.engines.finish.ends import extend_ends
 from shapely.geometry import box
 
 PITCH = 0.45

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from loadpath.engines.swarm.ends import _first_blocked
+from loadpath.engines.finish.ends import _first_blocked
 
 
 def _reference(

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import shapely
 from loadpath import metrics as M
-from loadpath.engines.swarm.ends import extend_ends
+from loadpath.engines.finish.ends import extend_ends
 from loadpath.engines.swarm.gaps import gap_fill
-from loadpath.engines.swarm.widths import centre_points, local_pitch
+from loadpath.engines.finish.widths import centre_points, local_pitch
 from loadpath.toolpath import Path
 from shapely.geometry import box
 

@@ -10,14 +10,16 @@ import sys
 
 import numpy as np
 import pytest
-from loadpath.engines.swarm import _numba
+from loadpath.engines.finish import _numba as shared
+from loadpath.engines.swarm import _jit as jit
+from loadpath.engines.swarm import warmup
 from loadpath.engines.swarm import kernel_step as ks
 
 
 @pytest.fixture(scope="module")
 def warm():
     """The kernels compiled (or loaded) in this process, as after ``scripts/setup.sh``."""
-    _numba.warm_up()
+    warmup.warm_up()
     return True
 
 
@@ -30,19 +32,24 @@ def test_stable_argsort_is_numpys_stable_order():
 
 def test_every_kernel_is_stamped_with_all_kernel_sources():
     # a cached caller holds its callees' machine code: editing any kernel source must recompile all
-    stamp = _numba._stamp()
-    assert len(stamp) == len(_numba.SOURCES) >= 4
-    assert len(_numba._DISPATCHERS) > 20
-    for disp in _numba._DISPATCHERS:
-        assert disp._cache._cache_file._source_stamp == stamp, disp.py_func.__name__
+    # (the shared kernels of loadpath.engines.finish call no swarm code: their own sources suffice)
+    stamp = shared._stamp(jit.SOURCES)
+    own = shared._stamp(shared.SOURCES)
+    assert len(stamp) == len(jit.SOURCES) >= 4 and set(shared.SOURCES) < set(jit.SOURCES)
+    assert len(shared._DISPATCHERS) > 20
+    swarm_dir = jit.SOURCES[-1].parent
+    for disp in shared._DISPATCHERS:
+        in_swarm = disp.py_func.__code__.co_filename.startswith(str(swarm_dir))
+        expected = stamp if in_swarm else own
+        assert disp._cache._cache_file._source_stamp == expected, disp.py_func.__name__
 
 
 def test_a_new_process_loads_the_kernels_from_the_cache(warm):
-    assert _numba.kernels_cached()
+    assert warmup.kernels_cached()
     code = (
-        "from loadpath.engines.swarm import _numba, kernel_step as ks\n"
-        "assert _numba.kernels_cached()\n"
-        "_numba.warm_up()\n"
+        "from loadpath.engines.swarm import kernel_step as ks, warmup\n"
+        "assert warmup.kernels_cached()\n"
+        "warmup.warm_up()\n"
         "st = ks.run_swarm.stats\n"
         "print(sum(st.cache_hits.values()), sum(st.cache_misses.values()))\n"
     )
@@ -61,7 +68,7 @@ def _compiles(disp) -> tuple[int, int, int]:
 
 def _child_compiles(queue):
     before = _compiles(ks.run_swarm)
-    _numba.warm_up()
+    warmup.warm_up()
     queue.put((before, _compiles(ks.run_swarm)))
 
 
@@ -79,16 +86,16 @@ def test_forked_workers_inherit_the_compiled_kernels(warm):
 
 
 def test_one_log_line_when_the_kernels_must_be_compiled(monkeypatch, caplog):
-    monkeypatch.setattr(_numba, "kernels_cached", lambda disp=None: False)
-    monkeypatch.setattr(_numba, "_ANNOUNCED", False)
+    monkeypatch.setattr(jit, "kernels_cached", lambda disp: False)
+    monkeypatch.setattr(jit, "_ANNOUNCED", False)
     with caplog.at_level(logging.WARNING, logger="loadpath.engines.swarm"):
-        assert not _numba.announce_compile()
-        assert not _numba.announce_compile()
+        assert not jit.announce_compile(ks.run_swarm)
+        assert not jit.announce_compile(ks.run_swarm)
     lines = [r.getMessage() for r in caplog.records if "compiling the swarm engine" in r.getMessage()]
     assert len(lines) == 1, lines
 
 
 def test_no_log_line_when_cached(warm, caplog):
     with caplog.at_level(logging.WARNING, logger="loadpath.engines.swarm"):
-        assert _numba.announce_compile()
+        assert jit.announce_compile(ks.run_swarm)
     assert not caplog.records

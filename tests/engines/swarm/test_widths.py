@@ -1,7 +1,7 @@
 """The finishing widths' compiled searches against brute force: every ray hit, every centring pair.
 
-:func:`loadpath.engines.swarm.widths.local_pitch` promises the first other path crossed by each
-normal within ``cap`` pitches, and :func:`~loadpath.engines.swarm.widths.centre_points` that no
+:func:`loadpath.engines.finish.widths.local_pitch` promises the first other path crossed by each
+normal within ``cap`` pitches, and :func:`~loadpath.engines.finish.widths.centre_points` that no
 kept move ends closer than ``min_gap`` to another path.  Both search a cell grid; the references
 here test every segment of the layer, in plain numpy.
 """
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from loadpath.engines.swarm import kernel_widths as kw
-from loadpath.engines.swarm import widths as W
+from loadpath.engines.finish import kernel_widths as kw
+from loadpath.engines.finish import widths as W
 from shapely.geometry import box
 
 PITCH = 0.4

@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 from loadpath._typing import Floats, Points2, Region
-from loadpath.engines.swarm import kernel_widths as kw
-from loadpath.engines.swarm.boundary import Domain
+from loadpath.engines.finish import kernel_widths as kw
+from loadpath.engines.finish.boundary import Domain
 
 __all__ = ["local_pitch", "centre_points"]
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Points2, Region
-from loadpath.gcode.emit import Writer
+from loadpath.splice.emit import Writer
 from loadpath.gcode.model import Program
 from shapely.geometry import LineString
 

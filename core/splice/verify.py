@@ -1,7 +1,7 @@
 """Check a spliced file against the original: what must hold for the printer to print it as intended.
 
 :func:`check_splice` re-reads nothing itself: it takes the original :class:`Program`, the parsed output
-and the :class:`~loadpath.gcode.splice.SpliceResult`, and returns a :class:`SpliceCheck` whose
+and the :class:`~loadpath.splice.SpliceResult`, and returns a :class:`SpliceCheck` whose
 ``problems`` list is empty when
 
 1. every line outside the replaced ranges is byte for byte the original line, in order;
@@ -18,7 +18,7 @@ and the :class:`~loadpath.gcode.splice.SpliceResult`, and returns a :class:`Spli
 
 The pipeline runs it before writing anything, so a file that fails is never written, through
 :func:`check_output`: the same checks from the output's bytes, read into the per-line arrays they
-compare (:mod:`loadpath.gcode.lineview`) instead of a whole second :class:`Program` (on an 842k-line
+compare (:mod:`loadpath.splice.lineview`) instead of a whole second :class:`Program` (on an 842k-line
 input whose output has 4.6M lines, that Program's parse peaked at 1.8 GB).
 """
 
@@ -31,10 +31,10 @@ import numpy as np
 import shapely
 from loadpath._typing import Region
 from loadpath.gcode.blocks import EXTRUDE, RETRACT, WIPE
-from loadpath.gcode.lineview import LineView, read_lines
+from loadpath.splice.lineview import LineView, read_lines
 from loadpath.gcode.model import Program
 from loadpath.gcode.rowindex import move_rows
-from loadpath.gcode.splice import SpliceResult
+from loadpath.splice.splicer import SpliceResult
 from loadpath.gcode.words import G
 
 __all__ = ["SpliceCheck", "check_splice", "check_output", "layer_features"]
@@ -84,7 +84,7 @@ def check_output(
 ) -> SpliceCheck:
     """:func:`check_splice` on the output's bytes, without parsing them into a :class:`Program`.
 
-    The output is read into a :class:`~loadpath.gcode.lineview.LineView` (the same parse stages,
+    The output is read into a :class:`~loadpath.splice.lineview.LineView` (the same parse stages,
     the same arrays, a third of the memory at its peak); an output with G2/G3 arcs is parsed in full,
     since its moves are arc chords.  Same parameters and result as :func:`check_splice`, with the
     output's bytes in place of its Program.

@@ -10,7 +10,7 @@ is :data:`PRUSASLICER_PARAMS`.
 Round trips:
 
 - ``decode(encode(bg, text)).gcode == text`` byte for byte when the G-code encoding is NONE; with
-  MeatPack it equals :func:`loadpath.gcode.meatpack.normalize` of the text (MeatPack drops empty
+  MeatPack it equals :func:`loadpath.gcode.bgcode.meatpack.normalize` of the text (MeatPack drops empty
   lines, end-of-line comments and spaces of ``G`` lines by design), so text that came out of
   :func:`decode` comes back unchanged.
 - ``encode(decode(data))`` gives the same metadata and thumbnail blocks byte for byte, and G-code
@@ -49,8 +49,8 @@ from typing import TypeVar
 
 import numpy as np
 from loadpath.errors import GCodeParseError, UnsupportedFlavorError
-from loadpath.gcode import meatpack
-from loadpath.gcode.bgcode_blocks import (
+from loadpath.gcode.bgcode import meatpack
+from loadpath.gcode.bgcode.blocks import (
     DISABLE_HINT,
     MAGIC,
     VERSION,

@@ -21,8 +21,8 @@ the paths' unit tangents; :func:`cell_lists` is also used by :mod:`.ends`.
 from __future__ import annotations
 
 import numpy as np
-from loadpath.engines.swarm import kernel_geom as kg
-from loadpath.engines.swarm._numba import njit
+from loadpath.engines.finish import kernel_geom as kg
+from loadpath.engines.finish._numba import njit
 
 __all__ = ["tangents", "cell_lists", "normal_hits", "settle_moves"]
 

@@ -1,14 +1,14 @@
 """Splice new infill into a slicer's G-code: replace chosen blocks, keep every other line exactly.
 
 >>> from loadpath import gcode
->>> from loadpath.gcode.splice import BlockFill, SpliceOptions, splice
+>>> from loadpath.splice import BlockFill, SpliceOptions, splice
 >>> program = gcode.read("examples/ohs.gcode")                       # doctest: +SKIP
 >>> result = splice(program, [BlockFill(block=17, paths=paths, region=region)], options)  # doctest: +SKIP
 >>> open("out.gcode", "wb").write(result.data)                        # doctest: +SKIP
 
 For each :class:`BlockFill` the block's span (entering travel .. leaving wipe/retraction) and its
-detached exit are rewritten by :func:`loadpath.gcode.rewrite.rewrite_block` from a plan made by
-:func:`loadpath.gcode.plan.plan_block`; :meth:`Program.replace_lines` then builds the file, so every
+detached exit are rewritten by :func:`loadpath.splice.rewrite.rewrite_block` from a plan made by
+:func:`loadpath.splice.plan.plan_block`; :meth:`Program.replace_lines` then builds the file, so every
 line outside the replaced ranges stays byte for byte where it was.  Blocks that cannot be replaced
 safely (a mode or tool change inside them) are kept and reported in :attr:`SpliceResult.skipped`.
 
@@ -29,14 +29,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from loadpath._typing import Region
 from loadpath.errors import SettingsError
-from loadpath.gcode.beadruns import RunOptions, bead_runs
-from loadpath.gcode.emit import STYLES, Style
-from loadpath.gcode.flow import FlowModel
+from loadpath.splice.beadruns import RunOptions, bead_runs
+from loadpath.splice.emit import STYLES, Style
+from loadpath.splice.flow import FlowModel
 from loadpath.gcode.model import Block, Program
-from loadpath.gcode.plan import PlanOptions, plan_block
-from loadpath.gcode.rewrite import refusal, rewrite_block
+from loadpath.splice.plan import PlanOptions, plan_block
+from loadpath.splice.rewrite import refusal, rewrite_block
 from loadpath.gcode.rowindex import move_rows
-from loadpath.gcode.travel import Motion, Retraction
+from loadpath.splice.travel import Motion, Retraction
 from loadpath.toolpath import Path
 
 __all__ = [
@@ -68,7 +68,7 @@ class SpliceOptions:
         Widths, links, volumetric limit, volume matching.
     runs : RunOptions
         Runs of one bead width (one ``;WIDTH:`` marker each) and the final simplification
-        (:mod:`loadpath.gcode.beadruns`).
+        (:mod:`loadpath.splice.beadruns`).
     notes : bool
         Add the updated time / filament estimate after the slicer's footer lines.
     volume_tol : float or None

@@ -3,7 +3,7 @@
 Input: the paths an engine made for one replaced block (:class:`loadpath.toolpath.Path`, with the
 local pitch at each vertex), the block's layer height and feedrate, the slicer's flow model.
 Output: :class:`BlockPlan`, a list of **chains** (polylines printed without travel), each segment with
-its bead width, filament and feedrate.  :mod:`loadpath.gcode.splice` writes it.
+its bead width, filament and feedrate.  :mod:`loadpath.splice` writes it.
 
 Steps
 -----
@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Points2, Region
-from loadpath.gcode.flow import FlowModel
+from loadpath.splice.flow import FlowModel
 from loadpath.toolpath import Path
 from shapely.geometry import LineString
 
@@ -74,7 +74,7 @@ class PlanOptions:
         Vertices closer than this to the previous one are dropped.
     resolution : float, mm
         Largest distance of a dropped vertex from the simplified path in this first, fine pass
-        (position and pitch); the splicer's final pass (:mod:`loadpath.gcode.beadruns`) bounds the
+        (position and pitch); the splicer's final pass (:mod:`loadpath.splice.beadruns`) bounds the
         total at ``RunOptions.resolution`` times the flow width.
     pitch_resolution : float, mm
         Largest change of a dropped vertex's pitch against the simplified segment's.

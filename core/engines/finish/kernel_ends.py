@@ -12,7 +12,7 @@ docstring of :mod:`.ends`, pair by pair.
 from __future__ import annotations
 
 import numpy as np
-from loadpath.engines.swarm._numba import njit
+from loadpath.engines.finish._numba import njit
 
 __all__ = ["first_blocked"]
 

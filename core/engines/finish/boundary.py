@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Bools, Floats, Ints, Points2, Region
-from loadpath.engines.swarm import kernel_geom as kg
+from loadpath.engines.finish import kernel_geom as kg
 
 __all__ = ["Domain", "boundary_segments"]
 

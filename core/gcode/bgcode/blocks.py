@@ -12,7 +12,7 @@ are pinned by the interop tests in ``tests/gcode/test_bgcode_reference.py``:
 - Deflate data are zlib streams (with the 2-byte zlib header), written at zlib's default level;
 - Heatshrink data are raw heatshrink streams (no framing), window 2^11 or 2^12, lookahead 2^4.
 
-This module knows nothing about what a block means; :mod:`loadpath.gcode.bgcode` does.
+This module knows nothing about what a block means; :mod:`loadpath.gcode.bgcode.container` does.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from enum import IntEnum
 from typing import TypeVar
 
 from loadpath.errors import GCodeParseError, UnsupportedFlavorError
-from loadpath.gcode import heatshrink
+from loadpath.gcode.bgcode import heatshrink
 
 __all__ = [
     "MAGIC",

@@ -7,7 +7,7 @@ anyway, so the splicer prints a chain as **runs**:
 
 1. The extrusion per mm is averaged along the chain over ``smooth`` flow widths (the chain's
    filament kept exactly).
-2. The chain is simplified on position only (:func:`loadpath.gcode.plan.simplify`, Ramer-Douglas-
+2. The chain is simplified on position only (:func:`loadpath.splice.plan.simplify`, Ramer-Douglas-
    Peucker); the filament between two kept vertices is what the plan put between them, so no
    material moves along the chain.  The tolerance is a fraction of the flow width minus what the
    first pass (position and pitch, ``PlanOptions.resolution``, 0.005 mm) used: the printed path is
@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from loadpath._typing import Floats, Points2
-from loadpath.gcode.flow import FlowModel
-from loadpath.gcode.plan import BlockPlan, Chain, simplify
+from loadpath.splice.flow import FlowModel
+from loadpath.splice.plan import BlockPlan, Chain, simplify
 
 __all__ = ["RunOptions", "bead_runs", "runs_of_widths", "smooth_filament"]
 

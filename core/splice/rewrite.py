@@ -1,6 +1,6 @@
 """Rewrite one feature block with new chains, leaving the machine as the next original line expects.
 
-Called by :func:`loadpath.gcode.splice.splice` for each replaced block.  The block's lines
+Called by :func:`loadpath.splice.splice` for each replaced block.  The block's lines
 (``span_start:span_stop``, plus a detached leaving wipe ``exit_start:exit_stop``; see
 :mod:`loadpath.gcode.blocks`) are rewritten as follows (``slicer-conventions.md`` §5):
 
@@ -34,11 +34,11 @@ from dataclasses import dataclass
 import numpy as np
 from loadpath._typing import Points2, Region
 from loadpath.gcode.blocks import BARRIER, NEUTRAL, TRAVEL, WIPE
-from loadpath.gcode.emit import Style, Writer, fmt
+from loadpath.splice.emit import Style, Writer, fmt
 from loadpath.gcode.model import Block, Program
-from loadpath.gcode.plan import BlockPlan, Chain
+from loadpath.splice.plan import BlockPlan, Chain
 from loadpath.gcode.rowindex import move_rows
-from loadpath.gcode.travel import Motion, TravelState, travel, unretract, wipe_back
+from loadpath.splice.travel import Motion, TravelState, travel, unretract, wipe_back
 from loadpath.gcode.words import G, M, T
 
 __all__ = ["Rewritten", "rewrite_block", "refusal"]
@@ -343,6 +343,6 @@ def _extrude_chain(
         k = int(np.searchsorted(cum, m73[mi][0] * total_len - 1e-9))
         inserts.setdefault(min(k, len(seg) - 1), []).append(m73[mi][1])
         mi += 1
-    # runs have one width each (loadpath.gcode.beadruns): a marker at every change, to 0.001 mm
+    # runs have one width each (loadpath.splice.beadruns): a marker at every change, to 0.001 mm
     w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts)
     return mi, float(cum[-1])

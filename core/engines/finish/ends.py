@@ -44,8 +44,8 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Points2, Region
-from loadpath.engines.swarm import kernel_ends as ke
-from loadpath.engines.swarm import kernel_widths as kw
+from loadpath.engines.finish import kernel_ends as ke
+from loadpath.engines.finish import kernel_widths as kw
 from scipy.spatial import cKDTree
 
 __all__ = ["extend_ends"]

@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from loadpath.engines.swarm._numba import njit, njit_inline
+from loadpath.engines.finish._numba import njit, njit_inline
 
 __all__ = [
     "GridData",

@@ -1,6 +1,6 @@
 """A spliced file read for its check only: the per-line arrays the check compares, no Program.
 
-:func:`loadpath.gcode.verify.check_output` checks a splice from the output's bytes.  Building the
+:func:`loadpath.splice.verify.check_output` checks a splice from the output's bytes.  Building the
 output's whole :class:`~loadpath.gcode.model.Program` for that (a move table, blocks, layers, every
 per-line array) took 1.8 GB at its peak for a 4.6M-line output, beside the input's own Program.
 :func:`read_lines` runs the same parse stages (:mod:`.lines`, :mod:`.words`, :mod:`.markers`,
@@ -106,7 +106,7 @@ class LineView:
         return out
 
     def layer_features(self) -> list[set[str]]:
-        """Feature names that extrude, per layer (as :func:`loadpath.gcode.verify.layer_features`)."""
+        """Feature names that extrude, per layer (as :func:`loadpath.splice.verify.layer_features`)."""
         st = self.state
         ext = np.flatnonzero(st.moved_xy & (st.de > 0) & (self.layer_of_line >= 0))
         out: list[set[str]] = [set() for _ in range(self.n_layers)]
