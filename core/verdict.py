@@ -130,7 +130,7 @@ _CURA_TIME_RE = re.compile(rb"^;TIME:([0-9.]+)\s*$", re.M)
 
 def total_print_seconds(data: bytes) -> float | None:
     """The slicer's own estimate of the whole print from a text file's first or last 64 kB, s."""
-    from loadpath.gcode.splice import parse_duration
+    from loadpath.splice.splicer import parse_duration
 
     for chunk in (data[-65536:], data[:65536]):
         m = _TIME_RE.search(chunk)
