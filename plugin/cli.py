@@ -79,7 +79,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     with lifecycle.terminate_as_interrupt(), lifecycle.record_writes(written):
         try:
             status = int(args._run(args) or 0)
-            lifecycle.raise_if_stopped()  # a signal whose exception Python dropped (inside a fork)
+            if status == 0:  # a signal whose exception Python dropped (inside a fork)
+                lifecycle.raise_if_stopped()
             return status
         except LoadpathError as exc:
             _say(f"loadpath: {exc}")
