@@ -72,6 +72,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = os.environ.get("LOADPATH_DEBUG", "") not in ("", "0")
     if not debug:  # Python and numpy warnings are for developers; users get loadpath's own lines
         warnings.simplefilter("ignore")
+        if "ignore" not in sys.warnoptions:  # passed on as -Wignore to multiprocessing's helper
+            sys.warnoptions.append("ignore")  # processes (resource tracker, forkserver)
         # nor "Exception ignored in ..." tracebacks: a Ctrl-C during a fork raises inside an at-fork
         # hook, where Python drops it (lifecycle remembers the signal and the stages re-raise it)
         sys.unraisablehook = _drop_unraisable
