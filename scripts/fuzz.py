@@ -5,12 +5,13 @@ Each input is a real G-code file (``tests/data/**``, ``examples/ohs.gcode`` and 
 files) with one to three mutations: byte (flip, insert, delete), line (delete, duplicate, swap, cut
 the file there) or number (decimal point moved or dropped, scaled by a power of ten, negated, made
 309+ digits long, sign or letter garbage).  Every case runs the command in this process through
-``loadpath.plugin.cli.main`` with a 30 s alarm and is classified:
+``loadpath.plugin.cli.main`` with a 30 s CPU-time alarm (and a 600 s wall-clock one for a case
+that blocks) and is classified:
 
 - ``ok`` (exit 0) or ``refused`` (exit 1 with exactly one ``loadpath: ...`` line on stderr);
 - ``traceback``: an ``internal error`` line (the catch-all caught an unexpected exception) or any
   exception escaping ``main``;
-- ``hang``: the alarm fired (more than ``--hang`` s);
+- ``hang``: more than ``--hang`` s of CPU time in this process, or 20x that of wall time;
 - ``multi-line``: a refusal of more than one line;
 - ``changed``: the input file's bytes differ afterwards.
 
@@ -146,8 +147,11 @@ def classify(path: Path, command: str, out: Path, hang_s: float) -> tuple[str, s
     argv = ["inspect", str(path)] if command == "inspect" else \
         ["run", str(path), "--loadcase", str(out / "case.toml"), "-o", str(out / "out.gcode")]
     err, sink = io.StringIO(), io.StringIO()
-    old = signal.signal(signal.SIGALRM, _alarm)
-    signal.setitimer(signal.ITIMER_REAL, hang_s)
+    # a hang is hang_s of CPU time (ITIMER_PROF): on a machine shared by many jobs under nice 19 a
+    # 3 s case can take minutes of wall time; a blocked case (no CPU) is caught by a wall-clock limit
+    old = {s: signal.signal(s, _alarm) for s in (signal.SIGALRM, signal.SIGPROF)}
+    signal.setitimer(signal.ITIMER_PROF, hang_s)
+    signal.setitimer(signal.ITIMER_REAL, max(20 * hang_s, 600.0))
     try:
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(sink):
             code = main(argv)
@@ -157,7 +161,9 @@ def classify(path: Path, command: str, out: Path, hang_s: float) -> tuple[str, s
         return "traceback", f"{type(exc).__name__}: {exc}"
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        for s, h in old.items():
+            signal.signal(s, h)
     text = err.getvalue().strip()
     if hashlib.sha256(path.read_bytes()).hexdigest() != before:
         return "changed", text
@@ -184,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--n", type=int, default=1000, help="inspect cases")
     ap.add_argument("--run-every", type=int, default=50, help="also run `loadpath run` on every k-th case")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--hang", type=float, default=30.0, help="seconds after which a case is a hang")
+    ap.add_argument("--hang", type=float, default=30.0, help="CPU seconds after which a case is a hang")
     ap.add_argument("--out", type=Path, default=Path("/tmp/loadpath-fuzz"))
     ap.add_argument("--report", type=int, default=100, help="progress line every N cases")
     ap.add_argument("--extra", nargs="*", default=[], help="more real G-code files to mutate")
