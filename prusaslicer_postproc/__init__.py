@@ -92,8 +92,10 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
         return int(exc.code or 0)
 
     from loadpath.errors import LoadpathError
-    from loadpath.plugin import settings
+    from loadpath.plugin import lifecycle, settings
     from loadpath.plugin.job import JobRequest, run_job
+
+    written: list = []
 
     try:
         request = JobRequest(
@@ -105,11 +107,20 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
             env=dict(os.environ if env is None else env),
             slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None,
         )
-        result = run_job(request)
+        with lifecycle.terminate_as_interrupt(), lifecycle.record_writes(written):
+            result = run_job(request)
     except LoadpathError as exc:
         return _fail(f"{exc} (the G-code was left unchanged)")
-    except KeyboardInterrupt:
-        return _fail("interrupted; the G-code was left unchanged", 130)
+    except KeyboardInterrupt as exc:  # SIGINT or SIGTERM (lifecycle.Interrupted)
+        how = getattr(exc, "signame", "interrupted")
+        return _fail(f"{how}: stopped; " + ("the G-code was left unchanged" if not written
+                                            else lifecycle.what_was_written(written)),
+                     getattr(exc, "status", 130))
+    except Exception as exc:  # a bug or a resource: one line, the export's file as it was written
+        if os.environ.get("LOADPATH_DEBUG", "") not in ("", "0"):
+            raise
+        return _fail(f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())[:200]}); the G-code "
+                     "was left unchanged; please report this with the G-code and load case")
     for warning in result.warnings:
         sys.stderr.write(f"{PROG}: warning: {' '.join(warning.split())}\n")
     return 0
