@@ -82,6 +82,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = os.environ.get("LOADPATH_DEBUG", "") not in ("", "0")
     if not debug:  # Python and numpy warnings are for developers; users get loadpath's own lines
         warnings.simplefilter("ignore")
+        if "ignore" not in sys.warnoptions:  # passed on as -Wignore to multiprocessing's helper
+            sys.warnoptions.append("ignore")  # processes (resource tracker, forkserver)
         # nor "Exception ignored in ..." tracebacks: a Ctrl-C during a fork raises inside an at-fork
         # hook, where Python drops it (lifecycle remembers the signal and the stages re-raise it)
         sys.unraisablehook = _drop_unraisable
@@ -89,7 +91,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     with lifecycle.terminate_as_interrupt(), lifecycle.record_writes(written):
         try:
             status = int(args._run(args) or 0)
-            lifecycle.raise_if_stopped()  # a signal whose exception Python dropped (inside a fork)
+            if status == 0:  # a signal whose exception Python dropped (inside a fork)
+                lifecycle.raise_if_stopped()
             return status
         except LoadpathError as exc:
             _say(f"loadpath: {exc}")

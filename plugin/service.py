@@ -10,7 +10,8 @@ Endpoints (the README documents the JSON in full)::
                           "summary", "verdict", "fea_cached", "times", "settings"}
 
 Errors are ``{"ok": false, "error": {"code": ..., "message": ...}}`` with an HTTP status: 400
-``bad_request``, 403 ``forbidden`` (a Host or Origin that is not loopback), 404 ``not_found``, 411
+``bad_request``, 403 ``forbidden`` (a Host or Origin that is not loopback), 404 ``not_found``, 408
+``request_timeout`` (the body did not arrive within ``read_timeout``), 411
 ``length_required``, 413 ``too_large``, 415 ``unsupported_media_type``, 422 ``loadpath_error`` (the
 one-line message ``loadpath run`` would print), 503 ``busy``, 504 ``timeout``, 500 ``internal``.
 
@@ -41,10 +42,45 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
 
-from loadpath.plugin.localhttp import HOST, check_host_origin, read_json_body
+from loadpath.plugin.localhttp import HOST, check_host_origin, read_json_body, short
 from loadpath.plugin.service_job import RequestError, check_request, child, confine
 
 __all__ = ["ServiceConfig", "Service", "default_cache_dir", "RequestError", "confine"]
+
+def _start_forkserver_quietly() -> None:
+    """Start the forkserver with stderr on /dev/null: its job processes answer through their pipe, and
+    one killed while it still reads its request (the service stopping) would print multiprocessing's
+    unpickling traceback into the service's log."""
+    from multiprocessing import forkserver
+
+    try:
+        saved = os.dup(2)
+    except OSError:
+        return
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 2)
+        os.close(devnull)
+        forkserver.ensure_running()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+class _Server(ThreadingHTTPServer):
+    """The HTTP server; a client that hangs up or breaks the protocol is one log line, not a traceback."""
+
+    daemon_threads = True
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        import sys
+
+        exc = sys.exc_info()[1]
+        what = ("disconnected" if isinstance(exc, (ConnectionError, TimeoutError))
+                else "request failed")
+        print(f"loadpath serve: client {client_address[0]}:{client_address[1]} {what} "
+              f"({type(exc).__name__})", file=sys.stderr, flush=True)
+
 
 def default_cache_dir() -> Path:
     """``$XDG_CACHE_HOME/loadpath/serve`` (default ``~/.cache/loadpath/serve``)."""
@@ -71,6 +107,9 @@ class ServiceConfig:
         Per request, from its arrival.
     fea_cache_entries : int
         FEA results kept.
+    read_timeout : float, s
+        Time a client has to send its whole request body; a request takes its place among the
+        running and waiting ones only once its body is read, so slow clients hold no place.
     """
 
     port: int = 8765
@@ -80,6 +119,7 @@ class ServiceConfig:
     queue: int = 4
     timeout: float = 600.0
     fea_cache_entries: int = 64
+    read_timeout: float = 30.0
 
 
 # ---------------------------------------------------------------------------------------------- server
@@ -104,9 +144,12 @@ class Service:
         )
         if self._ctx.get_start_method() == "forkserver":
             self._ctx.set_forkserver_preload(["loadpath.plugin.job", "loadpath.pipeline", "loadpath.fea"])
+            _start_forkserver_quietly()
         handler = type("Handler", (_Handler,), {"service": self})
-        self.httpd = ThreadingHTTPServer((HOST, config.port), handler)
-        self.httpd.daemon_threads = True
+        self._procs: set[Any] = set()
+        self._closing = False
+        self._works: set[Path] = set()
+        self.httpd = _Server((HOST, config.port), handler)
         self._thread: threading.Thread | None = None
 
     @property
@@ -125,9 +168,25 @@ class Service:
         return self
 
     def shutdown(self) -> None:
-        """Stop serving and close the socket."""
+        """Stop serving and close the socket; end running jobs and remove their folders."""
         self.httpd.shutdown()
         self.httpd.server_close()
+        self.close_jobs()
+
+    def close_jobs(self) -> int:
+        """Kill every running job's process and remove its folder; how many were running."""
+        with self._lock:
+            self._closing = True
+            procs, works = list(self._procs), list(self._works)
+        for proc in procs:
+            try:
+                proc.kill()
+                proc.join(5)
+            except (OSError, ValueError, AssertionError):
+                pass
+        for work in works:
+            shutil.rmtree(work, ignore_errors=True)
+        return len(works)
 
     # ------------------------------------------------------------------------------------------ jobs
     def admit(self) -> bool:
@@ -166,7 +225,13 @@ class Service:
                     str(self.cache_dir / "tmp"),
                 ),
             )
+            with self._lock:
+                self._works.add(work)
             proc.start()
+            with self._lock:
+                self._procs.add(proc)
+                if self._closing:  # the service stopped while this job was starting
+                    proc.kill()
             send.close()
             try:
                 ready = recv.poll(max(0.0, deadline - time.monotonic()))
@@ -197,6 +262,8 @@ class Service:
             shutil.rmtree(work, ignore_errors=True)
             with self._lock:
                 self.running -= 1
+                self._works.discard(work)
+                self._procs = {p for p in self._procs if p.is_alive()}
             self._slots.release()
 
 
@@ -248,8 +315,13 @@ class _Handler(BaseHTTPRequestHandler):
             self.close_connection = True
 
     def _check_origin(self) -> None:
-        """Refuse requests addressed to another host name (DNS rebinding) or sent by a web page."""
-        check_host_origin(self.headers)
+        """Refuse requests addressed to another host name (DNS rebinding) or sent by a web page.
+
+        :func:`loadpath.plugin.localhttp.check_host_origin` with this service's port: ``Host`` a
+        plain loopback name (``evil@localhost:PORT`` refused), any ``Origin`` but this service's own
+        refused (slicer plugins send none; a page on another local port is refused).
+        """
+        check_host_origin(self.headers, self.server.server_address[1])
 
     def do_GET(self) -> None:  # noqa: N802 (http.server's name)
         try:
@@ -281,50 +353,76 @@ class _Handler(BaseHTTPRequestHandler):
         t0 = time.monotonic()
         svc = self.service
         self._body_read = False
+        try:
+            req = self._read_request(svc)  # before a place is taken: a slow client holds none
+        except RequestError as exc:
+            self._answer(exc.status, {"ok": False, "error": {"code": exc.code, "message": exc.message}})
+            return
+        except (OSError, TimeoutError):
+            self.close_connection = True  # the client went away
+            return
         if not svc.admit():
-            self.close_connection = True
-            self._discard_body()
-            self._error(
-                RequestError(
-                    503,
-                    "busy",
-                    f"{svc.config.workers} job(s) running and {svc.config.queue} waiting; retry later",
-                )
-            )
+            self._answer(503, {"ok": False, "error": {"code": "busy", "message": (
+                f"{svc.config.workers} job(s) running and {svc.config.queue} waiting; retry later")}})
             return
         # the place is given back before the answer is written: a client that sends its next
         # request as soon as it reads this answer must not find its own finished job still running
         try:
-            status, payload = 200, self._post_run(svc, t0)
+            status, payload = 200, {"ok": True, **svc.run(req, t0 + svc.config.timeout)}
         except RequestError as exc:
             status, payload = exc.status, {"ok": False, "error": {"code": exc.code, "message": exc.message}}
-        except (OSError, TimeoutError):
-            self.close_connection = True  # the client went away or was too slow
-            return
         finally:
             svc.release()
+        self._answer(status, payload)
+
+    def _answer(self, status: int, payload: Mapping[str, Any]) -> None:
         try:
             self._discard_body()  # a refused request's body (nothing once the body was read)
             self._send(status, payload)
         except OSError:
             self.close_connection = True
 
-    def _post_run(self, svc: Service, t0: float) -> dict[str, Any]:
-        """Check and run one POST /v1/run; the answer's JSON (raises RequestError)."""
+    def _read_body(self, length: int, deadline: float) -> bytes:
+        """The body, read before ``deadline`` (time.monotonic) whatever pace the client sends at."""
+        parts, left = [], length
+        sock = self.connection
+        while left > 0:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError
+            sock.settimeout(remaining)  # a timeout ends the read: the stream is not read further
+            chunk = self.rfile.read1(min(left, 1 << 16))
+            if not chunk:
+                raise ConnectionResetError("the client closed the connection before sending its body")
+            parts.append(chunk)
+            left -= len(chunk)
+        return b"".join(parts)
+
+    def _read_request(self, svc: Service) -> dict[str, Any]:
+        """Check the headers, read the body within the read deadline and check it (raises RequestError)."""
         self._check_origin()
         if self.path != "/v1/run":
             raise RequestError(404, "not_found", f"no POST {self.path}; use POST /v1/run")
+        deadline = time.monotonic() + svc.config.read_timeout
+
+        def read(n: int) -> bytes:
+            self._body_read = True  # from here on the body is the request's, never drained
+            return self._read_body(n, deadline)
+
         try:
-            limit = svc.config.max_request_mb
-            req = read_json_body(self.headers, self.rfile, limit, "loadpath serve --max-mb")
+            req = read_json_body(self.headers, self.rfile, svc.config.max_request_mb, "loadpath serve --max-mb", read)
         except RequestError as exc:
-            if exc.status == 413:
+            if exc.status in (411, 413):
                 self.close_connection = True
-            self._body_read = exc.status == 400  # a body that is not JSON was read
             raise
-        self._body_read = True
-        answer = svc.run(check_request(req), t0 + svc.config.timeout)
-        return {"ok": True, **answer}
+        except TimeoutError:
+            self.close_connection = True
+            raise RequestError(408, "request_timeout", f"the body did not arrive within "
+                               f"{svc.config.read_timeout:g} s; send it at once") from None
+        try:
+            return check_request(req)
+        except RecursionError:
+            raise RequestError(400, "bad_request", "the body's JSON is nested too deeply") from None
 
 
 def _version() -> str:

@@ -50,6 +50,36 @@ def confine(cache_dir: Path) -> None:
     tempfile.tempdir = str(cache_dir / "tmp")
 
 
+FLTK_SYSTEM_PREFS = "/etc/fltk"
+"""Where FLTK (under gmsh) keeps its system-wide preferences, rewritten at every ``gmsh.initialize``."""
+
+
+def redirect_system_prefs(cache_dir: Path) -> bool:
+    """Give this process a private ``/etc/fltk`` inside ``cache_dir`` (Linux, as root).
+
+    gmsh's FLTK rewrites ``/etc/fltk/fltk.org/fltk.prefs`` at every ``gmsh.initialize`` when it may
+    (as root; its per-user file follows HOME, which :func:`confine` points into the cache).  The job
+    process gets its own mount namespace in which ``cache_dir/home/.etc-fltk`` is bind-mounted over
+    ``/etc/fltk``, so those writes land in the cache and the system's file is left alone.  Returns
+    whether it took effect: a process that is not root cannot write there anyway; a kernel or
+    container that refuses the namespace, or a system without ``/etc/fltk`` (FLTK would create it the
+    first time), leaves everything as it was.
+    """
+    import sys
+
+    if not sys.platform.startswith("linux") or os.geteuid() != 0 or not os.path.isdir(FLTK_SYSTEM_PREFS):
+        return False
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    clone_newns, ms_bind, ms_rec, ms_private = 0x20000, 4096, 0x4000, 1 << 18
+    private = Path(cache_dir) / "home" / ".etc-fltk"
+    private.mkdir(mode=0o700, exist_ok=True)
+    if libc.unshare(clone_newns) != 0 or libc.mount(None, b"/", None, ms_rec | ms_private, None) != 0:
+        return False
+    return libc.mount(os.fsencode(private), FLTK_SYSTEM_PREFS.encode(), None, ms_bind, None) == 0
+
+
 def check_request(req: Any) -> dict[str, Any]:
     """Validate a /v1/run body's shape (values are checked by loadpath itself)."""
     from loadpath.plugin.settings import SCHEMA
@@ -73,6 +103,26 @@ def check_request(req: Any) -> dict[str, Any]:
         raise RequestError(
             400, "bad_request", f"unknown setting(s) {', '.join(unknown)}; GET /v1/schema lists them"
         )
+    fields = {f.name: f for f in SCHEMA}
+    for key, value in req.get("settings", {}).items():
+        why = _type_error(fields[key], value)
+        if why:
+            raise RequestError(400, "bad_request", f"setting {key!r} = {_shown(value)}: {why} (GET /v1/schema)")
+    for key in ("gcode", "gcode_base64", "loadcase"):
+        if key in req and not _encodable(req[key]):
+            raise RequestError(400, "bad_request", f"{key!r} holds a lone surrogate (\\ud800-\\udfff), "
+                               "which is no text; send UTF-8 text")
+    if "name" in req:
+        why = _name_error(req["name"])
+        if why:
+            raise RequestError(400, "bad_request", f"'name' {why}")
+    if "report" in req and not isinstance(req["report"], bool):
+        raise RequestError(400, "bad_request", "'report' must be true or false")
+    for key in ("slicer_env",):
+        for k, v in req.get(key, {}).items():
+            if not isinstance(v, (str, int, float, bool)) or not _encodable(str(v)) \
+                    or not _encodable(k) or "\0" in str(k) + str(v):
+                raise RequestError(400, "bad_request", f"'{key}' values must be strings, numbers or text")
     extra = sorted(
         set(req)
         - {
@@ -92,6 +142,73 @@ def check_request(req: Any) -> dict[str, Any]:
     return req
 
 
+NAME_MAX = 200
+"""Longest display name of a request, characters."""
+
+
+def _shown(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _encodable(text: Any) -> bool:
+    if not isinstance(text, str):
+        return True
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _name_error(name: Any) -> str | None:
+    """Why ``name`` is no display name of a G-code file (a name, never a path), or None."""
+    if not isinstance(name, str):
+        return "must be a string (the file's display name)"
+    if not name.strip() or name.strip() in (".", ".."):
+        return f"{_shown(name)} is no file name; give the G-code's display name such as 'part.gcode'"
+    if len(name) > NAME_MAX:
+        return f"has {len(name)} characters; give at most {NAME_MAX}"
+    bad = next((c for c in name if c in "/\\\0" or ord(c) < 32 or 0xD800 <= ord(c) <= 0xDFFF), None)
+    if bad is not None:
+        return (f"holds {bad!r}: it is the file's display name, not a path; give the name alone "
+                "such as 'part.gcode'")
+    return None
+
+
+def _type_error(f: Any, value: Any) -> str | None:
+    """Why ``value`` is not of setting ``f``'s type in /v1/schema, or None (strict: no coercion)."""
+    import math
+
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if value is None:
+        return "null is no value; leave the setting out to use its default"
+    if f.kind == "bool":
+        return None if isinstance(value, bool) else "must be true or false"
+    if f.kind == "str":
+        if not isinstance(value, str):
+            return "must be a string"
+        if f.choices and value not in f.choices:
+            return f"must be one of {', '.join(f.choices)}"
+        return None
+    if f.kind == "kinds":
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            return f"must be a list of strings from {', '.join(f.choices)}"
+        bad = [v for v in value if f.choices and v not in f.choices]
+        return f"{', '.join(bad)} not among {', '.join(f.choices)}" if bad else None
+    if f.kind == "int":
+        if not isinstance(value, int) or isinstance(value, bool):
+            return "must be a whole number"
+    elif f.kind in ("float", "optional_float"):
+        if not number or not math.isfinite(value):
+            return "must be a finite number"
+    if f.minimum is not None and value < f.minimum or f.maximum is not None and value > f.maximum:
+        lo = "" if f.minimum is None else f"{f.minimum:g}"
+        hi = "" if f.maximum is None else f"{f.maximum:g}"
+        return f"must lie within {lo}..{hi}"
+    return None
+
+
 def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: int) -> dict[str, Any]:
     """Run one request in folder ``work`` (created, not removed); the answer's JSON (without ``ok``).
 
@@ -105,8 +222,11 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
     from loadpath.plugin.job import JobRequest, run_job
 
     binary = "gcode_base64" in req
-    name = Path(str(req.get("name") or ("part.bgcode" if binary else "part.gcode"))).name
-    inp = work / name
+    # 'name' is a display name, checked by check_request; the file in the job folder has a fixed name
+    # (keeping the name's suffix only when it is a G-code suffix)
+    suffix = Path(str(req.get("name") or "")).suffix.lower()
+    inp = work / ("part" + (suffix if suffix in (".gcode", ".bgcode", ".gco", ".g") else
+                            ".bgcode" if binary else ".gcode"))
     if binary:
         try:
             inp.write_bytes(base64.b64decode(req["gcode_base64"], validate=True))
@@ -165,7 +285,11 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
 
 def child(conn: Any, req: Mapping[str, Any], work: str, fea_dir: str, fea_entries: int, cache: str) -> None:
     """Run :func:`handle_run` in a child process; send ``("ok", answer)`` or ``("error", code, msg)``."""
+    from loadpath.procs import worker_init
+
+    worker_init()  # dies with the service (its forkserver), ignores the terminal's Ctrl-C
     confine(Path(cache))
+    redirect_system_prefs(Path(fea_dir).parent)  # the service's cache folder: fea/, jobs/, tmp/, home/
     from loadpath.errors import LoadpathError
 
     try:

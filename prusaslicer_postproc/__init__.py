@@ -98,8 +98,10 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
         return int(exc.code or 0)
 
     from loadpath.errors import LoadpathError
-    from loadpath.plugin import settings
+    from loadpath.plugin import lifecycle, settings
     from loadpath.plugin.job import JobRequest, run_job
+
+    written: list = []
 
     try:
         request = JobRequest(
@@ -112,11 +114,20 @@ def main(argv: Sequence[str] | None = None, env: dict[str, str] | None = None) -
             slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None,
             force=args.force,
         )
-        result = run_job(request)
+        with lifecycle.terminate_as_interrupt(), lifecycle.record_writes(written):
+            result = run_job(request)
     except LoadpathError as exc:
         return _fail(str(exc))  # run_job says what became of the file
-    except KeyboardInterrupt:
-        return _fail("interrupted; the G-code was left unchanged", 130)
+    except KeyboardInterrupt as exc:  # SIGINT or SIGTERM (lifecycle.Interrupted)
+        how = getattr(exc, "signame", "interrupted")
+        return _fail(f"{how}: stopped; " + ("the G-code was left unchanged" if not written
+                                            else lifecycle.what_was_written(written)),
+                     getattr(exc, "status", 130))
+    except Exception as exc:  # a bug or a resource: one line, the export's file as it was written
+        if os.environ.get("LOADPATH_DEBUG", "") not in ("", "0"):
+            raise
+        return _fail(f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())[:200]}); the G-code "
+                     "was left unchanged; please report this with the G-code and load case")
     for warning in result.warnings:
         sys.stderr.write(f"{PROG}: warning: {' '.join(warning.split())}\n")
     if result.verdict is not None:  # PrusaSlicer shows stderr only on failure: the log has it too

@@ -14,7 +14,7 @@ cd "$(dirname "$0")/.."
 
 APT_PACKAGES="prusa-slicer cura-engine cura calculix-ccx chromium chromium-driver python3-venv python3-pip \
 libglu1-mesa libgl1 libxrender1 libxcursor1 libxfixes3 libxext6 libxft2 libfontconfig1 \
-libxinerama1 libx11-6 libgomp1 libopengl0 libglx0"
+libxinerama1 libx11-6 libgomp1 libopengl0 libglx0 strace"  # strace: the service writes-nothing-outside test
 
 need_apt() {
   for exe in prusa-slicer CuraEngine ccx chromium chromedriver; do

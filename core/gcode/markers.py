@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from loadpath._typing import Ints
+from loadpath.errors import GCodeParseError
 from loadpath.gcode.config import parse_config_lines, parse_cura_settings
 from loadpath.gcode.lines import LineIndex
 from loadpath.gcode.marker_table import match_markers, merge_into
@@ -274,8 +275,13 @@ def _python_pass(data: bytes, starts: Ints, ends: Ints, lines: Ints, mk: Markers
         elif raw.startswith(b";LAYER:"):
             m = _RE_CURA_LAYER.match(raw)
             if m:
+                number = int(m.group(1))
+                if abs(number) >= 2**31:
+                    raise GCodeParseError(
+                        f"layer number {m.group(1)[:20].decode()}... is far beyond any print's layers; fix or "
+                        "remove the line, or export the G-code from the slicer again", line_no=i + 1)
                 mk.layer_lines["cura"].append(i)
-                mk.cura_layer_numbers.append(int(m.group(1)))
+                mk.cura_layer_numbers.append(number)
                 mk.barrier_lines.append(i)
                 header_done = True
         elif raw.startswith(b";MESH:"):

@@ -42,6 +42,11 @@ _TOP_KEYS = ("version", "object", "frame", "material", "supports", "loads", "too
 _MATERIAL_KEYS = ("youngs_modulus", "poissons_ratio", "printed")
 _SUPPORT_KEYS = ("name", "where", "fix")
 _LOAD_KEYS = ("name", "where", "force", "pressure")
+MAX_FORCE_N = 1.0e8
+"""Largest force component accepted, N (about 10,000 t: every printed part fails far below; larger
+numbers, up to 1e308, overflow the FEA and read as an unsupported part)."""
+MAX_PRESSURE_MPA = 1.0e6
+"""Largest pressure accepted, MPa."""
 
 _EXAMPLE_SUPPORT = '[[supports]] where = { side = "x_min", within = 5.0 } fix = ["x", "y", "z"]'
 _EXAMPLE_LOAD = '[[loads]] where = { side = "x_max", within = 5.0 } force = [1000.0, 0.0, 0.0]'
@@ -292,12 +297,19 @@ def _load(c: _Ctx, t: Mapping[str, Any], i: int) -> Load:
             raise c.fail(
                 f"{label}.force = {list(force)} is zero; give the total force in N, e.g. [1000.0, 0.0, 0.0]"
             )
+        if max(abs(f) for f in force) > MAX_FORCE_N:
+            raise c.fail(
+                f"{label}.force = {list(force)} N is beyond what a printed part can carry (at most "
+                f"{MAX_FORCE_N:g} N per component); give the total force in N, e.g. [1000.0, 0.0, 0.0]")
         return Load(name=name, where=sel, force=(force[0], force[1], force[2]))
     p = c.number(t["pressure"], f"{label}.pressure", "MPa")
     if p == 0.0:
         raise c.fail(
             f"{label}.pressure = 0 is zero; give a non-zero pressure in MPa (positive pushes on the part)"
         )
+    if abs(p) > MAX_PRESSURE_MPA:
+        raise c.fail(f"{label}.pressure = {p!r} MPa is beyond what a printed part can carry (at most "
+                     f"{MAX_PRESSURE_MPA:g} MPa); give the pressure in MPa")
     return Load(name=name, where=sel, pressure=p)
 
 

@@ -460,7 +460,9 @@ def _via_service(chunks, loadcase, options, cura_settings, timeout, report_root,
         {
             "gcode": text,
             "loadcase": case_text,
-            "settings": options,
+            # the service types settings strictly (GET /v1/schema): a list of kinds is a JSON list
+            "settings": {k: [p.strip() for p in v.split(",") if p.strip()] if k == "replace" and
+                         isinstance(v, str) else v for k, v in options.items()},
             "slicer_settings": cura_settings or {},
             "report": bool(report_root),
         }

@@ -79,8 +79,16 @@ def run(args: argparse.Namespace) -> int:
     print(f"loadpath serve: listening on {service.url} (cache {config.cache_dir})", flush=True)
     try:
         service.serve_forever()
-    except KeyboardInterrupt:
-        print("loadpath serve: stopped", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        ended = service.close_jobs()
+        how = getattr(exc, "signame", "interrupted")
+        print(f"loadpath serve: {how}: stopped; " + (
+            f"{ended} running job(s) ended, their G-code not returned and their folders removed"
+            if ended else "no job was running"), file=sys.stderr, flush=True)
+        status = getattr(exc, "status", 130)
+    else:
+        status = 0
     finally:
         service.httpd.server_close()
-    return 0
+        service.close_jobs()
+    return status

@@ -131,3 +131,13 @@ def test_no_feature_markers_is_named(part):
     assert r.returncode == 1
     err = _one_line(r)
     assert "no feature markers (';TYPE:'" in err and "no object to apply" not in err
+
+
+def test_absurd_force_is_named_not_blamed_on_the_supports(part, tmp_path):
+    g, case = part
+    big = tmp_path / "big.toml"
+    big.write_text(case.read_text().replace("force = [1000.0, 0.0, 0.0]", "force = [1e308, -1e308, 0.0]"))
+    r = _cli("run", g, "--loadcase", big)
+    assert r.returncode == 1
+    err = _one_line(r)
+    assert "loads[0] ('pull').force" in err and "beyond what a printed part can carry" in err and "held" not in err

@@ -165,3 +165,49 @@ def test_sigterm_in_the_write_window_removes_the_temp_file(job, monkeypatch):
     with pytest.raises(Interrupted):
         job_mod.write_atomic(folder / "out.gcode", b"G1 X1\n")
     assert sorted(p.name for p in folder.iterdir()) == ["case.toml", "part.gcode"]
+
+
+def test_batch_sigterm_stops_its_workers_and_says_what_was_written(tmp_path, sliced):
+    """``batch`` of three files, two at once: SIGTERM once its worker processes run.  Before: the
+    forkserver, resource tracker and workers stayed, and Ctrl-C said "no file was written" after
+    writing two."""
+    src = sliced("prusa", "ohs", "mixed")
+    files = []
+    for i in range(3):
+        f = tmp_path / f"p{i}.gcode"
+        shutil.copyfile(src, f)
+        files.append(f)
+    digests = {f: hashlib.sha256(f.read_bytes()).hexdigest() for f in files}
+    case = tmp_path / "case.toml"
+    case.write_text(GRIP_PULL, encoding="utf-8")
+    out = tmp_path / "out"
+    env = {**os.environ}
+    env.pop("LOADPATH_DEBUG", None)
+    p = subprocess.Popen([*LOADPATH, "batch", *map(str, files), "--loadcase", str(case), "--out", str(out),
+                          "--jobs", "2", "--no-metrics", "--replace", "solid,sparse"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, env=env)
+    try:
+        end = time.monotonic() + 240
+        while time.monotonic() < end and p.poll() is None:  # forkserver workers: grandchildren
+            if any(_children(k) for k in _children(p.pid)):
+                break
+            time.sleep(0.1)
+        time.sleep(2.0)
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=90)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    err = err.decode().strip().splitlines()
+    assert p.returncode == 143, err
+    assert "Traceback" not in "\n".join(err)
+    last = err[-1]
+    assert last.startswith("loadpath: terminated (SIGTERM): stopped; ")
+    written = sorted(q.name for q in out.iterdir()) if out.exists() else []
+    assert not [n for n in written if n.startswith(".")]  # no temp file
+    if written:
+        assert all(str(out / n) in last for n in written)
+    else:
+        assert last.endswith("no file was written")
+    assert _wait_gone(p.pid) == []
+    assert all(hashlib.sha256(f.read_bytes()).hexdigest() == d for f, d in digests.items())
