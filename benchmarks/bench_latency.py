@@ -54,7 +54,8 @@ median of 3 (the 1000-layer file: 1 run)::
     gusset-100                  7.33    78.85  10.8     37.91   5.2      296    3.93
     specimen-1000              74.91  1251.44  16.7    358.27   4.8     1321    2.78
 
-Where a repeated run still goes (100-layer specimen, in process, from the cache, load 19):
+Where a repeated run still goes (100-layer specimen, in process, from the cache, load 19, before
+the 15 % / 40 % bead runs halved its output lines):
 parse 2.1 s, geometry 12.3 s, loadcase 4.9 s, fea 0.9 s, paths 0.6 s, splice 110 s, check
 9.5 s: the splice (Python, per vertex and per path) is what is left to make fast.
 """
