@@ -31,6 +31,33 @@ the input's size and the output's against it (``out/in``, first run).  Targets o
 printed under the table with the measured figure and met/missed.  ``--quick``: one repeat, the
 example, the 100-layer specimen and the default gyroid gusset only.  ``OUT_DIR/bench_latency.json``
 keeps the rows when a folder is given.
+
+Measured 2026-12-01 on the 2-core development machine shared with about eight other jobs (load
+average 7 for BEFORE, 17-24 for AFTER: every time is several times its idle value, and the
+slicer's times vary 2-5x between runs; compare the ratios, and those loosely).  BEFORE = commit
+d5ef910 (no cache, bead runs 5 % / 10 %), AFTER = 6b3a5a9 (cache, lazy imports, 15 % / 40 %),
+median of 3 (the 1000-layer file: 1 run)::
+
+    part                     slice s  first s     x  repeat s     x  peak MB  out/in
+    BEFORE
+    example                     1.09    17.23  15.8     17.93  16.4      259    4.00
+    specimen-100                3.34    62.77  18.8    146.00  43.6      412    4.89
+    gusset-gyroid30            11.44    83.32   7.3     50.05   4.4      309    1.13
+    gusset-gyroid30-sparse      5.95   120.70  20.3    110.70  18.6      288    0.56
+    gusset-100                  7.32   121.83  16.6    102.22  14.0      327    6.86
+    specimen-1000              (loadpath run killed after 900 s)
+    AFTER
+    example                     5.31    98.56  18.6     28.87   5.4      251    2.33
+    specimen-100               14.24   192.55  13.5     78.41   5.5      359    2.74
+    gusset-gyroid30             5.19    57.66  11.1     51.40   9.9      305    1.06
+    gusset-gyroid30-sparse     13.74   198.37  14.4     59.23   4.3      278    0.39
+    gusset-100                  7.33    78.85  10.8     37.91   5.2      296    3.93
+    specimen-1000              74.91  1251.44  16.7    358.27   4.8     1321    2.78
+
+Where a repeated run still goes (100-layer specimen, in process, from the cache, load 19, before
+the 15 % / 40 % bead runs halved its output lines):
+parse 2.1 s, geometry 12.3 s, loadcase 4.9 s, fea 0.9 s, paths 0.6 s, splice 110 s, check
+9.5 s: the splice (Python, per vertex and per path) is what is left to make fast.
 """
 
 from __future__ import annotations
