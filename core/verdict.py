@@ -4,8 +4,9 @@
 command line prints on stderr, the G-code carries as a ``; loadpath: ...`` header comment, the log
 file, the Cura plugin's message, the service's answer and the batch table show.  Everything here is
 arithmetic on what the run already has (splice reports, the print-time estimate of the file), except
-the predicted stiffness change (:func:`loadpath.stiffness.change.predicted_change`: two solves per
-body on the run's own mesh), which a caller may leave out.
+the predicted stiffness and failure-load change (:func:`loadpath.stiffness.change.predicted_change`:
+two solves per body on the run's own mesh, first-ply failure on the same solves), which a caller may
+leave out.
 """
 
 from __future__ import annotations
@@ -48,9 +49,11 @@ class Verdict:
     stiffness_same_mass : float or None
         The same per gram of material.
     failure_load : float or None
-        Predicted failure-load change (None: not modelled).
+        Predicted failure-load change, absolute (None: not modelled).
+    failure_load_same_mass : float or None
+        The same per gram of material.
     model : str
-        What the prediction covers (``"stiffness only"``).
+        What the prediction covers (``"stiffness only"``, or the failure model and material).
     time_change_s : float
         Print-time change (the splicer's kinematic estimate), s.
     time_change_pct : float or None
@@ -70,6 +73,7 @@ class Verdict:
     stiffness: float | None = None
     stiffness_same_mass: float | None = None
     failure_load: float | None = None
+    failure_load_same_mass: float | None = None
     model: str = "stiffness only"
     time_change_s: float = 0.0
     time_change_pct: float | None = None
@@ -86,15 +90,18 @@ class Verdict:
             return head + f"nothing replaced ({self.note or 'no infill to replace'}); the G-code is the slicer's; {w}"
         parts = [f"replaced {', '.join(self.kinds)} infill on {_layers(self.layers)} with {self.engine}"]
         if self.stiffness is not None and math.isfinite(self.stiffness):
-            fl = (
-                f", failure load {_pct(self.failure_load)}"
-                if self.failure_load is not None
-                else ""
-            )
-            parts.append(
+            text = (
                 f"predicted stiffness {_pct(self.stiffness)} absolute, {_pct(self.stiffness_same_mass)} at the "
-                f"same mass{fl} ({self.model})"
+                f"same mass"
             )
+            if self.failure_load is not None:
+                text += (
+                    f", failure load {_pct(self.failure_load)} absolute, {_pct(self.failure_load_same_mass)} at the "
+                    f"same mass ({self.model})"
+                )
+            else:
+                text += f" ({self.model})"
+            parts.append(text)
         else:
             parts.append(f"stiffness not predicted ({self.note or 'no model result'})")
         pct = f" ({self.time_change_pct:+.1f} %)" if self.time_change_pct is not None else ""
@@ -193,6 +200,7 @@ def build(
         None if stiffness is None else float(stiffness.absolute),
         None if stiffness is None else float(stiffness.same_mass),
         None if stiffness is None else stiffness.failure_load,
+        None if stiffness is None else stiffness.failure_load_same_mass,
         "stiffness only" if stiffness is None else stiffness.label,
         dt,
         pct,

@@ -270,7 +270,9 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
 
 
 def _prediction(pres, s, warnings: list[str]):
-    """The predicted stiffness change and, when there is none, why (a warning when the model failed).
+    """The predicted stiffness and failure-load change and, when there is none, why (a warning when the model failed).
+
+    The failure load is first-ply failure with the file's material card, on the same two solves.
 
     Only 2D (plate) analyses are predicted on every run: two solves on the run's own mesh, 0.4 s on
     the 12-layer shelf bracket.  A 3D body's prediction samples every layer into tetrahedra: on a
@@ -280,6 +282,7 @@ def _prediction(pres, s, warnings: list[str]):
     import math
 
     from loadpath.errors import LoadpathError as _Err
+    from loadpath.stiffness.cards import card_for
     from loadpath.stiffness.change import new_deposits, predicted_change
 
     if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
@@ -289,7 +292,13 @@ def _prediction(pres, s, warnings: list[str]):
     codes = {o.name: o.code for o in pres.geometry.objects}
     try:
         return predicted_change(
-            pres.analyses, pres.program, codes, set(volumes), new_deposits(pres.jobs, volumes), s.filament_diameter
+            pres.analyses,
+            pres.program,
+            codes,
+            set(volumes),
+            new_deposits(pres.jobs, volumes),
+            s.filament_diameter,
+            card=card_for(pres.program.config)[0],
         ), ""
     except (_Err, ValueError, FloatingPointError, np_error()) as exc:
         warnings.append(f"no stiffness prediction ({type(exc).__name__}: {' '.join(str(exc).split())})")

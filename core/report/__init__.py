@@ -234,9 +234,16 @@ def _per_part(verdict: Any) -> str:
 
     rows = [
         ("layers replaced", f"{len(verdict.layers)} ({', '.join(verdict.kinds)})"),
-        (f"predicted stiffness, absolute ({verdict.model})", pct(verdict.stiffness)),
-        (f"predicted stiffness, same mass ({verdict.model})", pct(verdict.stiffness_same_mass)),
-        ("predicted failure load", pct(verdict.failure_load) if verdict.failure_load is not None else "not modelled"),
+        ("predicted stiffness, absolute", pct(verdict.stiffness)),
+        ("predicted stiffness, same mass", pct(verdict.stiffness_same_mass)),
+        (
+            f"predicted failure load, absolute ({verdict.model})",
+            pct(verdict.failure_load) if verdict.failure_load is not None else "not modelled",
+        ),
+        (
+            f"predicted failure load, same mass ({verdict.model})",
+            pct(verdict.failure_load_same_mass) if verdict.failure_load is not None else "not modelled",
+        ),
         (
             "print time (kinematic estimate)",
             f"{verdict.time_change_s / 60:+.1f} min"

@@ -2,10 +2,10 @@
 
 :func:`predicted_change` compares the slicer's part with loadpath's under the run's own load case,
 with the stiffness model of :func:`loadpath.stiffness.predict` on the run's own FEA mesh (no new
-mesh), so it costs two material samplings and two solves per body.  Until a failure-load model
-exists it predicts **stiffness only** and says so in :attr:`StiffnessChange.label`; a model of both
-stiffness and failure load replaces this one function (same inputs, a result with
-``failure_load`` filled in).
+mesh), so it costs two material samplings and two solves per body.  Given the file's material card
+(:func:`loadpath.stiffness.card_for`) it also predicts the failure-load change: first-ply failure
+(:func:`loadpath.stiffness.strength.first_failure`) on those same two solves, no further solve.
+Without a card it predicts **stiffness only** and says so in :attr:`StiffnessChange.label`.
 """
 
 from __future__ import annotations
@@ -16,8 +16,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from loadpath.stiffness.cards import MaterialCard
 from loadpath.stiffness.deposits import Deposits, from_program, from_toolpaths
 from loadpath.stiffness.predict import StiffnessOptions, predict
+from loadpath.stiffness.strength import first_failure
 
 __all__ = ["StiffnessChange", "BodyChange", "predicted_change", "new_deposits", "VERDICT_RESOLUTION"]
 
@@ -36,6 +38,8 @@ class BodyChange:
     name : str
     compliance_before, compliance_after : float, N mm
     mass_before, mass_after : float, g
+    failure_before, failure_after : float or None, N
+        First-ply failure load (None: no card given).
     energy_ratio : (m,) float
         Strain energy density after over before, per element of :attr:`mesh` (below 1: the element
         works less for the same load, i.e. the part is stiffer there); NaN where nothing is strained.
@@ -47,6 +51,8 @@ class BodyChange:
     compliance_after: float
     mass_before: float
     mass_after: float
+    failure_before: float | None = field(default=None, kw_only=True)
+    failure_after: float | None = field(default=None, kw_only=True)
     energy_ratio: np.ndarray = field(repr=False)
     mesh: object = field(repr=False)
 
@@ -62,9 +68,12 @@ class StiffnessChange:
     same_mass : float
         ``(c m)_before / (c m)_after - 1``: the gain per gram of material.
     failure_load : float or None
-        The change of the failure load (None: not modelled).
+        The change of the failure load, ``F_after / F_before - 1`` with ``F`` the load at which the
+        first body fails (its first ply), the bodies' load cases scaled together (None: no card).
+    failure_load_same_mass : float or None
+        ``(F / m)_after / (F / m)_before - 1``.
     label : str
-        What the figures cover (``"stiffness only"`` until a failure-load model exists).
+        What the figures cover (``"stiffness only"`` without a card, else the card's material).
     bodies : tuple of BodyChange
     seconds : float
     """
@@ -72,6 +81,7 @@ class StiffnessChange:
     absolute: float
     same_mass: float
     failure_load: float | None = None
+    failure_load_same_mass: float | None = None
     label: str = "stiffness only"
     bodies: tuple[BodyChange, ...] = ()
     seconds: float = 0.0
@@ -106,6 +116,7 @@ def predicted_change(
     added: Mapping[str, Sequence[Deposits]],
     filament_diameter: float,
     options: StiffnessOptions | None = None,
+    card: MaterialCard | None = None,
 ) -> StiffnessChange:
     """Predict the part's stiffness before and after a run.
 
@@ -122,6 +133,11 @@ def predicted_change(
     added : mapping of str -> sequence of Deposits
         The new beads per object (:func:`new_deposits`).
     filament_diameter : float, mm
+    options : StiffnessOptions, optional
+        Default: the bead model at :data:`VERDICT_RESOLUTION`.
+    card : MaterialCard, optional
+        The file's material (:func:`loadpath.stiffness.card_for`): its elastic ply replaces the
+        options' material and the failure load is predicted; None: stiffness only.
 
     Returns
     -------
@@ -134,6 +150,8 @@ def predicted_change(
     """
     t0 = time.perf_counter()
     options = StiffnessOptions(resolution=VERDICT_RESOLUTION) if options is None else options
+    if card is not None:
+        options = dataclasses.replace(options, material=card.elastic)
     bodies = []
     for name, an in analyses.items():
         code = object_codes[name]
@@ -144,11 +162,30 @@ def predicted_change(
         p1 = predict(an.resolved, after, options, an.mesh)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(p0.energy_density > 0, p1.energy_density / p0.energy_density, np.nan)
-        bodies.append(BodyChange(name, p0.compliance, p1.compliance, p0.mass, p1.mass, ratio, an.mesh))
+        f0 = f1 = None
+        if card is not None:  # first-ply failure on the same two solves
+            f0, f1 = (first_failure(p, card).load_factor for p in (p0, p1))
+        bodies.append(
+            BodyChange(
+                name, p0.compliance, p1.compliance, p0.mass, p1.mass, ratio, an.mesh, failure_before=f0, failure_after=f1
+            )
+        )
     c0 = sum(b.compliance_before for b in bodies)
     c1 = sum(b.compliance_after for b in bodies)
     m0 = sum(b.mass_before for b in bodies)
     m1 = sum(b.mass_after for b in bodies)
     absolute = c0 / c1 - 1.0 if c1 > 0 else float("nan")
     same_mass = (c0 * m0) / (c1 * m1) - 1.0 if c1 > 0 and m1 > 0 else float("nan")
-    return StiffnessChange(absolute, same_mass, bodies=tuple(bodies), seconds=time.perf_counter() - t0)
+    fl = fl_mass = None
+    label = "stiffness only"
+    if card is not None:
+        # the part fails when its first body does: the smallest load factor, before and after
+        lam0 = min(b.failure_before for b in bodies)
+        lam1 = min(b.failure_after for b in bodies)
+        ok = np.isfinite(lam0) and np.isfinite(lam1) and lam0 > 0
+        fl = lam1 / lam0 - 1.0 if ok else float("nan")
+        fl_mass = (lam1 * m0) / (lam0 * m1) - 1.0 if ok and m1 > 0 else float("nan")
+        label = f"first-ply failure, {card.key.upper()} card"
+    return StiffnessChange(
+        absolute, same_mass, fl, fl_mass, label, bodies=tuple(bodies), seconds=time.perf_counter() - t0
+    )

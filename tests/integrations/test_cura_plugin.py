@@ -192,7 +192,7 @@ def test_extensions_menu_processes_on_save_and_shows_the_report(sliced, tmp_path
     new = res["chunks"]
     assert res["saved_message"].startswith("Stress-aligned infill written"), res["saved_message"]
     verdict = res["saved_message"].splitlines()[1]  # the run's verdict, as loadpath printed it
-    assert verdict.startswith("loadpath ") and "replaced" in verdict and "(stiffness only)" in verdict
+    assert verdict.startswith("loadpath ") and "replaced" in verdict and ", failure load " in verdict
     assert len(new) == len(chunks) and new != chunks and new[0].endswith(PROCESSED)
     assert res["again"] == new  # a list already processed is left alone
     assert "infill replaced" in res["report_message"] and "beta" in res["report_message"], res[

@@ -118,7 +118,8 @@ def test_service_processes_and_caches_the_fea(server, sliced, tmp_path):
     assert 0.9 <= ans["summary"]["beta"] <= 1.0 and 0.9 <= ans["summary"]["coverage"] <= 1.0
     assert ans["metrics"]["layers"] and ans["settings"]["engine"] == "streamlines"
     v = ans["verdict"]  # the run's verdict: a field, and the line every front end shows
-    assert v["changed"] and v["engine"] == "streamlines" and v["model"] == "stiffness only"
+    assert v["changed"] and v["engine"] == "streamlines" and v["model"].startswith("first-ply failure")
+    assert v["failure_load"] is not None and v["failure_load_same_mass"] is not None
     assert v["line"].startswith("loadpath ") and ans["gcode"].splitlines()[1] == "; loadpath: " + v["line"]
     assert_spliced(first, ans["gcode"].encode(), reference(first, case, tmp_path / "ref.gcode"))
 
