@@ -219,7 +219,9 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
         with warnings.catch_warnings(record=True) as caught:
             # recorded, whatever filter the front end set (the CLI ignores library warnings so that
             # none reaches stderr as Python prints them): the run turns each into a line of its own
-            warnings.simplefilter("always")
+            warnings.simplefilter("default")
+            for quiet in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
+                warnings.simplefilter("ignore", quiet)  # Python's own defaults: not the user's concern
             result = _run(request, inp, out, result, progress, caught)
         result.warnings.extend(own_warnings(caught))
         if result.verdict is not None:
