@@ -101,7 +101,12 @@ def _slices(part: str) -> list[tuple[str, str, dict, str]]:
     """(slicer, density label, settings, replaced kind) of a part."""
     if part == "gyroid":
         return [
-            ("prusa", "30% gyroid", {**slicing.PRUSA_MIXED, "fill_density": "30%", "fill_pattern": "gyroid"}, "sparse"),
+            (
+                "prusa",
+                "30% gyroid",
+                {**slicing.PRUSA_MIXED, "fill_density": "30%", "fill_pattern": "gyroid"},
+                "sparse",
+            ),
             (
                 "cura",
                 "30% gyroid",
@@ -114,7 +119,12 @@ def _slices(part: str) -> list[tuple[str, str, dict, str]]:
         ("prusa", "100%", dict(slicing.PRUSA_SOLID), "solid"),
         ("prusa", "40%", {**slicing.PRUSA_MIXED, "fill_density": "40%"}, "sparse"),
         ("cura", "100%", dict(slicing.CURA_SOLID), "solid"),
-        ("cura", "40%", {**slicing.CURA_MIXED, "infill_sparse_density": "40", "infill_line_distance": "2.0"}, "sparse"),
+        (
+            "cura",
+            "40%",
+            {**slicing.CURA_MIXED, "infill_sparse_density": "40", "infill_line_distance": "2.0"},
+            "sparse",
+        ),
     ]
 
 
@@ -125,7 +135,9 @@ def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, princip
 
     t0 = time.perf_counter()
     res = run_job(
-        JobRequest(gcode, case, output=out, cli={"engine": engine, "replace": (kind,), "principal": principal})
+        JobRequest(
+            gcode, case, output=out, cli={"engine": engine, "replace": (kind,), "principal": principal}
+        )
     )
     secs = time.perf_counter() - t0
     pr = res.pipeline
@@ -186,7 +198,9 @@ def main(argv: list[str] | None = None) -> int:
                 r.update(part=name, tool=slicer, density=label, engine=engine)
                 rows.append(r)
                 print(_row(r), flush=True)
-    prusa = {(r["part"], r["density"], r["engine"]): r for r in rows if r["tool"] == "prusa" and "slicer" in r}
+    prusa = {
+        (r["part"], r["density"], r["engine"]): r for r in rows if r["tool"] == "prusa" and "slicer" in r
+    }
     print()
     print(_header())
     for r in rows:
@@ -201,7 +215,8 @@ def main(argv: list[str] | None = None) -> int:
 def _header() -> str:
     return (
         f"{'part':8} {'slicer':6} {'dens':10} {'engine':11} {'paths s->l':>13} {'ratio':>6} "
-        f"{'retr s->l':>13} {'ratio':>6} {'travel mm s->l':>17} {'ratio':>6} {'time s s->l':>15} {'ratio':>6} "
+        f"{'retr s->l':>13} {'ratio':>6} {'travel mm s->l':>17} {'ratio':>6} "
+        f"{'time s s->l':>15} {'ratio':>6} "
         f"{'fil':>5} {'vsPrusa':>7} chk"
     )
 

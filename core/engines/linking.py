@@ -246,7 +246,9 @@ def link_paths(
     # arc length of every sample from its path's head, and the path lengths: a link may come near
     # its own two paths only within ``own`` of the ends it joins (a link that turns back runs
     # alongside its own path otherwise)
-    s_arc = np.concatenate([np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(x, axis=0).T))]) for x in samp])
+    s_arc = np.concatenate(
+        [np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(x, axis=0).T))]) for x in samp]
+    )
     p_len = np.array([float(np.sum(np.hypot(*np.diff(x, axis=0).T))) for x in samp])
     own = 2.0 * pitch
 
@@ -356,7 +358,8 @@ def link_paths(
                 ok = (np.sum(e_dir[fa] * fu, axis=1) >= cos_t) & (np.sum(-e_dir[fb] * fu, axis=1) >= cos_t)
                 fa, fb, fg = fa[ok], fb[ok], fg[ok]
                 if len(fa):
-                    inside = shapely.covers(grown, shapely.linestrings(np.stack([e_pt[fa], e_pt[fb]], axis=1)))
+                    segs = shapely.linestrings(np.stack([e_pt[fa], e_pt[fb]], axis=1))
+                    inside = shapely.covers(grown, segs)
                     fa, fb, fg = fa[inside], fb[inside], fg[inside]
                     for k in np.argsort(fg, kind="stable"):
                         accept(int(fa[k]), int(fb[k]), True, False)
@@ -400,7 +403,9 @@ def _walk(
                 break
             other, lp = link[leave]
             if thin != 1.0:  # the link's own vertices next to its ends carry its narrower pitch
-                lp = np.vstack([lp[:1], lp[0] + 0.02 * (lp[1] - lp[0]), lp[1:-1], lp[-1] + 0.02 * (lp[-2] - lp[-1]), lp[-1:]])
+                near_a = lp[0] + 0.02 * (lp[1] - lp[0])
+                near_b = lp[-1] + 0.02 * (lp[-2] - lp[-1])
+                lp = np.vstack([lp[:1], near_a, lp[1:-1], near_b, lp[-1:]])
             inner = lp[1:-1]
             if len(inner):
                 seg = np.hypot(*np.diff(lp, axis=0).T)
@@ -454,7 +459,9 @@ def drop_fragments(paths: Sequence[Path], min_length: float, share: float) -> tu
     short = np.flatnonzero(length < min_length)
     if not len(short):
         return ps, 0
-    lines = shapely.linestrings(np.concatenate([p.points for p in ps]), indices=np.repeat(np.arange(len(ps)), [len(p.points) for p in ps]))
+    lines = shapely.linestrings(
+        np.concatenate([p.points for p in ps]), indices=np.repeat(np.arange(len(ps)), [len(p.points) for p in ps])
+    )
     radius = np.array([0.5 * float(np.median(p.pitch)) for p in ps])
     beads = shapely.buffer(lines, radius, quad_segs=4)
     tree = shapely.STRtree(beads)

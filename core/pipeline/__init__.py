@@ -549,7 +549,8 @@ def _fills(
                 if by_engine:
                     shifted_raw = _simplified(shifted_paths[ji].paths, plan)
                 else:
-                    shifted_raw = _simplified(stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch), plan)
+                    moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
+                    shifted_raw = _simplified(moved, plan)
                 shifted = linked(shifted_raw, u0)
             paths = shifted if use_shift else base
             if not u.fill_region.equals(job.unit.fill_region):

@@ -355,7 +355,8 @@ def _order_by_island(
     pos = np.asarray(start, dtype=float)
     while groups:
         near = {
-            k: min(min(np.hypot(*(p[0] - pos)), np.hypot(*(p[-1] - pos))) for p, _ in g) for k, g in groups.items()
+            k: min(min(np.hypot(*(p[0] - pos)), np.hypot(*(p[-1] - pos))) for p, _ in g)
+            for k, g in groups.items()
         }
         k = min(near, key=near.__getitem__)
         out += order_paths(groups.pop(k), pos)

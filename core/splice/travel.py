@@ -141,7 +141,8 @@ class TravelState:
     def rings(self) -> list:
         """The region's boundary rings (for routing), computed on first use."""
         if self._rings is None:
-            self._rings = [] if self.region is None else list(shapely.get_parts(shapely.get_parts(self.region.boundary)))
+            edge = [] if self.region is None else shapely.get_parts(self.region.boundary)
+            self._rings = list(shapely.get_parts(edge)) if len(edge) else []
         return self._rings
 
 
