@@ -4,7 +4,7 @@
   layer field sampled on a grid, decomposed into both principal stresses and directions;
 * G-code: the real pipeline (:func:`loadpath.plugin.job.run_job`) writes the processed file into
   the editor's work folder; the page gets the slicer's and the new infill of one replaced layer of
-  the shown region, and the predicted stiffness of both files (:func:`loadpath.stiffness.compare_files`);
+  the shown region, and the predicted stiffness and first-ply failure load of both files (:func:`loadpath.stiffness.compare_files`);
 * STL (not sliced yet): the path engine on the shown cross-section shrunk by two perimeters.
 
 Failure load: loadpath has no strength model yet, so none is predicted (the answer says so).
@@ -121,8 +121,13 @@ def gcode_preview(
             "slicer_peak_displacement": rows[0].peak_displacement,
             "new_peak_displacement": rows[1].peak_displacement,
         },
-        "failure_load": None,
-        "failure_note": "no failure load: loadpath has no strength model yet (stiffness only)",
+        "failure_load": {
+            "slicer": rows[0].failure_load,
+            "new": rows[1].failure_load,
+            "relative": rows[1].relative_failure_load,
+            "relative_per_mass": rows[1].relative_failure_load_per_mass,
+        },
+        "failure_note": None,
     }
     if shown is None:
         answer["paths_note"] = (
@@ -168,5 +173,5 @@ def stl_preview(rb: ResolvedBody, analysis: Any, lc: LoadCase, z: float) -> dict
         ),
         "stiffness": None,
         "failure_load": None,
-        "failure_note": "no failure load: loadpath has no strength model yet (stiffness only)",
+        "failure_note": "no failure load for an STL: slice it for the real paths and their first-ply failure",
     }

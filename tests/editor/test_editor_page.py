@@ -207,6 +207,8 @@ def test_gcode_click_hole_and_edge_solve_save_run(browser, editor, prusa_bracket
     _solve(browser, 600)
     rel = browser.find_element(By.ID, "relative-stiffness").text
     assert re.match(r"Predicted stiffness \d+\.\d{3}x the slicer's infill", rel), rel
+    fail = browser.find_element(By.ID, "relative-failure-load").text  # the strength model's first-ply failure
+    assert re.match(r"Predicted failure load \(first-ply failure\) \d+ N with the slicer's infill, \d+ N", fail), fail
     assert "layer" in browser.find_element(By.ID, "paths-note").text
     browser.find_element(By.ID, "show-slicer").click()  # the slicer's infill of the same layer beside it
     n_pts = browser.execute_script(

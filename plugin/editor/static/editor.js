@@ -657,6 +657,10 @@ function showResults(r) {
     box.appendChild(t);
     box.appendChild(el("p", { id: "relative-stiffness" }, `Predicted stiffness ${fmt(pv.stiffness.relative_stiffness, 3)}x the slicer's infill (${fmt(pv.stiffness.relative_specific_stiffness, 3)}x per gram).`));
   }
+  if (pv.failure_load) {
+    const f = pv.failure_load;
+    box.appendChild(el("p", { id: "relative-failure-load" }, `Predicted failure load (first-ply failure) ${fmt(f.slicer, 0)} N with the slicer's infill, ${fmt(f.new, 0)} N with loadpath's: ${fmt(f.relative, 3)}x (${fmt(f.relative_per_mass, 3)}x per gram).`));
+  }
   if (pv.failure_note) box.appendChild(el("p", { class: "hint" }, pv.failure_note));
   for (const w of pv.warnings || []) box.appendChild(el("p", { class: "hint" }, "Warning: " + w));
 }
