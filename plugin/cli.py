@@ -80,14 +80,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(command if command in COMMANDS else None)
     args = parser.parse_args(argv)
     debug = os.environ.get("LOADPATH_DEBUG", "") not in ("", "0")
-    if not debug:  # Python and numpy warnings are for developers; users get loadpath's own lines
-        warnings.simplefilter("ignore")
-        if "ignore" not in sys.warnoptions:  # passed on as -Wignore to multiprocessing's helper
-            sys.warnoptions.append("ignore")  # processes (resource tracker, forkserver)
-        # nor "Exception ignored in ..." tracebacks: a Ctrl-C during a fork raises inside an at-fork
-        # hook, where Python drops it (lifecycle remembers the signal and the stages re-raise it)
-        sys.unraisablehook = _drop_unraisable
-    written = []
+    # quiet only for the command's duration: a caller in the same process (tests, a plugin) keeps
+    # its own warning filters and hooks afterwards
+    hook, options = sys.unraisablehook, list(sys.warnoptions)
+    try:
+        with warnings.catch_warnings():
+            if not debug:  # Python and numpy warnings are for developers; users get loadpath's lines
+                warnings.simplefilter("ignore")
+                if "ignore" not in sys.warnoptions:  # passed on as -Wignore to multiprocessing's
+                    sys.warnoptions.append("ignore")  # helper processes (resource tracker, forkserver)
+                # nor "Exception ignored in ..." tracebacks: a Ctrl-C during a fork raises inside an
+                # at-fork hook, where Python drops it (lifecycle remembers the signal; stages re-raise)
+                sys.unraisablehook = _drop_unraisable
+            return _main(args, argv, debug)
+    finally:
+        sys.unraisablehook = hook
+        sys.warnoptions[:] = options
+
+
+def _main(args: argparse.Namespace, argv: Sequence[str] | None, debug: bool) -> int:
+    written: list = []
     with lifecycle.terminate_as_interrupt(), lifecycle.record_writes(written):
         try:
             status = int(args._run(args) or 0)
