@@ -45,6 +45,7 @@ def confine(cache_dir: Path) -> None:
             "XDG_CONFIG_HOME": home + "/.config",
             "XDG_CACHE_HOME": home + "/.cache",
             "XDG_DATA_HOME": home + "/.local/share",
+            "XDG_STATE_HOME": home + "/.local/state",  # the verdict's run log (the answer carries it)
         }
     )
     tempfile.tempdir = str(cache_dir / "tmp")
