@@ -70,7 +70,8 @@ def dogbone_mesh(thickness: float = D638["thickness"]) -> trimesh.Trimesh:
     """ASTM D638 Type I dogbone lying flat along x, bounding box from the origin, mm."""
     L, W, N, G, R = (D638[k] for k in ("length", "width", "narrow", "grip", "radius"))  # noqa: N806
     cx, dy = L / 2, (G - W) / 2
-    dx = float(np.sqrt(R * R - (R - dy) ** 2))  # where the R fillet, tangent to the narrow edge, meets the grip edge
+    # the R fillet, tangent to the narrow edge, meets the grip edge dx along x from the narrow section's end
+    dx = float(np.sqrt(R * R - (R - dy) ** 2))
     xl, xr = cx - N / 2, cx + N / 2
     shape = box(0, 0, L, G)
     for y_edge, y_out, yc in (((G + W) / 2, G, (G + W) / 2 + R), ((G - W) / 2, 0.0, (G - W) / 2 - R)):
@@ -86,7 +87,7 @@ def dogbone_mesh(thickness: float = D638["thickness"]) -> trimesh.Trimesh:
 
 
 def coupon_case(length: float, grip: float, force: float = 500.0) -> str:
-    """Uniaxial tension of a coupon lying along x from 0: one end face held in x (y at its middle), the other pulled."""
+    """Uniaxial tension along x from 0: one end face held in x (y at its middle), the other pulled."""
     return f"""
 version = 1
 frame = "part"
@@ -153,14 +154,19 @@ ORDER = [
 """Naveed 2021 (+-45 > 0/90) and Ramirez-Prieto 2025 (0/0 > 0/90 > +-45): orderings only."""
 
 
-def predict(folder: Path, part: str, specs: list[Spec], mesh_fn, case: str, gauge: tuple[float, float]):  # type: ignore[no-untyped-def]
-    """Slice each spec with PrusaSlicer and predict it; returns ``{label: (row, result)}`` in order."""
+def predict(folder: Path, part: str, specs: list[Spec], mesh_fn, case: str, gauge):  # type: ignore[no-untyped-def]
+    """Slice each spec with PrusaSlicer and predict it; returns ``{label: (row, result)}`` in order.
+
+    ``gauge`` is the part-x range (mm) in which the failure is looked for.
+    """
     stl = folder / f"{part}.stl"
     if not stl.exists():
         slicing.write_stl(mesh_fn(), stl)
     files = {}
     for s in specs:
-        out = folder / f"{part}_{s.label.replace(' ', '_').replace('/', '-').replace('%', 'pc').replace('(', '').replace(')', '')}.gcode"
+        label = s.label.replace("/", "-").replace("%", "pc")
+        stem = "".join(c if c.isalnum() or c in "+-" else "_" for c in label)
+        out = folder / f"{part}_{stem}.gcode"
         if not out.exists():
             slicing.slice_prusa(stl, out, **s.settings)
         files[s.label] = out
@@ -174,10 +180,14 @@ def strength_mpa(result, area: float) -> float:  # type: ignore[no-untyped-def]
 
 
 def table(title: str, specs: list[Spec], got: dict, area: float, ref: str) -> dict[str, tuple[float, float]]:
-    """Print predicted against published, absolute and as a ratio to ``ref``; returns ``{label: (pred ratio, pub ratio)}``."""
+    """Print predicted against published, absolute and as a ratio to ``ref``.
+
+    Returns ``{label: (predicted ratio, published ratio)}``.
+    """
     print(f"\n{title}")
-    print(f"  {'specimen':<18} {'pred. MPa':>9} {'pub. MPa':>9} {'pred/ref':>9} {'pub/ref':>8} {'ratio err':>9}"
-          f" {'E pred MPa':>10}  mode")
+    print(f"  {'specimen':<18} {'pred. MPa':>9} {'pub. MPa':>9} {'pred/ref':>9} {'pub/ref':>8}"
+          f" {'ratio err':>9}"
+          f" {'E/E_ref':>8}  mode")
     pub = {s.label: s.published for s in specs}
     s_ref = strength_mpa(got[ref][1], area)
     out = {}
@@ -188,8 +198,8 @@ def table(title: str, specs: list[Spec], got: dict, area: float, ref: str) -> di
         pp = (pub[s.label] / pub[ref]) if pub[s.label] and pub[ref] else float("nan")
         err = 100 * (rp / pp - 1) if pp == pp else float("nan")
         e_rel = row.relative_stiffness
-        print(f"  {s.label:<18} {st:>9.1f} {pub[s.label] or float('nan'):>9.1f} {rp:>9.3f} {pp:>8.3f} {err:>+8.1f}%"
-              f" {e_rel:>10.3f}  {row.failure_mode}")
+        print(f"  {s.label:<18} {st:>9.1f} {pub[s.label] or float('nan'):>9.1f} {rp:>9.3f} {pp:>8.3f}"
+              f" {err:>+8.1f}% {e_rel:>8.3f}  {row.failure_mode}")
         out[s.label] = (rp, pp)
     return out
 
@@ -197,7 +207,7 @@ def table(title: str, specs: list[Spec], got: dict, area: float, ref: str) -> di
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("out", nargs="?", default=None)
-    ap.add_argument("--quick", action="store_true", help="skip the 80 % patterns (0.1 mm layers, the slowest)")
+    ap.add_argument("--quick", action="store_true", help="skip the 80 % patterns (0.1 mm layers, slowest)")
     args, _ = ap.parse_known_args()
     folder = Path(args.out or tempfile.mkdtemp(prefix="bench_coupons_"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -208,10 +218,11 @@ def main() -> int:
     area = D638["width"] * D638["thickness"]
 
     got = predict(folder, "d638", LETCHER, dogbone_mesh, case, gauge)
-    table("A. Letcher & Waytashek 2014 (100 %, raster angle; 'E' is the modulus over the 0-degree file's)",
+    table("A. Letcher & Waytashek 2014 (100 %, raster angle; E/E_ref: modulus over the 0-degree file's)",
           LETCHER, got, area, "0")
     got = predict(folder, "d638", ORDER, dogbone_mesh, case, gauge)
-    table("C. orderings: Naveed 2021 (+-45 > 0/90), Ramirez-Prieto 2025 (0/0 > 0/90 > +-45)", ORDER, got, area, "0/0")
+    table("C. orderings: Naveed 2021 (+-45 > 0/90), Ramirez-Prieto 2025 (0/0 > 0/90 > +-45)",
+          ORDER, got, area, "0/0")
     if not args.quick:
         got = predict(folder, "d638", ETJ, dogbone_mesh, case, gauge)
         table("B. ETJ 175651 (80 %, 0.1 mm layers, patterns)", ETJ, got, area, "concentric 80 %")
