@@ -74,7 +74,7 @@ def bar100(folder):
     "of the card is 1.019x softer and 1.128x weaker (Tsai-Wu; Tsai-Hill 1.097x) than 0 degrees, and a 25 mm "
     "bar gives 1.023x / 1.122x, so the walls are not what holds it down. Published coupons put it lower "
     "still: Letcher & Waytashek 2014 measured +-45 (64 MPa) stronger than 0 (58 MPa), see "
-    "test_coupon_raster_orderings and benchmarks/bench_coupons.py",
+    "test_coupon_raster_orderings_against_published and benchmarks/bench_coupons.py",
 )
 def test_tension_bar_at_100_percent_aligned_against_cross_hatching(bar100):
     assert trimesh  # the bar STL is built by bench.part_stl with trimesh
