@@ -34,6 +34,16 @@ published UTS is the maximum load over the same area).  Where the source does no
 
 Ratios are the claim (strength at angle / strength at 0, concentric / triangles), because each
 paper's own PLA differs from the card's; the absolute values are printed beside them.
+
+Measured at commit 514724c (predicted against published, MPa): A. 0: 49.0 / 58 (-15 %); +-45: 44.1 / 64
+(ratio to 0: 0.899 against 1.103, -18.5 %); all +45: 43.7; 90: 30.2 / 54 (0.616 against 0.931, -34 %).
+B. concentric 26.7 / 32.2, triangles 13.7 / 20.9 (ratio 0.512 against 0.651, -21 %; both fail by
+bending of unfused lines between crossings, concentric at the gauge end next to the fillet where its
+rings turn).  C. 0/0 > +-45 > 0/90 (49.0 > 44.1 > 31.1): Naveed's order, not Ramirez-Prieto's.
+Why the misses: the card's bond (Grant et al.: Y_t / X_t = 0.62) is weaker than Letcher's PLA's
+(0.93); a first-ply criterion cannot make +-45 stronger than 0 (Letcher's +-45 is, which points to
+the ductile shear and scissoring of +-45 plies before their ultimate load); the sparse patterns fail
+first by the bending of unfused lines, and the published figure is the ultimate load.
 """
 
 from __future__ import annotations
