@@ -13,6 +13,12 @@ above the tolerance. So CG checks the true residual when its recurrence converge
 too large, restarts from there (residual replacement); if that still does not reach the
 tolerance, a system small enough is solved directly instead. The result says which
 (``FEAResult.status``), and the residual is checked in every case.
+
+The multigrid set-up draws random vectors from numpy's global generator (pyamg's spectral radius
+estimates and evolution strength). A different draw gives a different preconditioner, so CG stops
+at a different point within the tolerance; the paths that follow the field then differ from run to
+run. So the set-up runs under a fixed seed (:func:`_seeded`), and the caller's generator state is
+restored afterwards: the same system always gives the same bytes.
 """
 
 from __future__ import annotations
@@ -315,15 +321,42 @@ def _amg_cg(
         from pyamg.relaxation.smoothing import change_smoothers
     except ImportError as exc:  # pragma: no cover
         raise SolverError("pyamg is needed for large FEA problems: pip install pyamg") from exc
-    d = mesh.dim
-    keep = free_mask.astype(float)
-    A = (sp.diags(keep) @ K @ sp.diags(keep) + sp.diags(1.0 - keep)).tobsr(blocksize=(d, d))
-    rhs = np.zeros(K.shape[0])
-    rhs[free_mask] = b
+    with _seeded(_AMG_SEED):
+        A, ml = _hierarchy(K, free_mask, mesh, pyamg, MultilevelSolver)
     # forward sweep before and backward sweep after the coarse correction: a symmetric V-cycle (as CG
     # needs) at half the cost of symmetric sweeps on both sides
     pre = ("block_gauss_seidel", {"sweep": "forward"})
     post = ("block_gauss_seidel", {"sweep": "backward"})
+    change_smoothers(ml, presmoother=pre, postsmoother=post)
+    M = ml.aspreconditioner(cycle="V")
+    rhs = np.zeros(K.shape[0])
+    rhs[free_mask] = b
+    x, iters, restarts = _pcg(A, rhs, M, rtol, accept, maxiter)
+    return x[free_mask], iters, restarts
+
+
+_AMG_SEED = 20261202
+"""Seed of the multigrid set-up's random draws (any fixed value: it only has to be the same)."""
+
+
+@contextlib.contextmanager
+def _seeded(seed: int):
+    """Run the block with numpy's global generator seeded, then give the caller back its state."""
+    state = np.random.get_state()
+    np.random.seed(seed)
+    try:
+        yield
+    finally:
+        np.random.set_state(state)
+
+
+def _hierarchy(
+    K: sp.csr_matrix, free_mask: np.ndarray, mesh: MeshData, pyamg: Any, MultilevelSolver: Any  # noqa: N803
+) -> tuple[sp.bsr_matrix, Any]:
+    """The reduced matrix (Dirichlet rows as identity) and its multigrid hierarchy (:func:`_amg_cg`)."""
+    d = mesh.dim
+    keep = free_mask.astype(float)
+    A = (sp.diags(keep) @ K @ sp.diags(keep) + sp.diags(1.0 - keep)).tobsr(blocksize=(d, d))
     sa = {
         "symmetry": "symmetric",
         "strength": "evolution",
@@ -343,10 +376,7 @@ def _amg_cg(
     else:
         B, _ = rigid_modes(mesh.points)
         ml = pyamg.smoothed_aggregation_solver(A, B=B, **sa)
-    change_smoothers(ml, presmoother=pre, postsmoother=post)
-    M = ml.aspreconditioner(cycle="V")
-    x, iters, restarts = _pcg(A, rhs, M, rtol, accept, maxiter)
-    return x[free_mask], iters, restarts
+    return A, ml
 
 
 def _pcg(
