@@ -56,6 +56,24 @@ def run_script(tmp: Path, chunks: list[str], values: dict, stacks: dict | None =
     return json.loads((tmp / "result.json").read_text(encoding="utf-8"))
 
 
+def run_extension(tmp: Path, job: dict, timeout: float = 600, **env) -> dict:
+    """Drive the plugin loaded as Uranium loads it (``cura_extension_driver.py``, Cura's Python) with
+    HOME (where Cura's cache folder, the last report, goes) in ``tmp``; returns the driver's JSON."""
+    require_tool("cura")
+    (tmp / "home").mkdir()
+    job = {"plugin_dir": str(SCRIPTS.parent), "out": str(tmp / "r.json"), **job}
+    (tmp / "job.json").write_text(json.dumps(job), encoding="utf-8")
+    proc = subprocess.run(
+        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp / "job.json")],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env={"PATH": "/usr/bin:/bin", "HOME": str(tmp / "home"), **env},
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads((tmp / "r.json").read_text(encoding="utf-8"))
+
+
 @pytest.fixture(scope="module")
 def cura_file(sliced) -> Path:
     require_tool("cura")
@@ -168,24 +186,7 @@ def test_extensions_menu_processes_on_save_and_shows_the_report(sliced, tmp_path
         "on_save": True,
         "timeout": 300,
     }
-    job = {
-        "plugin_dir": str(SCRIPTS.parent),
-        "chunks": chunks,
-        "preferences": prefs,
-        "out": str(tmp_path / "r.json"),
-    }
-    (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
-    home = tmp_path / "home"  # Cura's cache folder (the last report) goes under HOME
-    home.mkdir()
-    proc = subprocess.run(
-        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        env={"PATH": "/usr/bin:/bin", "HOME": str(home)},
-    )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    res = run_extension(tmp_path, {"chunks": chunks, "preferences": prefs})
     assert res["compatible"] and res["sdk"] == "7.9.0" and res["qt"] == "PyQt5.QtCore"
     assert res["menu"] == "Loadpath infill" and "Show last report" in res["items"] and len(res["items"]) == 6
     assert res["plugin_dir_searched"]  # so Modify G-Code finds scripts/LoadpathScript.py
@@ -209,17 +210,11 @@ def _edit_from_cura(tmp_path, chunks, mesh=None):
     import time
     import urllib.request
 
-    job = {"plugin_dir": str(SCRIPTS.parent), "chunks": chunks, "mesh": mesh, "edit": True,
-           "preferences": {"command": str(VENV_BIN / "loadpath")}, "out": str(tmp_path / "r.json")}
-    (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
-    home = tmp_path / "home"
-    home.mkdir()
-    proc = subprocess.run(
-        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
-        capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin", "HOME": str(home)},
+    res = run_extension(
+        tmp_path, {"chunks": chunks, "mesh": mesh, "edit": True, "preferences": {"command": str(VENV_BIN / "loadpath")}},
+        timeout=300,
     )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    home = tmp_path / "home"
     assert res["pid"], res["message"]
     try:
         (log,) = [q for q in home.rglob("editor.log") if q.parent.parts[-2:] == ("loadpath", "edit")]
@@ -291,8 +286,8 @@ def test_a_forced_failure_at_each_stage_is_what_curas_message_says(cura_file, fa
     sha = hashlib.sha256("".join(chunks).encode()).hexdigest()
     fault = faults / "fault"
     fault.write_text(stage, encoding="utf-8")
-    home = tmp_path / "home"
-    home.mkdir()
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
     prefs = {
         "loadcase": str(write_case(tmp_path)),
         "command": str(VENV_BIN / "loadpath"),
@@ -300,33 +295,27 @@ def test_a_forced_failure_at_each_stage_is_what_curas_message_says(cura_file, fa
         "on_save": True,
         "timeout": 300,
     }
-    job = {"plugin_dir": str(SCRIPTS.parent), "chunks": chunks, "preferences": prefs, "out": str(tmp_path / "r.json"),
-           "earlier_report": {"metrics.json": '{"source": "earlier.gcode", "changed": true}'}}
-    (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
-    env = {
-        "PATH": "/usr/bin:/bin",
-        "HOME": str(home),
-        "LOADPATH_CACHE_DIR": str(faults / "cache"),
-        "PYTHONPATH": str(FAULTHOOK),
-        "LOADPATH_TEST_FAULT": str(fault),
-    }
-    proc = subprocess.run(
-        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
-        capture_output=True, text=True, timeout=600, env=env,
+    earlier_report = {"metrics.json": '{"source": "earlier.gcode", "changed": true}'}
+    res = run_extension(
+        tmp_path,
+        {"chunks": chunks, "preferences": prefs, "earlier_report": earlier_report},
+        LOADPATH_CACHE_DIR=str(faults / "cache"),
+        PYTHONPATH=str(FAULTHOOK),
+        LOADPATH_TEST_FAULT=str(fault),
+        TMPDIR=str(tmp),
     )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
     message, new = res["saved_message"], res["chunks"]
     assert hashlib.sha256("".join(chunks).encode()).hexdigest() == sha  # the test's own copy
     assert "/loadpath-cura-" not in message, message  # the runner's temporary files are no one's G-code
     assert "untouched" not in message and "was written" not in message
+    assert list(tmp.iterdir()) == []  # the runner's temporary folder is gone, whatever failed
     earlier = Path(res["report_dir"])  # the last-report folder, which held an earlier run's report
     if stage in ("splice", "check", "rename"):
-        reason = {
-            "splice": "internal error (ValueError: forced failure); please report this",
-            "check": "internal error (ValueError: forced failure); please report this",
-            "rename": "No space left on device",
-        }[stage]
+        reason = (  # a full disk is named by the folder to free (the temporary folder)
+            f"cannot write loadpath's temporary file in {str(tmp)!r}: No space left on device"
+            if stage == "rename"
+            else "internal error (ValueError: forced failure); please report this"
+        )
         assert message.startswith("Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): ")
         assert reason in message, message
         first, rest = new[0].split("\n", 1)
@@ -339,11 +328,12 @@ def test_a_forced_failure_at_each_stage_is_what_curas_message_says(cura_file, fa
         assert new != chunks and new[0].endswith(PROCESSED) and len(new) == len(chunks)
         verdict = message.splitlines()[1]
         assert verdict.startswith("loadpath ") and "replaced" in verdict
+        assert new[0].splitlines()[1] == "; loadpath: " + verdict  # the G-code Cura saves is the processed one
         warnings = [ln for ln in message.splitlines() if ln.startswith("warning: ")]
         if stage == "metrics":  # the report is written, without its figures, and says so
             assert any("have no figures or metrics (ValueError: forced failure)" in w for w in warnings), message
             assert "No figures or metrics" in (earlier / "index.html").read_text("utf-8")
-            assert "infill replaced" in res["report_message"]
+            assert "infill replaced" in res["report_message"] and "earlier" not in res["report_message"]
         else:  # the report's files could not be written: no part of it is kept as the last report
             assert warnings == ["warning: the report could not be written (No space left on device); "
                                 "the stress-aligned G-code was made without it"], message
