@@ -297,13 +297,17 @@ def in_service_terms(text: str, inp: Path, out: Path, report: Path | None) -> st
     """A job's words about its files (:func:`loadpath.plugin.job_record.fate`), said of the request.
 
     The job's folder is the service's own and removed with the answer: a failure says that no
-    G-code is returned (the client's G-code is its own, never changed); a report that could not be
+    G-code is returned (the client's G-code is its own, never changed), or with ``on_failure = keep``
+    that the answer's G-code is the request's; a report that could not be
     written says that the answer's G-code is processed all the same, without the report's metrics;
     an output that could not be written is named by the service's cache folder (the one to free).
     """
     from loadpath.plugin.job_record import fate
 
-    text = text.replace(fate(inp, out, False), "no G-code is returned")
+    text = text.replace(fate(inp, out, False), "no G-code is returned").replace(
+        f"{str(out)!r} is a copy of the slicer's G-code; the input is untouched",  # on_failure = keep
+        "the G-code in this answer is the request's, unchanged",
+    )
     if report is not None:
         text = text.replace(f"{REPORT_LOST} to {str(report)!r} (", f"{REPORT_LOST} (").replace(
             f"the G-code {str(out)!r} was written", "the G-code in this answer is processed all the same; "

@@ -48,6 +48,7 @@ __all__ = [
     "report_summary",
     "error_comment",
     "in_cura_terms",
+    "user_message",
 ]
 
 SEPARATOR = ";LOADPATH_CHUNK_SEPARATOR"
@@ -149,11 +150,13 @@ class Outcome:
 
     Attributes: ``ok``; ``chunks`` (the new chunk list, or the input when not ok); ``message`` (one
     line for the user); ``warnings`` (lines); ``report_dir`` (folder of the last report or None);
-    ``seconds``; ``verdict`` (loadpath's one-line summary of what it replaced and gained, or "").
+    ``seconds``; ``verdict`` (loadpath's one-line summary of what it replaced and gained, or "");
+    ``changed`` (the chunks differ from Cura's: some infill was replaced).
     """
 
-    def __init__(self, ok, chunks, message="", warnings=(), report_dir=None, seconds=0.0, verdict=""):
+    def __init__(self, ok, chunks, message="", warnings=(), report_dir=None, seconds=0.0, verdict="", changed=False):
         self.verdict = verdict
+        self.changed = changed
         self.ok = ok
         self.chunks = chunks
         self.message = message
@@ -464,16 +467,7 @@ def process_chunks(
                     )
         finally:
             shutil.rmtree(work, ignore_errors=True)
-        new[0] += PROCESSED + "\n"
-        return Outcome(
-            True,
-            new,
-            "stress-aligned infill written",
-            warnings,
-            report_dir,
-            time.monotonic() - t0,
-            verdict_line(err),
-        )
+        return _done(chunks, new, "stress-aligned infill written", warnings, report_dir, t0, verdict_line(err))
     except RunnerError as exc:
         return Outcome(False, chunks, str(exc), (), None, time.monotonic() - t0)
     except OSError as exc:
@@ -522,22 +516,41 @@ def _via_service(chunks, loadcase, options, cura_settings, timeout, report_root,
         ) from None
     new = split_chunks(answer["gcode"], flags)
     report_dir = None
-    if report_root:
+    if report_root and answer.get("metrics") is not None:  # null: the service could not make it
         report_dir = os.path.join(report_root, "last-report")
         tmp = tempfile.mkdtemp(prefix="report-", dir=_ensure(report_root))
         with open(os.path.join(tmp, "metrics.json"), "w", encoding="utf-8") as fh:
-            json.dump(answer.get("metrics") or {}, fh, indent=1)
+            json.dump(answer["metrics"], fh, indent=1)
         _replace_dir(tmp, report_dir)
-    new[0] += PROCESSED + "\n"
-    return Outcome(
-        True,
-        new,
-        "stress-aligned infill written (service)",
-        answer.get("warnings", []),
-        report_dir,
-        time.monotonic() - t0,
-        (answer.get("verdict") or {}).get("line", ""),
+    verdict = (answer.get("verdict") or {}).get("line", "")
+    return _done(chunks, new, "stress-aligned infill written (service)", answer.get("warnings", []), report_dir,
+                 t0, verdict)
+
+
+def _done(chunks, new, note, warnings, report_dir, t0, verdict):
+    """The outcome of a run that ended: processed chunks are marked; unchanged ones stay Cura's, unmarked."""
+    changed = new != chunks
+    if changed:
+        new[0] += PROCESSED + "\n"
+    return Outcome(True, new if changed else chunks, note if changed else "nothing replaced", warnings,
+                   report_dir, time.monotonic() - t0, verdict, changed)
+
+
+def user_message(outcome, limit=5):
+    """What a Cura message says of ``outcome`` (both shells): what became of the G-code, first.
+
+    A failure: the G-code is saved as Cura sliced it (with the failure as its first line); a run that
+    replaced nothing says so; else the time, loadpath's verdict line and the first ``limit`` warnings.
+    """
+    if not outcome.ok:
+        return "Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): " + outcome.message
+    head = (
+        f"Stress-aligned infill written in {outcome.seconds:.0f} s."
+        if outcome.changed
+        else "Loadpath replaced nothing; the G-code is saved as Cura sliced it."
     )
+    lines = [head, *([outcome.verdict] if outcome.verdict else [])]
+    return "\n".join(lines + ["warning: " + w for w in outcome.warnings[:limit]])
 
 
 def write_stl(path, triangles):

@@ -294,7 +294,7 @@ def faulty(tmp_path_factory, prusa_ohs):
         proc.wait(30)
 
 
-@pytest.mark.parametrize("stage", ["splice", "check", "rename", "metrics", "report_files"])
+@pytest.mark.parametrize("stage", ["splice", "check", "rename", "metrics", "report_files", "keep"])
 def test_a_forced_failure_at_each_stage_is_what_the_answer_says(faulty, stage):
     """One stage of the real job fails in the service's job process.  Before the write: an error
     answer, no G-code, and the message says none is returned (a bug is the service's 500, a full
@@ -307,7 +307,9 @@ def test_a_forced_failure_at_each_stage_is_what_the_answer_says(faulty, stage):
 
     url, fault, payload, ref, cache = faulty
     sent = hashlib.sha256(payload["gcode"].encode()).hexdigest()
-    fault.write_text(stage, encoding="utf-8")
+    if stage == "keep":  # the splice fails with on_failure = keep: the request's G-code comes back
+        payload = {**payload, "settings": {**payload["settings"], "on_failure": "keep"}}
+    fault.write_text("splice" if stage == "keep" else stage, encoding="utf-8")
     try:
         status, ans = post(url + "/v1/run", payload)
     finally:
@@ -326,6 +328,14 @@ def test_a_forced_failure_at_each_stage_is_what_the_answer_says(faulty, stage):
             assert (status, ans["error"]["code"]) == (500, "internal")
             assert message.startswith("internal error (ValueError: forced failure); please report this")
         return
+    if stage == "keep":
+        assert status == 200 and ans["ok"] and ans["changed"] is False
+        assert hashlib.sha256(ans["gcode"].encode()).hexdigest() == sent  # the request's, byte for byte
+        assert ans["error_kept"].startswith("internal error (ValueError: forced failure)")
+        assert ans["warnings"] == [f"kept the slicer's G-code: {ans['error_kept']}; the G-code in this answer is "
+                                   "the request's, unchanged"], ans["warnings"]
+        assert ans["metrics"] is None and ans["verdict"]["line"].count("nothing replaced (failed: internal error") == 1
+        return
     assert status == 200 and ans["ok"] and ans["changed"]
     gcode = ans["gcode"].encode()
     assert without_verdict(gcode) == without_verdict(ref["gcode"].encode()) != without_verdict(payload["gcode"].encode())
@@ -337,3 +347,32 @@ def test_a_forced_failure_at_each_stage_is_what_the_answer_says(faulty, stage):
         assert ans["warnings"] == ["the report could not be written (No space left on device); the G-code "
                                    "in this answer is processed all the same; 'metrics' is null"], ans["warnings"]
         assert ans["metrics"] is None and ans["summary"] == {"beta": None, "coverage": None}
+
+
+def test_curas_runner_through_the_service_says_when_nothing_was_replaced(faulty, tmp_path):
+    """The Cura plugin's runner posts to the service, whose splice fails with ``on_failure = keep``:
+    the chunks come back as they were, unmarked, the message says nothing was replaced, and no report
+    (not even an earlier one) is left as the last run's."""
+    url, fault, payload, _ref, _cache = faulty
+    spec = importlib.util.spec_from_file_location("runner_for_faults", RUNNER)
+    runner = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(runner)
+    case = tmp_path / "case.toml"
+    case.write_text(payload["loadcase"], encoding="utf-8")
+    earlier = tmp_path / "reports" / "last-report"
+    earlier.mkdir(parents=True)
+    (earlier / "metrics.json").write_text('{"source": "earlier.gcode", "changed": true}', encoding="utf-8")
+    chunks = [payload["gcode"]]
+    fault.write_text("splice", encoding="utf-8")
+    try:
+        out = runner.process_chunks(chunks, str(case), {"engine": "streamlines", "on_failure": "keep"},
+                                    service_url=url, timeout=300, report_root=str(tmp_path / "reports"))
+    finally:
+        fault.write_text("", encoding="utf-8")
+    assert out.ok and not out.changed and out.chunks == chunks
+    text = runner.user_message(out).splitlines()
+    assert text[0] == "Loadpath replaced nothing; the G-code is saved as Cura sliced it."
+    assert "nothing replaced (failed: internal error (ValueError: forced failure)" in text[1]
+    assert text[2].startswith("warning: kept the slicer's G-code: internal error")
+    assert not earlier.exists()
+    assert runner.report_summary(str(earlier)).startswith("No report of the last run")
