@@ -9,6 +9,7 @@ import os
 import py_compile
 import subprocess
 import sys
+import tempfile
 import time
 import zipfile
 from pathlib import Path
@@ -164,8 +165,13 @@ def test_missing_command_and_load_case_are_one_line_messages(tmp_path):
         runner.find_command(str(tmp_path / "missing-loadpath"))
 
 
-def test_timeout_kills_the_whole_run(tmp_path, prusa_ohs):
-    """The real command on a real file, with a timeout it cannot meet: killed, with its workers."""
+def test_timeout_kills_the_whole_run(tmp_path, prusa_ohs, monkeypatch):
+    """The real command on a real file, with a timeout it cannot meet: killed, with its workers.
+
+    The runner's work folder goes under this test's own folder, so the process check below sees only
+    this run's processes (other runs of the plugin on the machine have their own folders).
+    """
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     chunks = [prusa_ohs.read_text(encoding="utf-8")]
     t = time.monotonic()
     out = runner.process_chunks(
@@ -175,6 +181,6 @@ def test_timeout_kills_the_whole_run(tmp_path, prusa_ohs):
     assert time.monotonic() - t < 10
     assert out.chunks == chunks
     left = subprocess.run(
-        ["pgrep", "-f", f"loadpath run .*{os.sep}loadpath-cura-"], capture_output=True, text=True
+        ["pgrep", "-f", f"loadpath run .*{tmp_path}{os.sep}loadpath-cura-"], capture_output=True, text=True
     )
     assert left.stdout.strip() == "", "processes of the killed run are still alive"

@@ -10,7 +10,10 @@ of these cases:
 - the swarm paper's open-hole specimen (Table 2, benchmarks.md §1.4) at 100 %: aligned over
   cross-hatching, specific strength within 10 % of 1.796; the specific modulus (paper 1.117) is
   checked against what coupon cards allow (xfail with the measured figure: see the reason).
-- the failure load converges as the mesh is refined (characteristic distance, Whitney-Nuismer).
+- the failure load converges as the mesh is refined (characteristic distance, Whitney-Nuismer);
+- coupon validation: the bar at 100 % in four raster layups (0, +-45, 0/90, 90) against published
+  PLA tensile tests (orderings pass; Letcher & Waytashek's ratios are a strict xfail with the figures);
+  the ASTM D638 dogbone and the pattern data set are in ``benchmarks/bench_coupons.py``.
 
 The load cases hold one end face in x (y at its middle) and pull the other, so the part contracts
 freely; ``benchmarks/bench_mechanics.py`` has the same cases and prints every figure.
@@ -46,24 +49,83 @@ def _compare(folder: Path, files: list[Path], text: str, name: str, gauge=None):
     return list(rows.values()), results
 
 
+RASTER = {
+    "cross-hatching": bench.CROSS,  # rectilinear 45: +-45 alternating
+    "aligned": bench.ALIGNED,  # alignedrectilinear 0: every layer along the bar
+    "0/90": bench.GRID0,  # rectilinear 0: 0 and 90 alternating
+    "90": {**bench.ALIGNED, "fill_angle": "90"},  # every layer across the bar
+}
+
+
+@pytest.fixture(scope="module")
+def bar100(folder):
+    """The tension bar at 100 % in four raster layups, predicted together (cross-hatching first)."""
+    files = {}
+    for i, (k, v) in enumerate(RASTER.items()):
+        files[k] = bench.sliced(folder, "bar", f"r{i}_100", **{**bench.SOLID, **v})
+    rows, results, _ = bench.rows_for(files, bench.BAR_CASE, folder, "bar", bench.GAUGE)
+    return rows, dict(zip(files, results, strict=True))
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="measured at 100 %: aligned 1.015x stiffer and 1.121x stronger (1.037x / 1.145x per mass: the "
-    "aligned file has 2 % less plastic); the nearly isotropic PLA coupon card (Li et al. 2024) puts a fused "
-    "+-45 ply 1.13x below 0 degrees in Tsai-Wu strength and 1.02x in modulus, just under the bands",
+    "aligned file has 2 % less plastic). The PLA card itself caps it: by laminate theory a fused +-45 coupon "
+    "of the card is 1.019x softer and 1.128x weaker (Tsai-Wu; Tsai-Hill 1.097x) than 0 degrees, and a 25 mm "
+    "bar gives 1.023x / 1.122x, so the walls are not what holds it down. Published coupons put it lower "
+    "still: Letcher & Waytashek 2014 measured +-45 (64 MPa) stronger than 0 (58 MPa), see "
+    "test_coupon_raster_orderings_against_published and benchmarks/bench_coupons.py",
 )
-def test_tension_bar_at_100_percent_aligned_against_cross_hatching(folder):
+def test_tension_bar_at_100_percent_aligned_against_cross_hatching(bar100):
     assert trimesh  # the bar STL is built by bench.part_stl with trimesh
-    solid = [
-        bench.sliced(folder, "bar", "cross100", **{**bench.SOLID, **bench.CROSS}),
-        bench.sliced(folder, "bar", "aligned100", **{**bench.SOLID, **bench.ALIGNED}),
-    ]
-    rows, results = _compare(folder, solid, bench.BAR_CASE, "bar", bench.GAUGE)
-    assert results[0].card.key == "pla" and results[0].card_why.startswith("filament_type")
-    cross, aligned = rows
+    rows, results = bar100
+    ref = results["cross-hatching"]
+    assert ref.card.key == "pla" and ref.card_why.startswith("filament_type")
+    cross, aligned = rows["cross-hatching"], rows["aligned"]
     assert cross.failure_location is not None and cross.safety_factor > 0
     assert 1.02 <= aligned.relative_stiffness <= 1.25, aligned
     assert 1.15 <= aligned.relative_failure_load <= 2.2, aligned
+
+
+def test_coupon_raster_orderings_against_published(bar100):
+    """Strength by raster layup at 100 % against published PLA tensile tests (orderings; ratios xfail below).
+
+    Sources (abstracts read; means only, no scatter published there):
+
+    - Letcher & Waytashek, Proc. ASME IMECE 2014, paper IMECE2014-39379, abstract: ASTM D638, raster
+      0 / 45 / 90 degrees: UTS 58 / 64 / 54 MPa (0 stronger than 90).
+    - Naveed, Polymers 13(9) (2021) 1487, abstract: PLA and tough PLA at +-45 stronger than at 0/90.
+    - Ramirez-Prieto, Martinez-Yanez, Gonzalez-Hernandez, AIMS Materials Science 2025,
+      doi 10.3934/matersci.2025019, abstract: PLA+ in tension 0/0 > 0/90 > +-45 (disagrees with
+      Naveed on +-45 against 0/90; so do we: first-ply failure of 0/90 is the bond of its 90 plies).
+
+    Predicted (first-ply failure in the gauge length, the PLA card, which comes from other coupons:
+    Grant et al. 2021 strengths, Li et al. 2024 elastic): 0/0 > +-45 > 0/90 and 0 > 90, as Naveed and
+    as all three sources for 0 against 90 and 0/0 against +-45 (Letcher excepted).  The ASTM D638
+    dogbone itself, the ratios and the pattern data set are in ``benchmarks/bench_coupons.py``; this
+    test uses the 12 mm tension bar of the done-when list (same layups, a fifth of the cost).
+    """
+    _, res = bar100
+    strength = {k: r.failure_load for k, r in res.items()}
+    assert strength["aligned"] > strength["cross-hatching"] > strength["0/90"], strength
+    assert strength["aligned"] > strength["90"], strength
+    # the first ply to fail in each is the one the layup predicts: along the bead at 0, across it at 90
+    assert res["aligned"].weakest.mode == "along" and res["90"].weakest.mode == "across", (
+        res["aligned"].weakest.mode, res["90"].weakest.mode)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="Letcher & Waytashek 2014 (abstract): +-45 / 0 = 64/58 = 1.103 and 90 / 0 = 54/58 = 0.931; "
+    "predicted on the bar 0.89 and 0.62 (dogbone, bench_coupons: 0.899 and 0.616): the card's bond (Grant "
+    "et al.: Y_t / X_t = 32/52 = 0.62) is much weaker than Letcher's PLA's (54/58 = 0.93), and no first-ply "
+    "criterion makes +-45 stronger than 0 (Letcher's +-45 exceeds even his 0 degree strength)",
+)
+def test_coupon_raster_ratios_within_10_percent_of_letcher(bar100):
+    _, res = bar100
+    s0 = res["aligned"].failure_load
+    assert abs(res["cross-hatching"].failure_load / s0 / (64.0 / 58.0) - 1) <= 0.10
+    assert abs(res["90"].failure_load / s0 / (54.0 / 58.0) - 1) <= 0.10
 
 
 def test_tension_bar_at_40_percent_aligned_against_cross_hatching(folder):
