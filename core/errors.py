@@ -15,7 +15,8 @@ Third-party failures (gmsh, OSQP, file I/O) are wrapped at the boundary into one
     ├── SolverError            (wraps OSQP status, FEA residual)
     ├── SettingsError          (bad option values)
     ├── ToolMissingError       (an external program is not installed)
-    └── SpliceError            (the spliced G-code failed its check; nothing was written)
+    ├── SpliceError            (the spliced G-code failed its check; nothing was written)
+    └── InternalError          (a bug or out of memory met by a job, worded as one line)
     LoadpathWarning
 """
 
@@ -32,6 +33,7 @@ __all__ = [
     "SettingsError",
     "ToolMissingError",
     "SpliceError",
+    "InternalError",
     "LoadpathWarning",
 ]
 
@@ -109,6 +111,14 @@ class SpliceError(LoadpathError):
     """The spliced G-code failed the check that runs before writing.
 
     A bug to report; the input is left untouched.
+    """
+
+
+class InternalError(LoadpathError):
+    """A job met a bug (an unexpected exception) or ran out of memory.
+
+    The message is still one line saying what became of the files; a service answers it as its own
+    failure (HTTP 500), not as a problem with the request.
     """
 
 

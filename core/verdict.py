@@ -19,12 +19,21 @@ from typing import Any
 
 from loadpath import __version__
 
-__all__ = ["Verdict", "build", "HEADER_PREFIX", "header_line", "find_header", "total_print_seconds"]
+__all__ = [
+    "Verdict",
+    "build",
+    "HEADER_PREFIX",
+    "header_line",
+    "find_header",
+    "without_header",
+    "total_print_seconds",
+]
 
 HEADER_PREFIX = "; loadpath: "
 """How the verdict starts in the G-code header (and how a processed file is recognised)."""
 
 _HEADER_RE = re.compile(r"^; loadpath: loadpath (\S+) on (\S+?):")
+_HEADER_LINE_RE = re.compile(rb"(?m)^" + re.escape(HEADER_PREFIX.encode()) + rb"[^\n]*\n")
 
 
 @dataclass(frozen=True)
@@ -225,3 +234,12 @@ def find_header(data: bytes, limit: int = 65536) -> tuple[str, str] | None:
     line = head[i : head.find(b"\n", i) if b"\n" in head[i:] else len(head)].decode("utf-8", "replace")
     m = _HEADER_RE.match(line)
     return (m.group(1), m.group(2)) if m else ("?", "an unknown date")
+
+
+def without_header(data: bytes) -> bytes:
+    """The G-code ``data`` without loadpath's verdict line (``; loadpath: ...``, line ending included).
+
+    The line carries the minute of the run: two runs of the same job give the same file but for it,
+    so outputs are compared through this.
+    """
+    return _HEADER_LINE_RE.sub(b"", data)

@@ -32,7 +32,7 @@ from typing import Any
 
 from loadpath import engines
 from loadpath.density import DensityOptions
-from loadpath.errors import LoadpathError, SettingsError
+from loadpath.errors import InternalError, LoadpathError, SettingsError
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
 from loadpath.plugin.lifecycle import note_written
@@ -208,7 +208,8 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     Raises
     ------
     LoadpathError
-        On failure, unless ``on_failure`` is ``"keep"`` (then the result carries the error).
+        On failure, unless ``on_failure`` is ``"keep"`` (then the result carries the error);
+        :class:`~loadpath.errors.InternalError` for a bug or lack of memory.
     """
     inp = Path(request.input)
     out = inp if request.in_place else Path(request.output) if request.output else default_output(inp)
@@ -230,18 +231,19 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
                 result.warnings.append(w)
         return result
     except LoadpathError as exc:
-        error = str(exc).rstrip(". ")
+        error, failed = str(exc).rstrip(". "), LoadpathError
     except MemoryError:
-        error = "out of memory; close other programs or process a smaller file"
+        error, failed = "out of memory; close other programs or process a smaller file", InternalError
     except Exception as exc:  # a bug: still one line, saying what became of the files
         error = (
             f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); "
             "please report this with the G-code and load case"
         )
+        failed = InternalError
     keep = on_failure == "keep" or (result.settings is not None and result.settings.on_failure == "keep")
     if not keep:
         log(f"loadpath failed: {error}; {fate(inp, out, result.written)} [{inp}]")
-        raise LoadpathError(f"{error}; {fate(inp, out, result.written)}")
+        raise failed(f"{error}; {fate(inp, out, result.written)}")
     from loadpath import verdict as verdict_mod
 
     result.error = error

@@ -13,7 +13,9 @@ Errors are ``{"ok": false, "error": {"code": ..., "message": ...}}`` with an HTT
 ``bad_request``, 403 ``forbidden`` (a Host or Origin that is not loopback), 404 ``not_found``, 408
 ``request_timeout`` (the body did not arrive within ``read_timeout``), 411
 ``length_required``, 413 ``too_large``, 415 ``unsupported_media_type``, 422 ``loadpath_error`` (the
-one-line message ``loadpath run`` would print), 503 ``busy``, 504 ``timeout``, 500 ``internal``.
+one-line message ``loadpath run`` would print), 503 ``busy``, 504 ``timeout``, 500 ``internal`` (a
+bug or lack of memory, in the service or its job).  A failed job's message ends with "no G-code is
+returned" and names no file of the job's own folder (:func:`~.service_job.in_service_terms`).
 
 Safety: the socket is bound to 127.0.0.1 only; requests carry text, never paths, and every file the
 service writes (each request's working folder, the FEA cache) is inside its cache folder (``TMPDIR``

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["RequestError", "confine", "check_request", "handle_run", "child"]
+__all__ = ["RequestError", "confine", "check_request", "handle_run", "in_service_terms", "child"]
 
 
 class RequestError(Exception):
@@ -218,7 +218,7 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
     LoadpathError
         The job failed (its one-line message goes to the client).
     """
-    from loadpath.errors import SettingsError
+    from loadpath.errors import LoadpathError, SettingsError
     from loadpath.plugin.batch import metrics_summary
     from loadpath.plugin.job import JobRequest, run_job
 
@@ -247,27 +247,33 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
 
     cache = Cache(fea_dir, max_entries=fea_entries)
     env = {str(k): str(v) for k, v in (req.get("slicer_env") or {}).items()}
-    result = run_job(
-        JobRequest(
-            input=inp,
-            loadcase=case,
-            output=out,
-            report=report,
-            cli={**req.get("settings", {}), "jobs": 1},
-            slicer_settings=slicer,
-            env=env or None,
-            cache=cache,
-            force=req.get("force") is True,
+    try:
+        result = run_job(
+            JobRequest(
+                input=inp,
+                loadcase=case,
+                output=out,
+                report=report,
+                cli={**req.get("settings", {}), "jobs": 1},
+                slicer_settings=slicer,
+                env=env or None,
+                cache=cache,
+                force=req.get("force") is True,
+            )
         )
-    )
+    except LoadpathError as exc:
+        exc.args = (in_service_terms(str(exc), inp, out, report),)
+        raise
+    warnings = [in_service_terms(w, inp, out, report) for w in result.warnings]
     data = out.read_bytes() if out.is_file() else inp.read_bytes()
     metrics = None
-    if report is not None and (report / "metrics.json").is_file():
+    lost = any(w.startswith(REPORT_LOST) for w in warnings)  # a part of it may be on disk: none is shown
+    if report is not None and not lost and (report / "metrics.json").is_file():
         metrics = json.loads((report / "metrics.json").read_text(encoding="utf-8"))
     beta, cov = metrics_summary(metrics) if metrics else (None, None)
     answer: dict[str, Any] = {
         "changed": result.changed,
-        "warnings": list(result.warnings),
+        "warnings": warnings,
         "error_kept": result.error,
         "fea_cached": cache.stats.hits.get("fea", 0) > 0 and cache.stats.misses.get("fea", 0) == 0,
         "fea_solved": cache.stats.misses.get("fea", 0),
@@ -284,6 +290,33 @@ def handle_run(req: Mapping[str, Any], work: Path, fea_dir: Path, fea_entries: i
     return answer
 
 
+REPORT_LOST = "the report could not be written"
+
+
+def in_service_terms(text: str, inp: Path, out: Path, report: Path | None) -> str:
+    """A job's words about its files (:func:`loadpath.plugin.job_record.fate`), said of the request.
+
+    The job's folder is the service's own and removed with the answer: a failure says that no
+    G-code is returned (the client's G-code is its own, never changed), or with ``on_failure = keep``
+    that the answer's G-code is the request's; a report that could not be
+    written says that the answer's G-code is processed all the same, without the report's metrics;
+    an output that could not be written is named by the service's cache folder (the one to free).
+    """
+    from loadpath.plugin.job_record import fate
+
+    text = text.replace(fate(inp, out, False), "no G-code is returned").replace(
+        f"{str(out)!r} is a copy of the slicer's G-code; the input is untouched",  # on_failure = keep
+        "the G-code in this answer is the request's, unchanged",
+    )
+    if report is not None:
+        text = text.replace(f"{REPORT_LOST} to {str(report)!r} (", f"{REPORT_LOST} (").replace(
+            f"the G-code {str(out)!r} was written", "the G-code in this answer is processed all the same; "
+            "'metrics' is null"
+        )
+    cache = out.parent.parent.parent  # CACHE/jobs/<id>/out.gcode
+    return text.replace(repr(str(out)), f"the job's working copy in {str(cache)!r}")
+
+
 def child(conn: Any, req: Mapping[str, Any], work: str, fea_dir: str, fea_entries: int, cache: str) -> None:
     """Run :func:`handle_run` in a child process; send ``("ok", answer)`` or ``("error", code, msg)``."""
     from loadpath.procs import worker_init
@@ -291,10 +324,12 @@ def child(conn: Any, req: Mapping[str, Any], work: str, fea_dir: str, fea_entrie
     worker_init()  # dies with the service (its forkserver), ignores the terminal's Ctrl-C
     confine(Path(cache))
     redirect_system_prefs(Path(fea_dir).parent)  # the service's cache folder: fea/, jobs/, tmp/, home/
-    from loadpath.errors import LoadpathError
+    from loadpath.errors import InternalError, LoadpathError
 
     try:
         conn.send(("ok", handle_run(req, Path(work), Path(fea_dir), fea_entries)))
+    except InternalError as exc:  # a bug or lack of memory met by the job: the service's failure
+        conn.send(("error", 500, "internal", " ".join(str(exc).split())))
     except LoadpathError as exc:
         conn.send(("error", 422, "loadpath_error", " ".join(str(exc).split())))
     except MemoryError:

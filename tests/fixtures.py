@@ -48,14 +48,14 @@ __all__ = [
 ]
 
 def without_verdict(data: bytes) -> bytes:
-    """G-code without loadpath's ``; loadpath: ...`` header line, which carries the minute of the run.
+    """G-code without loadpath's verdict line, which carries the minute of the run.
 
-    Two runs of the same job give the same file but for that line (when a minute boundary falls
-    between them).
+    Two runs of the same job give the same file but for that line: the owner of the line says
+    what it is (:func:`loadpath.verdict.without_header`).
     """
-    import re
+    from loadpath.verdict import without_header
 
-    return re.sub(rb"(?m)^; loadpath: [^\n]*\n", b"", data)
+    return without_header(data)
 
 
 _SETTINGS = {

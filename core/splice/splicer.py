@@ -51,10 +51,6 @@ __all__ = [
     "block_feedrate",
     "block_height",
     "kinematic_time",
-    "Motion",
-    "Retraction",
-    "PlanOptions",
-    "RunOptions",
 ]
 
 

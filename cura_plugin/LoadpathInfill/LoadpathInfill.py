@@ -236,17 +236,11 @@ class LoadpathInfill(Extension):
             self.pref("service_url") or "",
         )
         if outcome.ok:
-            gcode_dict[plate] = outcome.chunks
-            text = f"Stress-aligned infill written in {outcome.seconds:.0f} s."
-            if outcome.verdict:
-                text += "\n" + outcome.verdict
-            if outcome.warnings:
-                text += "\n" + "\n".join("warning: " + w for w in outcome.warnings[:5])
-            self._show(text, report=outcome.report_dir)
+            gcode_dict[plate] = outcome.chunks  # Cura's own when nothing was replaced
         else:
             data[0] = runner.error_comment(outcome.message) + data[0]
             Logger.log("e", "loadpath: %s", outcome.message)
-            self._show("Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): " + outcome.message)
+        self._show(runner.user_message(outcome), report=outcome.report_dir)
 
     def _show(self, text, report=None):
         self.lastMessage = text

@@ -47,6 +47,8 @@ __all__ = [
     "process_chunks",
     "report_summary",
     "error_comment",
+    "in_cura_terms",
+    "user_message",
 ]
 
 SEPARATOR = ";LOADPATH_CHUNK_SEPARATOR"
@@ -148,11 +150,13 @@ class Outcome:
 
     Attributes: ``ok``; ``chunks`` (the new chunk list, or the input when not ok); ``message`` (one
     line for the user); ``warnings`` (lines); ``report_dir`` (folder of the last report or None);
-    ``seconds``; ``verdict`` (loadpath's one-line summary of what it replaced and gained, or "").
+    ``seconds``; ``verdict`` (loadpath's one-line summary of what it replaced and gained, or "");
+    ``changed`` (the chunks differ from Cura's: some infill was replaced).
     """
 
-    def __init__(self, ok, chunks, message="", warnings=(), report_dir=None, seconds=0.0, verdict=""):
+    def __init__(self, ok, chunks, message="", warnings=(), report_dir=None, seconds=0.0, verdict="", changed=False):
         self.verdict = verdict
+        self.changed = changed
         self.ok = ok
         self.chunks = chunks
         self.message = message
@@ -324,6 +328,31 @@ def _last_line(text):
     return line.split(": ", 1)[1] if line.startswith("loadpath: ") else line
 
 
+REPORT_LOST = "the report could not be written"
+REPORT_LOST_GCODE = "the stress-aligned G-code was made without it"
+
+
+def in_cura_terms(text, src, out, report):
+    """loadpath's words about the files of a run, said of Cura's G-code.
+
+    The runner's temporary copies (``src`` in, ``out`` out, ``report`` folder) are removed when the
+    run ends and mean nothing to the user: a failure's closing words on them are dropped (the
+    shells say that Cura's G-code is kept), the report's loss is said of the G-code Cura saves, and
+    an output that could not be written is named by its folder (the temporary folder to free).
+    """
+    drop = (
+        f"; the input {src!r} is untouched and {out!r} was not written",
+        f"; {out!r} was written; the input {src!r} is untouched",
+    )
+    for words in drop:
+        text = text.replace(words, "")
+    if report:
+        text = text.replace(f"{REPORT_LOST} to {report!r} (", f"{REPORT_LOST} (")
+    text = text.replace(f"the G-code {out!r} was written", REPORT_LOST_GCODE)
+    # what is left names the output only where it could not be written: say where that is
+    return text.replace(repr(out), f"loadpath's temporary file in {os.path.dirname(os.path.dirname(out))!r}")
+
+
 def _run(argv, timeout):
     """Run ``argv`` with a timeout, killing its whole process group on expiry; (status, stderr)."""
     kwargs = {"stdout": subprocess.DEVNULL, "stderr": subprocess.PIPE, "stdin": subprocess.DEVNULL}
@@ -381,6 +410,8 @@ def process_chunks(
     """
     t0 = time.monotonic()
     chunks = list(chunks)
+    if report_root:  # whatever happens now, an earlier run's report is not this run's
+        shutil.rmtree(os.path.join(report_root, "last-report"), ignore_errors=True)
     try:
         if not chunks:
             raise RunnerError("Cura gave no G-code to process; slice first")
@@ -415,6 +446,7 @@ def process_chunks(
             for key, value in sorted((options or {}).items()):
                 argv += ["--set", f"{key}={str(value).lower() if isinstance(value, bool) else value}"]
             status, err = _run(argv, timeout)
+            err = in_cura_terms(err, src, out, report_tmp)
             warnings = [
                 ln.split(": warning: ", 1)[1].strip() for ln in err.splitlines() if ": warning: " in ln
             ]
@@ -423,22 +455,19 @@ def process_chunks(
             with open(out, encoding="utf-8", newline="") as fh:
                 new = split_chunks(fh.read(), flags)
             report_dir = None
-            if report_tmp and os.path.isdir(report_tmp):
-                os.makedirs(report_root, exist_ok=True)
-                report_dir = os.path.join(report_root, "last-report")
-                _replace_dir(report_tmp, report_dir)
+            if report_tmp and os.path.isdir(report_tmp) and not any(w.startswith(REPORT_LOST) for w in warnings):
+                try:
+                    os.makedirs(report_root, exist_ok=True)
+                    report_dir = os.path.join(report_root, "last-report")
+                    _replace_dir(report_tmp, report_dir)
+                except OSError as exc:  # the G-code is made: only the report is lost
+                    report_dir = None
+                    warnings.append(
+                        f"{REPORT_LOST} into {report_root!r} ({exc.strerror or exc}); {REPORT_LOST_GCODE}"
+                    )
         finally:
             shutil.rmtree(work, ignore_errors=True)
-        new[0] += PROCESSED + "\n"
-        return Outcome(
-            True,
-            new,
-            "stress-aligned infill written",
-            warnings,
-            report_dir,
-            time.monotonic() - t0,
-            verdict_line(err),
-        )
+        return _done(chunks, new, "stress-aligned infill written", warnings, report_dir, t0, verdict_line(err))
     except RunnerError as exc:
         return Outcome(False, chunks, str(exc), (), None, time.monotonic() - t0)
     except OSError as exc:
@@ -487,22 +516,41 @@ def _via_service(chunks, loadcase, options, cura_settings, timeout, report_root,
         ) from None
     new = split_chunks(answer["gcode"], flags)
     report_dir = None
-    if report_root:
+    if report_root and answer.get("metrics") is not None:  # null: the service could not make it
         report_dir = os.path.join(report_root, "last-report")
         tmp = tempfile.mkdtemp(prefix="report-", dir=_ensure(report_root))
         with open(os.path.join(tmp, "metrics.json"), "w", encoding="utf-8") as fh:
-            json.dump(answer.get("metrics") or {}, fh, indent=1)
+            json.dump(answer["metrics"], fh, indent=1)
         _replace_dir(tmp, report_dir)
-    new[0] += PROCESSED + "\n"
-    return Outcome(
-        True,
-        new,
-        "stress-aligned infill written (service)",
-        answer.get("warnings", []),
-        report_dir,
-        time.monotonic() - t0,
-        (answer.get("verdict") or {}).get("line", ""),
+    verdict = (answer.get("verdict") or {}).get("line", "")
+    return _done(chunks, new, "stress-aligned infill written (service)", answer.get("warnings", []), report_dir,
+                 t0, verdict)
+
+
+def _done(chunks, new, note, warnings, report_dir, t0, verdict):
+    """The outcome of a run that ended: processed chunks are marked; unchanged ones stay Cura's, unmarked."""
+    changed = new != chunks
+    if changed:
+        new[0] += PROCESSED + "\n"
+    return Outcome(True, new if changed else chunks, note if changed else "nothing replaced", warnings,
+                   report_dir, time.monotonic() - t0, verdict, changed)
+
+
+def user_message(outcome, limit=5):
+    """What a Cura message says of ``outcome`` (both shells): what became of the G-code, first.
+
+    A failure: the G-code is saved as Cura sliced it (with the failure as its first line); a run that
+    replaced nothing says so; else the time, loadpath's verdict line and the first ``limit`` warnings.
+    """
+    if not outcome.ok:
+        return "Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): " + outcome.message
+    head = (
+        f"Stress-aligned infill written in {outcome.seconds:.0f} s."
+        if outcome.changed
+        else "Loadpath replaced nothing; the G-code is saved as Cura sliced it."
     )
+    lines = [head, *([outcome.verdict] if outcome.verdict else [])]
+    return "\n".join(lines + ["warning: " + w for w in outcome.warnings[:limit]])
 
 
 def write_stl(path, triangles):
@@ -557,7 +605,10 @@ def report_summary(report_dir):
     """A few lines about the last run from its ``metrics.json`` (for a Cura message)."""
     path = os.path.join(report_dir or "", "metrics.json")
     if not report_dir or not os.path.isfile(path):
-        return "No report yet: save a G-code file with loadpath enabled first."
+        return (
+            "No report of the last run (none was run yet, or the last run failed or could not write "
+            "its report; its message says which)."
+        )
     with open(path, encoding="utf-8") as fh:
         m = json.load(fh)
     lines = [

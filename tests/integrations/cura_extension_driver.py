@@ -5,7 +5,8 @@ id (as ``PluginRegistry`` does), its ``plugin.json`` is read by Uranium's own ``
 checked with ``isPluginApiVersionCompatible`` against this Cura's SDK version, and ``register(app)``
 runs with an application object that hands out real Uranium parts: ``Preferences``, a ``Signal`` for
 ``writeStarted``, and a scene holding the chunk list.  Then the preferences the menu items would set
-are set, ``writeStarted`` is emitted (a save), and "Show last report" is called.
+are set, ``writeStarted`` is emitted (a save), and "Show last report" is called.  ``earlier_report``
+(file name -> text) is put in the last-report folder before the save, as an earlier run left it.
 """
 
 import json
@@ -61,6 +62,11 @@ def main(job_path):
             json.dump({"message": ext.lastMessage, "pid": ext._editor.pid if ext._editor else None,
                        "loadcase": prefs.getValue("loadpath/loadcase"), "items": ext.getMenuItemList()}, fh)
         return
+    earlier = os.path.join(ext.reportRoot(), "last-report")
+    for name, text in (job.get("earlier_report") or {}).items():  # an earlier run's report
+        os.makedirs(earlier, exist_ok=True)
+        with open(os.path.join(earlier, name), "w", encoding="utf-8") as fh:
+            fh.write(text)
     write_started.emit(None)  # a save
     first = list(scene.gcode_dict[0])
     saved_message = ext.lastMessage
@@ -78,6 +84,7 @@ def main(job_path):
                 "again": scene.gcode_dict[0],
                 "saved_message": saved_message,
                 "report_message": ext.lastMessage,
+                "report_dir": earlier,
                 "qt": sys.modules[type(ext).__module__].QUrl.__module__,
             },
             fh,

@@ -56,6 +56,24 @@ def run_script(tmp: Path, chunks: list[str], values: dict, stacks: dict | None =
     return json.loads((tmp / "result.json").read_text(encoding="utf-8"))
 
 
+def run_extension(tmp: Path, job: dict, timeout: float = 600, **env) -> dict:
+    """Drive the plugin loaded as Uranium loads it (``cura_extension_driver.py``, Cura's Python) with
+    HOME (where Cura's cache folder, the last report, goes) in ``tmp``; returns the driver's JSON."""
+    require_tool("cura")
+    (tmp / "home").mkdir()
+    job = {"plugin_dir": str(SCRIPTS.parent), "out": str(tmp / "r.json"), **job}
+    (tmp / "job.json").write_text(json.dumps(job), encoding="utf-8")
+    proc = subprocess.run(
+        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp / "job.json")],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env={"PATH": "/usr/bin:/bin", "HOME": str(tmp / "home"), **env},
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads((tmp / "r.json").read_text(encoding="utf-8"))
+
+
 @pytest.fixture(scope="module")
 def cura_file(sliced) -> Path:
     require_tool("cura")
@@ -168,24 +186,7 @@ def test_extensions_menu_processes_on_save_and_shows_the_report(sliced, tmp_path
         "on_save": True,
         "timeout": 300,
     }
-    job = {
-        "plugin_dir": str(SCRIPTS.parent),
-        "chunks": chunks,
-        "preferences": prefs,
-        "out": str(tmp_path / "r.json"),
-    }
-    (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
-    home = tmp_path / "home"  # Cura's cache folder (the last report) goes under HOME
-    home.mkdir()
-    proc = subprocess.run(
-        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        env={"PATH": "/usr/bin:/bin", "HOME": str(home)},
-    )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    res = run_extension(tmp_path, {"chunks": chunks, "preferences": prefs})
     assert res["compatible"] and res["sdk"] == "7.9.0" and res["qt"] == "PyQt5.QtCore"
     assert res["menu"] == "Loadpath infill" and "Show last report" in res["items"] and len(res["items"]) == 6
     assert res["plugin_dir_searched"]  # so Modify G-Code finds scripts/LoadpathScript.py
@@ -209,17 +210,11 @@ def _edit_from_cura(tmp_path, chunks, mesh=None):
     import time
     import urllib.request
 
-    job = {"plugin_dir": str(SCRIPTS.parent), "chunks": chunks, "mesh": mesh, "edit": True,
-           "preferences": {"command": str(VENV_BIN / "loadpath")}, "out": str(tmp_path / "r.json")}
-    (tmp_path / "job.json").write_text(json.dumps(job), encoding="utf-8")
-    home = tmp_path / "home"
-    home.mkdir()
-    proc = subprocess.run(
-        ["/usr/bin/python3", str(HERE / "cura_extension_driver.py"), str(tmp_path / "job.json")],
-        capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin", "HOME": str(home)},
+    res = run_extension(
+        tmp_path, {"chunks": chunks, "mesh": mesh, "edit": True, "preferences": {"command": str(VENV_BIN / "loadpath")}},
+        timeout=300,
     )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    res = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    home = tmp_path / "home"
     assert res["pid"], res["message"]
     try:
         (log,) = [q for q in home.rglob("editor.log") if q.parent.parts[-2:] == ("loadpath", "edit")]
@@ -260,3 +255,97 @@ def test_edit_load_case_before_slicing_hands_the_plates_meshes_as_stl(test_stls,
     b = start["part"]["bounds"]
     assert b[2] - b[0] == pytest.approx(60.0, abs=1e-3) and b[3] - b[1] == pytest.approx(40.0, abs=1e-3)
     assert sum(len(o["holes"]) for o in start["part"]["layers"][0]["objects"]) == 1
+
+
+# ------------------------------------------------------------------------------ forced failures
+
+FAULTHOOK = HERE / "faulthook"  # sitecustomize.py: fails one stage inside the loadpath child process
+STAGES = ("splice", "check", "rename", "metrics", "report_files")
+
+
+@pytest.fixture(scope="module")
+def faults(tmp_path_factory):
+    """A result cache shared by the stages (the analysis and paths are made once) and the fault file."""
+    root = tmp_path_factory.mktemp("cura-faults")
+    (root / "cache").mkdir()
+    return root
+
+
+@pytest.mark.real_tool("cura")
+@pytest.mark.parametrize("stage", STAGES)
+def test_a_forced_failure_at_each_stage_is_what_curas_message_says(cura_file, faults, tmp_path, stage):
+    """The plugin loaded as Uranium loads it processes a save while one stage of the real ``loadpath
+    run`` child fails.  Before the write (splice, check, rename): Cura's chunks come back as they
+    were, and the message says so; no report of an earlier run is left to be shown as the last one.
+    The report (its metrics, its files): the G-code is processed, and the message says what the
+    report lacks, in Cura's terms (never naming the runner's temporary files as the G-code)."""
+    import hashlib
+
+    require_tool("cura")
+    chunks = cura_chunks(cura_file.read_text(encoding="utf-8"))
+    sha = hashlib.sha256("".join(chunks).encode()).hexdigest()
+    fault = faults / "fault"
+    fault.write_text(stage, encoding="utf-8")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    prefs = {
+        "loadcase": str(write_case(tmp_path)),
+        "command": str(VENV_BIN / "loadpath"),
+        "options": json.dumps({"engine": "streamlines"}),
+        "on_save": True,
+        "timeout": 300,
+    }
+    earlier_report = {"metrics.json": '{"source": "earlier.gcode", "changed": true}'}
+    res = run_extension(
+        tmp_path,
+        {"chunks": chunks, "preferences": prefs, "earlier_report": earlier_report},
+        LOADPATH_CACHE_DIR=str(faults / "cache"),
+        PYTHONPATH=str(FAULTHOOK),
+        LOADPATH_TEST_FAULT=str(fault),
+        TMPDIR=str(tmp),
+    )
+    message, new = res["saved_message"], res["chunks"]
+    assert hashlib.sha256("".join(chunks).encode()).hexdigest() == sha  # the test's own copy
+    assert "/loadpath-cura-" not in message, message  # the runner's temporary files are no one's G-code
+    assert "untouched" not in message and "was written" not in message
+    assert list(tmp.iterdir()) == []  # the runner's temporary folder is gone, whatever failed
+    earlier = Path(res["report_dir"])  # the last-report folder, which held an earlier run's report
+    if stage in ("splice", "check", "rename"):
+        reason = (  # a full disk is named by the folder to free (the temporary folder)
+            f"cannot write loadpath's temporary file in {str(tmp)!r}: No space left on device"
+            if stage == "rename"
+            else "internal error (ValueError: forced failure); please report this"
+        )
+        assert message.startswith("Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): ")
+        assert reason in message, message
+        first, rest = new[0].split("\n", 1)
+        assert first == runner_error_comment(message.split("(its first line says why): ", 1)[1]).rstrip("\n")
+        assert hashlib.sha256((rest + "".join(new[1:])).encode()).hexdigest() == sha  # as Cura sliced it
+        assert not earlier.exists()  # no earlier report shown as this run's
+        assert res["report_message"].startswith("No report of the last run"), res["report_message"]
+    else:
+        assert message.startswith("Stress-aligned infill written in "), message
+        assert new != chunks and new[0].endswith(PROCESSED) and len(new) == len(chunks)
+        verdict = message.splitlines()[1]
+        assert verdict.startswith("loadpath ") and "replaced" in verdict
+        assert new[0].splitlines()[1] == "; loadpath: " + verdict  # the G-code Cura saves is the processed one
+        warnings = [ln for ln in message.splitlines() if ln.startswith("warning: ")]
+        if stage == "metrics":  # the report is written, without its figures, and says so
+            assert any("have no figures or metrics (ValueError: forced failure)" in w for w in warnings), message
+            assert "No figures or metrics" in (earlier / "index.html").read_text("utf-8")
+            assert "infill replaced" in res["report_message"] and "earlier" not in res["report_message"]
+        else:  # the report's files could not be written: no part of it is kept as the last report
+            assert warnings == ["warning: the report could not be written (No space left on device); "
+                                "the stress-aligned G-code was made without it"], message
+            assert not earlier.exists()
+            assert res["report_message"].startswith("No report of the last run"), res["report_message"]
+
+
+def runner_error_comment(message: str) -> str:
+    """The runner's first line for a failure (loaded as the plugin loads it)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("runner_for_faults", SCRIPTS.parent / "loadpath_runner.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.error_comment(message)

@@ -257,3 +257,123 @@ def test_busy_and_timeout(tight, prusa_ohs, tmp_path):
     assert first["status"] == 504 and first["body"]["error"]["code"] == "timeout", first
     assert tight.running == 0 and tight.admitted == 0
     assert list((tight.cache_dir / "jobs").iterdir()) == []
+
+
+# ------------------------------------------------------------------------------ forced failures
+
+FAULTHOOK = RUNNER.parents[2] / "tests" / "integrations" / "faulthook"  # fails a stage in the job's process
+
+
+@pytest.fixture(scope="module")
+def faulty(tmp_path_factory, prusa_ohs):
+    """``loadpath serve`` whose job processes fail the stage named in a file (``faulthook``), and the
+    answer of a run with no fault (the reference; it fills the cache the other stages read)."""
+    root = tmp_path_factory.mktemp("serve-faults")
+    fault = root / "fault"
+    fault.write_text("", encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": str(FAULTHOOK), "LOADPATH_TEST_FAULT": str(fault)}
+    proc = subprocess.Popen(
+        [str(VENV_BIN / "loadpath"), "serve", "--port", "0", "--cache", str(root / "cache"), "--timeout", "300"],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        line = proc.stdout.readline()
+        assert "listening on http://127.0.0.1:" in line, line + proc.stderr.read()
+        url = line.split("listening on ", 1)[1].split()[0]
+        payload = {
+            "gcode": prusa_ohs.read_text(encoding="utf-8"),
+            "loadcase": write_case(root).read_text(encoding="utf-8"),
+            "settings": {"engine": "streamlines"},
+            "report": True,
+        }
+        status, ref = post(url + "/v1/run", payload)
+        assert status == 200 and ref["changed"] and ref["metrics"]["layers"], ref
+        yield url, fault, payload, ref, root / "cache"
+    finally:
+        proc.terminate()
+        proc.wait(30)
+
+
+@pytest.mark.parametrize("stage", ["splice", "check", "rename", "metrics", "report_files", "keep"])
+def test_a_forced_failure_at_each_stage_is_what_the_answer_says(faulty, stage):
+    """One stage of the real job fails in the service's job process.  Before the write: an error
+    answer, no G-code, and the message says none is returned (a bug is the service's 500, a full
+    disk names the service's cache folder).  The report's metrics or files: the answer's G-code is
+    the processed one, byte for byte the reference's but for the verdict's minute, and the warning
+    says what the report lacks.  Never a path inside the job's own (removed) folder."""
+    import hashlib
+
+    from fixtures import without_verdict
+
+    url, fault, payload, ref, cache = faulty
+    sent = hashlib.sha256(payload["gcode"].encode()).hexdigest()
+    payload = {**payload, "report": stage in ("metrics", "report_files")}  # the report costs seconds
+    if stage == "keep":  # the splice fails with on_failure = keep: the request's G-code comes back
+        payload = {**payload, "settings": {**payload["settings"], "on_failure": "keep"}}
+    fault.write_text("splice" if stage == "keep" else stage, encoding="utf-8")
+    try:
+        status, ans = post(url + "/v1/run", payload)
+    finally:
+        fault.write_text("", encoding="utf-8")
+    assert hashlib.sha256(payload["gcode"].encode()).hexdigest() == sent
+    assert "/jobs/" not in json.dumps({k: v for k, v in ans.items() if k != "gcode"}), ans
+    assert list((cache / "jobs").iterdir()) == []
+    if stage in ("splice", "check", "rename"):
+        assert ans["ok"] is False and "gcode" not in ans and "gcode_base64" not in ans
+        message = ans["error"]["message"]
+        assert message.endswith("; no G-code is returned") and "untouched" not in message, message
+        if stage == "rename":
+            assert (status, ans["error"]["code"]) == (422, "loadpath_error")
+            assert message.startswith(f"cannot write the job's working copy in {str(cache)!r}: No space left on device")
+        else:
+            assert (status, ans["error"]["code"]) == (500, "internal")
+            assert message.startswith("internal error (ValueError: forced failure); please report this")
+        return
+    if stage == "keep":
+        assert status == 200 and ans["ok"] and ans["changed"] is False
+        assert hashlib.sha256(ans["gcode"].encode()).hexdigest() == sent  # the request's, byte for byte
+        assert ans["error_kept"].startswith("internal error (ValueError: forced failure)")
+        assert ans["warnings"] == [f"kept the slicer's G-code: {ans['error_kept']}; the G-code in this answer is "
+                                   "the request's, unchanged"], ans["warnings"]
+        assert ans["metrics"] is None and ans["verdict"]["line"].count("nothing replaced (failed: internal error") == 1
+        return
+    assert status == 200 and ans["ok"] and ans["changed"]
+    gcode = ans["gcode"].encode()
+    assert without_verdict(gcode) == without_verdict(ref["gcode"].encode()) != without_verdict(payload["gcode"].encode())
+    assert ans["gcode"].splitlines()[1] == "; loadpath: " + ans["verdict"]["line"]
+    if stage == "metrics":  # the report is made without its metrics, and says so
+        assert any("have no figures or metrics (ValueError: forced failure)" in w for w in ans["warnings"])
+        assert ans["metrics"] is not None and ans["summary"] == {"beta": None, "coverage": None}
+    else:
+        assert ans["warnings"] == ["the report could not be written (No space left on device); the G-code "
+                                   "in this answer is processed all the same; 'metrics' is null"], ans["warnings"]
+        assert ans["metrics"] is None and ans["summary"] == {"beta": None, "coverage": None}
+
+
+def test_curas_runner_through_the_service_says_when_nothing_was_replaced(faulty, tmp_path):
+    """The Cura plugin's runner posts to the service, whose splice fails with ``on_failure = keep``:
+    the chunks come back as they were, unmarked, the message says nothing was replaced, and no report
+    (not even an earlier one) is left as the last run's."""
+    url, fault, payload, _ref, _cache = faulty
+    spec = importlib.util.spec_from_file_location("runner_for_faults", RUNNER)
+    runner = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(runner)
+    case = tmp_path / "case.toml"
+    case.write_text(payload["loadcase"], encoding="utf-8")
+    earlier = tmp_path / "reports" / "last-report"
+    earlier.mkdir(parents=True)
+    (earlier / "metrics.json").write_text('{"source": "earlier.gcode", "changed": true}', encoding="utf-8")
+    chunks = [payload["gcode"]]
+    fault.write_text("splice", encoding="utf-8")
+    try:
+        out = runner.process_chunks(chunks, str(case), {"engine": "streamlines", "on_failure": "keep"},
+                                    service_url=url, timeout=300, report_root=str(tmp_path / "reports"))
+    finally:
+        fault.write_text("", encoding="utf-8")
+    assert out.ok and not out.changed and out.chunks == chunks
+    text = runner.user_message(out).splitlines()
+    assert text[0] == "Loadpath replaced nothing; the G-code is saved as Cura sliced it."
+    assert "nothing replaced (failed: internal error (ValueError: forced failure)" in text[1]
+    assert text[2].startswith("warning: kept the slicer's G-code: internal error")
+    assert not earlier.exists()
+    assert runner.report_summary(str(earlier)).startswith("No report of the last run")

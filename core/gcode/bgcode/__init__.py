@@ -1,23 +1,15 @@
 r"""Binary G-code (``.bgcode``, PrusaSlicer 2.7+), the container the reader decodes and the writer re-encodes.
 
->>> from loadpath.gcode import bgcode
->>> bgcode.decode(bgcode.encode(bgcode.new_container({}, {}, {}), "G1 X1\n")).gcode
-'G1 X1\n'
-
-Modules:
-
-- :mod:`.container` -- :func:`decode` / :func:`encode`: header, metadata, thumbnails and G-code
-  blocks of a file as a :class:`BinaryGCode`;
-- :mod:`.blocks` -- the block layer: framing, checksums, compression (knows nothing of meaning);
-- :mod:`.meatpack` -- the MeatPack G-code encoding;
-- :mod:`.heatshrink` -- the one adapter of the ``heatshrink2`` library (LZSS compression).
-
-The text reader (:mod:`loadpath.gcode`) reaches this package through one hook,
-:func:`loadpath.gcode.decode_container`; nothing here imports the reader.
+:func:`decode`, :func:`encode` and :class:`BinaryGCode` are :mod:`.container`'s, whose docstring
+says what a file holds, what a round trip keeps and how a reader and writer use it;
+:mod:`.blocks` frames and checks the blocks, :mod:`.meatpack` and :mod:`.heatshrink` (the one
+adapter of ``heatshrink2``) are the encodings.  The text reader reaches this package through one
+hook, :func:`loadpath.gcode.decode_container`; nothing here imports the reader.
 """
 
 from __future__ import annotations
 
+from loadpath.gcode.bgcode import container
 from loadpath.gcode.bgcode.container import (
     GCODE_BLOCK_SIZE,
     PRUSASLICER_PARAMS,
@@ -38,22 +30,4 @@ from loadpath.gcode.bgcode.container import (
     to_ascii,
 )
 
-__all__ = [
-    "BinaryGCode",
-    "MetadataBlock",
-    "Thumbnail",
-    "GCodeBlockInfo",
-    "BlockType",
-    "ChecksumType",
-    "Compression",
-    "GCodeEncoding",
-    "MetadataEncoding",
-    "ThumbnailFormat",
-    "PRUSASLICER_PARAMS",
-    "GCODE_BLOCK_SIZE",
-    "is_bgcode",
-    "decode",
-    "encode",
-    "new_container",
-    "to_ascii",
-]
+__all__ = list(container.__all__)  # the package's face is the container's

@@ -101,16 +101,9 @@ class LoadpathScript(Script):
             report_root=self.report_root() if get("report") else None,
             service_url=get("service_url") or "",
         )
+        self.tell_user(r.user_message(outcome))
         if not outcome.ok:
-            self.tell_user(
-                "Loadpath failed; the G-code is saved as Cura sliced it (its first line says why): "
-                + outcome.message
-            )
             data = list(data)
             data[0] = r.error_comment(outcome.message) + data[0]
             return data
-        for warning in outcome.warnings:
-            self.tell_user(warning, "Loadpath infill: warning")
-        if outcome.verdict:
-            self.tell_user(outcome.verdict)
         return outcome.chunks

@@ -5,26 +5,12 @@ import pytest
 from loadpath.engines.finish.ends import _first_blocked
 
 
-def _reference(
-    cand,
-    ok,
-    s,
-    end_pt,
-    end_dir,
-    end_w,
-    end_pid,
-    end_arc,
-    dp,
-    did,
-    dw,
-    darc,
-    r_max,
-    clear,
-    cap,
-    overlap,
-    own_far,
-):
-    """Every (candidate, sample) pair in plain numpy, then the first failing candidate per end."""
+def _reference(arrays, r_max, clear, cap, overlap, own_far):
+    """Every (candidate, sample) pair in plain numpy, then the first failing candidate per end.
+
+    ``arrays`` are :func:`_first_blocked`'s array arguments, in its order.
+    """
+    cand, ok, s, end_pt, end_dir, end_w, end_pid, end_arc, dp, did, dw, darc = arrays
     n_e, n_s = ok.shape
     c = cand.reshape(-1, 2)
     e_of = np.repeat(np.arange(n_e), n_s)
@@ -76,7 +62,7 @@ def test_first_blocked_matches_every_pair_checked(overlap):
         args = (cand, ok, s, end_pt, end_dir, end_w, end_pid, end_arc, dp, did, dw, darc)
         # the kernel through the engine's own call (its grid of the samples and candidates)
         got = _first_blocked(*args, r_max, clear, cap, None if np.isnan(overlap) else overlap, own_far)
-        want = _reference(*args, r_max, clear, cap, overlap, own_far)
+        want = _reference(args, r_max, clear, cap, overlap, own_far)
         assert np.array_equal(got, want), trial
         seen.append(got)
     # the instances exercise every outcome: blocked at once, part way, and free throughout
