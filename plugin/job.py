@@ -439,4 +439,6 @@ def _run(
                 f"the report could not be written to {str(request.report)!r} ({exc.strerror or exc}); "
                 f"the G-code {str(out)!r} was written"
             )
+            # the file's header was final before this warning; the line on stderr and in the log count it
+            result.verdict = dataclasses.replace(v, warnings=len(result.warnings))
     return result

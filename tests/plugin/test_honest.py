@@ -177,6 +177,9 @@ def test_report_failures_never_fail_the_run_and_say_the_gcode_was_written(shelf,
     err = capsys.readouterr().err
     assert f"the report could not be written to {str(blocked)!r}" in err
     assert f"the G-code {str(folder / 'o.gcode')!r} was written" in err and (folder / "o.gcode").is_file()
+    # the verdict on stderr counts that warning (the file's header was written before it)
+    verdict = [ln for ln in err.splitlines() if ln.startswith("loadpath ") and " on " in ln][-1]
+    assert verdict.endswith("; 1 warning"), verdict
 
 
 @pytest.mark.parametrize("in_place", [True, False], ids=["in-place", "to-output"])
