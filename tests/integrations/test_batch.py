@@ -38,11 +38,13 @@ def _rows(out: str) -> dict[str, list[str]]:
 
 @pytest.fixture(scope="module")
 def local_run(folder):
-    """``loadpath batch FOLDER`` with two processes; (exit status, stdout)."""
+    """``loadpath batch FOLDER`` with two processes, on the folder's own result cache
+    (``folder/cache``, which the cluster test shares); (exit status, stdout)."""
     cap = io.StringIO()
     import contextlib
 
-    with contextlib.redirect_stdout(cap):
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(cap):
+        mp.setenv("LOADPATH_CACHE_DIR", str(folder / "cache"))
         status = main(["batch", str(folder), "--loadcase", str(folder / "case.toml"), "--jobs", "2", *ARGS])
     return status, cap.getvalue()
 
@@ -75,8 +77,11 @@ def test_batch_processes_every_file_and_reports_the_failure(folder, local_run, t
 
 
 @pytest.mark.slow
-def test_batch_on_a_local_dask_cluster(folder, local_run, tmp_path, capsys):
+def test_batch_on_a_local_dask_cluster(folder, local_run, tmp_path, capsys, monkeypatch):
+    """The cluster's workers share the local run's result cache: what is tested here is the cluster's
+    way of sending files and answers (the engines' own determinism is tested elsewhere)."""
     distributed = pytest.importorskip("distributed")
+    monkeypatch.setenv("LOADPATH_CACHE_DIR", str(folder / "cache"))
     out_dir = tmp_path / "out"
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
