@@ -115,6 +115,9 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     The neighbour on a side is the nearest point of another bead's centre line seen from the bead's
     midpoint within 60 degrees of its normal: a parallel neighbour (its foot of perpendicular) or the
     end of a bead that butts against it (infill meeting a wall at an angle).
+
+    (Per layer, on the layer's own contiguous coordinate columns; the candidate pairs come grouped by
+    bead, so each side's maximum and the nearest distance are segment reductions, not ``ufunc.at``.)
     """
     from scipy.spatial import cKDTree
 
@@ -136,29 +139,47 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     for rows in np.split(order, bounds):
         if len(rows) < 2:
             continue
+        w_r, h_r, len_r = w[rows], h[rows], length[rows]
         # far enough to see a neighbour whose stadium still touches (1.2 x the widest usual bead)
-        touch = 1.2 * float(np.quantile(w[rows], 0.99) + np.quantile(h[rows], 0.99))
-        reach = 0.5 * float(np.max(length[rows])) + touch
+        touch = 1.2 * float(np.quantile(w_r, 0.99) + np.quantile(h_r, 0.99))
+        reach = 0.5 * float(np.max(len_r)) + touch
         k = min(_CANDIDATES + 1, len(rows))
-        dd, nb = cKDTree(mid[rows]).query(mid[rows], k=k, distance_upper_bound=reach)
+        mid_r = mid[rows]
+        dd, nb = cKDTree(mid_r).query(mid_r, k=k, distance_upper_bound=reach)
         ok = np.isfinite(dd[:, 1:])
-        i = rows[np.repeat(np.arange(len(rows)), k - 1).reshape(-1, k - 1)[ok]]
-        j = rows[nb[:, 1:][ok]]
-        t = np.clip(np.einsum("ij,ij->i", mid[i] - a[j], u[j]) / length[j], 0.0, 1.0)
-        r = a[j] + (t * length[j])[:, None] * u[j] - mid[i]
-        along = np.einsum("ij,ij->i", r, u[i])
-        off = r[:, 0] * -u[i, 1] + r[:, 1] * u[i, 0]
+        i = np.repeat(np.arange(len(rows)), k - 1)[ok.ravel()]  # layer-local, grouped by bead
+        j = nb[:, 1:][ok]
+        mx, my = mid_r[:, 0].copy(), mid_r[:, 1].copy()
+        ux, uy = u[rows, 0], u[rows, 1]
+        ax, ay = a[rows, 0], a[rows, 1]
+        mxi, myi, uxi, uyi = mx[i], my[i], ux[i], uy[i]
+        axj, ayj, uxj, uyj, lj = ax[j], ay[j], ux[j], uy[j], len_r[j]
+        t = np.clip(((mxi - axj) * uxj + (myi - ayj) * uyj) / lj, 0.0, 1.0)
+        s = t * lj
+        rx = axj + s * uxj - mxi
+        ry = ayj + s * uyj - myi
+        along = rx * uxi + ry * uyi
+        off = rx * -uyi + ry * uxi
         dist = np.hypot(along, off)
         keep = (np.abs(along) <= _CONE * np.abs(off)) & (dist > 1e-3) & (dist < touch)
         i, j, off, dist = i[keep], j[keep], off[keep], dist[keep]
-        phi = neck_fraction(dist, w[i], w[j], h[i])
+        phi = neck_fraction(dist, w_r[i], w_r[j], h_r[i])
         lft = off > 0
-        np.maximum.at(left, i[lft], phi[lft])
-        np.maximum.at(right, i[~lft], phi[~lft])
-        any_l[i[lft]] = True
-        any_r[i[~lft]] = True
-        np.minimum.at(near, i, dist)
+        for side, any_side, sel in ((left, any_l, lft), (right, any_r, ~lft)):
+            g, top = _group_reduce(i[sel], phi[sel], np.maximum)
+            side[rows[g]] = np.maximum(side[rows[g]], top)
+            any_side[rows[g]] = True
+        g, low = _group_reduce(i, dist, np.minimum)
+        near[rows[g]] = np.minimum(near[rows[g]], low)
     return left, right, near, any_l, any_r
+
+
+def _group_reduce(idx: np.ndarray, val: np.ndarray, ufunc: np.ufunc) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct values of a grouped (equal values adjacent) index array and ``ufunc`` over each group."""
+    if not len(idx):
+        return idx, val
+    first = np.flatnonzero(np.concatenate([[True], idx[1:] != idx[:-1]]))
+    return idx[first], ufunc.reduceat(val, first)
 
 
 def _runs(dep: Deposits) -> tuple[Floats, Floats, Floats]:
