@@ -38,6 +38,7 @@ Crossings (what holds a sparse stack together)
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,11 +117,11 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     midpoint within 60 degrees of its normal: a parallel neighbour (its foot of perpendicular) or the
     end of a bead that butts against it (infill meeting a wall at an angle).
 
-    (Per layer, on the layer's own contiguous coordinate columns; the candidate pairs come grouped by
-    bead, so each side's maximum and the nearest distance are segment reductions, not ``ufunc.at``.)
+    (Layer by layer, :func:`_layer_neighbours`.  A layer depends on nothing but its own beads, so a
+    layer whose beads are byte for byte those of a layer of this call or of the previous one (the
+    slicer's file, then loadpath's with the same layers kept; a stack of equal layers) takes that
+    layer's result: :data:`_LAYERS`.)
     """
-    from scipy.spatial import cKDTree
-
     n = len(dep)
     left = np.zeros(n)
     right = np.zeros(n)
@@ -136,41 +137,75 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     h = dep.height
     order = np.argsort(dep.layer, kind="stable")
     bounds = np.flatnonzero(np.diff(dep.layer[order])) + 1
+    seen: dict[bytes, tuple[np.ndarray, ...]] = {}
     for rows in np.split(order, bounds):
         if len(rows) < 2:
             continue
-        w_r, h_r, len_r = w[rows], h[rows], length[rows]
-        # far enough to see a neighbour whose stadium still touches (1.2 x the widest usual bead)
-        touch = 1.2 * float(np.quantile(w_r, 0.99) + np.quantile(h_r, 0.99))
-        reach = 0.5 * float(np.max(len_r)) + touch
-        k = min(_CANDIDATES + 1, len(rows))
-        mid_r = mid[rows]
-        dd, nb = cKDTree(mid_r).query(mid_r, k=k, distance_upper_bound=reach)
-        ok = np.isfinite(dd[:, 1:])
-        i = np.repeat(np.arange(len(rows)), k - 1)[ok.ravel()]  # layer-local, grouped by bead
-        j = nb[:, 1:][ok]
-        mx, my = mid_r[:, 0].copy(), mid_r[:, 1].copy()
-        ux, uy = u[rows, 0], u[rows, 1]
-        ax, ay = a[rows, 0], a[rows, 1]
-        mxi, myi, uxi, uyi = mx[i], my[i], ux[i], uy[i]
-        axj, ayj, uxj, uyj, lj = ax[j], ay[j], ux[j], uy[j], len_r[j]
-        t = np.clip(((mxi - axj) * uxj + (myi - ayj) * uyj) / lj, 0.0, 1.0)
-        s = t * lj
-        rx = axj + s * uxj - mxi
-        ry = ayj + s * uyj - myi
-        along = rx * uxi + ry * uyi
-        off = rx * -uyi + ry * uxi
-        dist = np.hypot(along, off)
-        keep = (np.abs(along) <= _CONE * np.abs(off)) & (dist > 1e-3) & (dist < touch)
-        i, j, off, dist = i[keep], j[keep], off[keep], dist[keep]
-        phi = neck_fraction(dist, w_r[i], w_r[j], h_r[i])
-        lft = off > 0
-        for side, any_side, sel in ((left, any_l, lft), (right, any_r, ~lft)):
-            g, top = _group_reduce(i[sel], phi[sel], np.maximum)
-            side[rows[g]] = np.maximum(side[rows[g]], top)
-            any_side[rows[g]] = True
-        g, low = _group_reduce(i, dist, np.minimum)
-        near[rows[g]] = np.minimum(near[rows[g]], low)
+        h_key = hashlib.sha256()
+        for x in (a[rows], b[rows], w[rows], h[rows]):
+            h_key.update(np.ascontiguousarray(x).tobytes())
+        key = h_key.digest()
+        got = seen.get(key) or _LAYERS.get(key)
+        if got is None:
+            got = _layer_neighbours(mid[rows], a[rows], u[rows], length[rows], w[rows], h[rows])
+        seen[key] = got
+        left[rows], right[rows], near[rows], any_l[rows], any_r[rows] = got
+    _LAYERS.clear()
+    _LAYERS.update(seen)
+    return left, right, near, any_l, any_r
+
+
+_LAYERS: dict[bytes, tuple[np.ndarray, ...]] = {}
+"""The previous :func:`_neighbours` call's layers (key: SHA-256 of their beads), in this process only."""
+
+
+def _layer_neighbours(
+    mid: np.ndarray, a: np.ndarray, u: np.ndarray, length: np.ndarray, w: np.ndarray, h: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """:func:`_neighbours` of the beads of one layer (midpoints, starts, directions, lengths, widths,
+    heights): ``left, right, near, any_l, any_r``.
+
+    On the layer's own contiguous coordinate columns; the candidate pairs come grouped by bead, so
+    each side's maximum and the nearest distance are segment reductions, not ``ufunc.at``.
+    """
+    from scipy.spatial import cKDTree
+
+    n = len(mid)
+    left = np.zeros(n)
+    right = np.zeros(n)
+    near = np.full(n, np.inf)
+    any_l = np.zeros(n, dtype=bool)
+    any_r = np.zeros(n, dtype=bool)
+    # far enough to see a neighbour whose stadium still touches (1.2 x the widest usual bead)
+    touch = 1.2 * float(np.quantile(w, 0.99) + np.quantile(h, 0.99))
+    reach = 0.5 * float(np.max(length)) + touch
+    k = min(_CANDIDATES + 1, n)
+    dd, nb = cKDTree(mid).query(mid, k=k, distance_upper_bound=reach, workers=-1)
+    ok = np.isfinite(dd[:, 1:])
+    i = np.repeat(np.arange(n), k - 1)[ok.ravel()]  # grouped by bead
+    j = nb[:, 1:][ok]
+    mx, my = mid[:, 0].copy(), mid[:, 1].copy()
+    ux, uy = u[:, 0].copy(), u[:, 1].copy()
+    ax, ay = a[:, 0].copy(), a[:, 1].copy()
+    mxi, myi, uxi, uyi = mx[i], my[i], ux[i], uy[i]
+    axj, ayj, uxj, uyj, lj = ax[j], ay[j], ux[j], uy[j], length[j]
+    t = np.clip(((mxi - axj) * uxj + (myi - ayj) * uyj) / lj, 0.0, 1.0)
+    s = t * lj
+    rx = axj + s * uxj - mxi
+    ry = ayj + s * uyj - myi
+    along = rx * uxi + ry * uyi
+    off = rx * -uyi + ry * uxi
+    dist = np.hypot(along, off)
+    keep = (np.abs(along) <= _CONE * np.abs(off)) & (dist > 1e-3) & (dist < touch)
+    i, j, off, dist = i[keep], j[keep], off[keep], dist[keep]
+    phi = neck_fraction(dist, w[i], w[j], h[i])
+    lft = off > 0
+    for side, any_side, sel in ((left, any_l, lft), (right, any_r, ~lft)):
+        g, top = _group_reduce(i[sel], phi[sel], np.maximum)
+        side[g] = np.maximum(side[g], top)
+        any_side[g] = True
+    g, low = _group_reduce(i, dist, np.minimum)
+    near[g] = np.minimum(near[g], low)
     return left, right, near, any_l, any_r
 
 
