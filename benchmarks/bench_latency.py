@@ -119,13 +119,22 @@ def gusset_mesh(leg: float = 60.0, thickness: float = 8.0, hole: float = 5.0):
     return mesh
 
 
-def _slice(stl: Path, out: Path, repeats: int, settings: dict) -> float:
-    times = []
+def _cpu() -> float:
+    """CPU seconds (user + system) of every child process waited for so far."""
+    import resource
+
+    u = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return u.ru_utime + u.ru_stime
+
+
+def _slice(stl: Path, out: Path, repeats: int, settings: dict) -> tuple[float, float]:
+    times, cpu = [], []
     for _ in range(repeats):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), _cpu()
         slicing.slice_prusa(stl, out, **settings)
         times.append(time.perf_counter() - t)
-    return statistics.median(times)
+        cpu.append(_cpu() - c)
+    return statistics.median(times), statistics.median(cpu)
 
 
 def _run(gcode: Path, case: Path, out: Path, cache: Path, extra: list[str], timeout: float):
@@ -134,10 +143,11 @@ def _run(gcode: Path, case: Path, out: Path, cache: Path, extra: list[str], time
     # writing it would make every run compile ~100 modules again (0.4 s of CPU), which no user sees
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     cmd = [LOADPATH, "run", str(gcode), "--loadcase", str(case), "-o", str(out), *extra]
+    c = _cpu()
     wall, rss, status, err = _child(cmd, timeout=timeout, env=env)
     if status != 0:
         raise SystemExit(f"loadpath run failed on {gcode.name}: {err}")
-    return wall, rss
+    return wall, rss, _cpu() - c
 
 
 def bench(name, stl, settings, folder: Path, repeats: int, extra: list[str], timeout: float, given=None):
@@ -148,23 +158,27 @@ def bench(name, stl, settings, folder: Path, repeats: int, extra: list[str], tim
     case.write_text(GRIP_PULL, encoding="utf-8")
     sliced = folder / f"{name}.gcode"
     row: dict = {"part": name, "options": " ".join(extra)}
-    row["prusaslicer_s"] = _slice(stl, sliced, repeats, settings)
+    row["prusaslicer_s"], row["prusaslicer_cpu_s"] = _slice(stl, sliced, repeats, settings)
     gcode = given if given is not None else sliced
     other = slicing.slice_prusa(stl, folder / f"{name}.speeds.gcode", **{**settings, **OTHER_SPEEDS})
     row["layers"] = len(gc.read(gcode).layers)
     out = folder / f"{name}.loadpath.gcode"
     first, repeat, rss = [], [], []
+    cpu: dict[str, list[float]] = {"first": [], "repeat": []}
     for k in range(repeats):
-        w, m = _run(gcode, case, out, folder / f"cache-{name}-{k}", extra, timeout)
+        w, m, c = _run(gcode, case, out, folder / f"cache-{name}-{k}", extra, timeout)
         first.append(w)
         rss.append(m)
+        cpu["first"].append(c)
     row["size_in_mb"] = gcode.stat().st_size / 1e6
     row["size_out_mb"] = out.stat().st_size / 1e6
     for _ in range(repeats):
         again = folder / f"{name}.speeds.loadpath.gcode"
-        w, m = _run(other, case, again, folder / f"cache-{name}-0", extra, timeout)
+        w, m, c = _run(other, case, again, folder / f"cache-{name}-0", extra, timeout)
         repeat.append(w)
         rss.append(m)
+        cpu["repeat"].append(c)
+    row["first_cpu_s"], row["repeat_cpu_s"] = (statistics.median(cpu[k]) for k in ("first", "repeat"))
     row["first_s"], row["first_s_all"] = statistics.median(first), first
     row["repeat_s"], row["repeat_s_all"] = statistics.median(repeat), repeat
     row["peak_rss_mb"] = max(rss)
@@ -176,7 +190,8 @@ def _show(r: dict) -> None:
     print(
         f"{r['part']:<24}{r['layers']:>7}{s:>9.2f}{r['first_s']:>9.2f}{r['first_s'] / s:>7.1f}"
         f"{r['repeat_s']:>9.2f}{r['repeat_s'] / s:>7.1f}{r['peak_rss_mb']:>9.0f}"
-        f"{r['size_in_mb']:>8.2f}{r['size_out_mb'] / r['size_in_mb']:>7.2f}",
+        f"{r['size_in_mb']:>8.2f}{r['size_out_mb'] / r['size_in_mb']:>7.2f}"
+        f"{r['prusaslicer_cpu_s']:>8.1f}{r['first_cpu_s']:>8.1f}{r['repeat_cpu_s']:>8.1f}",
         flush=True,
     )
 
@@ -218,7 +233,7 @@ def main(argv=None) -> int:
     eng = ["--engine", args.engine]
     head = (
         f"{'part':<24}{'layers':>7}{'slice s':>9}{'first s':>9}{'x':>7}{'repeat s':>9}{'x':>7}"
-        f"{'peak MB':>9}{'in MB':>8}{'out/in':>7}"
+        f"{'peak MB':>9}{'in MB':>8}{'out/in':>7}{'cpu:sl':>8}{'first':>8}{'repeat':>8}"
     )
     rows: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="bench_latency_") as tmp:

@@ -356,7 +356,7 @@ def _neighbour_distances(
     Candidates are the segments through the ``k`` nearest vertices of the paths densified to
     ``pitch / 2``; points left without an answer are retried with a larger ``k``.
     """
-    from scipy.spatial import cKDTree  # here: the verdict imports this module, and needs no scipy from the cache
+    from scipy.spatial import cKDTree  # here: the verdict imports this module; a cached run loads no scipy
 
     dense, dense_id = _densify(paths, 0.5 * pitch)
     out = np.full(len(pts), np.nan)

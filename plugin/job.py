@@ -388,7 +388,8 @@ def _run(
     # the verdict (cheap but for the stiffness prediction) and the report are made before the
     # output is written: a failure of either costs nothing on disk
     t = time.perf_counter()
-    stiff, why = _prediction(pres, s, result.warnings, cache) if pres.changed and request.predict else (None, "")
+    asked = pres.changed and request.predict
+    stiff, why = _prediction(pres, s, result.warnings, cache) if asked else (None, "")
     times["verdict"] = time.perf_counter() - t
     report = None
     if request.report is not None:

@@ -39,6 +39,8 @@ Crossings (what holds a sparse stack together)
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -120,7 +122,7 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     (Layer by layer, :func:`_layer_neighbours`.  A layer depends on nothing but its own beads, so a
     layer whose beads are byte for byte those of a layer of this call or of the previous one (the
     slicer's file, then loadpath's with the same layers kept; a stack of equal layers) takes that
-    layer's result: :data:`_LAYERS`.)
+    layer's result: :data:`_LAYERS`; and, inside :func:`layer_store`, one kept by an earlier run.)
     """
     n = len(dep)
     left = np.zeros(n)
@@ -145,9 +147,12 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
         for x in (a[rows], b[rows], w[rows], h[rows]):
             h_key.update(np.ascontiguousarray(x).tobytes())
         key = h_key.digest()
-        got = seen.get(key) or _LAYERS.get(key)
+        store = _STORES[-1] if _STORES else None
+        got = seen.get(key) or _LAYERS.get(key) or (store.get(key) if store is not None else None)
         if got is None:
             got = _layer_neighbours(mid[rows], a[rows], u[rows], length[rows], w[rows], h[rows])
+            if store is not None:
+                store.put(key, got)
         seen[key] = got
         left[rows], right[rows], near[rows], any_l[rows], any_r[rows] = got
     _LAYERS.clear()
@@ -157,6 +162,23 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
 
 _LAYERS: dict[bytes, tuple[np.ndarray, ...]] = {}
 """The previous :func:`_neighbours` call's layers (key: SHA-256 of their beads), in this process only."""
+
+_STORES: list = []
+
+
+@contextmanager
+def layer_store(store) -> Iterator[None]:  # type: ignore[no-untyped-def]
+    """Inside the block, :func:`_neighbours` also reads and keeps layers in ``store``.
+
+    ``store`` has ``get(key: bytes) -> tuple | None`` and ``put(key: bytes, value: tuple)``; the key
+    names only the layer's beads, so the store must add the code (the verdict's run cache does:
+    :func:`loadpath.stiffness.change.predicted_change`).
+    """
+    _STORES.append(store)
+    try:
+        yield
+    finally:
+        _STORES.pop()
 
 
 def _layer_neighbours(

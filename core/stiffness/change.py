@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from contextlib import nullcontext
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
 from loadpath.stiffness.deposits import Deposits, from_program, from_toolpaths
 from loadpath.stiffness.predict import StiffnessOptions, predict
@@ -110,7 +112,9 @@ class _Predicted:
     failure: float | None
 
 
-def prediction_key(fea_key: str, deposits: Deposits, options: StiffnessOptions, card: MaterialCard | None) -> str:
+def prediction_key(
+    fea_key: str, deposits: Deposits, options: StiffnessOptions, card: MaterialCard | None
+) -> str:
     """Key of one body's prediction in the cache: everything :func:`predict` and the failure load read.
 
     ``fea_key`` (:func:`loadpath.cache.fea_key`) names the analysis whose mesh, load case and supports
@@ -136,10 +140,38 @@ def _predict(an, deposits: Deposits, options: StiffnessOptions, card, cache, key
         if isinstance(hit, _Predicted):
             return hit
     p = predict(an.resolved, deposits, options, an.mesh)
-    out = _Predicted(p.compliance, p.mass, p.energy_density, None if card is None else first_failure(p, card).load_factor)
+    failure = None if card is None else first_failure(p, card).load_factor
+    out = _Predicted(p.compliance, p.mass, p.energy_density, failure)
     if k is not None:
         cache.put("prediction", k, out)
     return out
+
+
+class _CachedLayers:
+    """The bead neighbour search's layers (:func:`loadpath.stiffness.beads.layer_store`) in the run cache.
+
+    A re-slice that moves a few beads of one layer changes both predictions' keys; the other layers'
+    neighbours (about half of a prediction's time) are still those of the last run.
+    """
+
+    def __init__(self, cache) -> None:  # type: ignore[no-untyped-def]
+        from loadpath.cache import code_stamp, source_stamp
+
+        self.cache = cache
+        self.stamp = f"{code_stamp()} {source_stamp('stiffness')}"
+        self.kept = 0
+
+    def _key(self, key: bytes) -> str:
+        from loadpath.cache import digest
+
+        return digest(["bead layer", self.stamp, key])
+
+    def get(self, key: bytes):  # type: ignore[no-untyped-def]
+        hit = self.cache.get("beads", self._key(key))
+        return hit if isinstance(hit, tuple) and len(hit) == 5 else None
+
+    def put(self, key: bytes, value: tuple) -> None:
+        self.kept += self.cache.put("beads", self._key(key), value, evict=False)
 
 
 def new_deposits(jobs: Sequence, volumes: Mapping[int, float]) -> dict[str, list[Deposits]]:
@@ -214,6 +246,19 @@ def predicted_change(
     options = StiffnessOptions(resolution=VERDICT_RESOLUTION) if options is None else options
     if card is not None:
         options = dataclasses.replace(options, material=card.elastic)
+    layers = _CachedLayers(cache) if cache is not None and fea_keys else None
+    with layer_store(layers) if layers is not None else nullcontext():
+        args = (analyses, program, object_codes, replaced, added, filament_diameter)
+        bodies = _bodies(*args, options, card, cache, fea_keys)
+    if layers is not None and layers.kept:
+        cache.evict()
+    return _summary(bodies, card, t0)
+
+
+def _bodies(  # type: ignore[no-untyped-def]
+    analyses, program, object_codes, replaced, added, filament_diameter, options, card, cache, fea_keys
+):
+    """Each body before and after (:func:`predicted_change`)."""
     bodies = []
     for name, an in analyses.items():
         code = object_codes[name]
@@ -232,6 +277,11 @@ def predicted_change(
                 name, p0.compliance, p1.compliance, p0.mass, p1.mass, ratio, an.mesh, failure_before=f0, failure_after=f1
             )
         )
+    return bodies
+
+
+def _summary(bodies: list[BodyChange], card: MaterialCard | None, t0: float) -> StiffnessChange:
+    """The part's change from its bodies' (:func:`predicted_change`)."""
     c0 = sum(b.compliance_before for b in bodies)
     c1 = sum(b.compliance_after for b in bodies)
     m0 = sum(b.mass_before for b in bodies)
