@@ -30,7 +30,11 @@ with its ratio to the slicing time; the largest peak resident memory of any load
 the input's size and the output's against it (``out/in``, first run).  Targets of issue 17 are
 printed under the table with the measured figure and met/missed.  ``--quick``: one repeat, the
 example, the 100-layer specimen and the default gyroid gusset only.  ``OUT_DIR/bench_latency.json``
-keeps the rows when a folder is given.
+keeps the rows when a folder is given.  ``cpu:sl``, ``first``, ``repeat``: CPU seconds (user + system,
+``RUSAGE_CHILDREN``) of the slicer and of the two runs: on a machine shared with other jobs the wall
+times are mostly waiting, the CPU seconds are what each program did (a first run's engine workers
+live under a forkserver and may be left out: a lower bound).  The children may write bytecode, as an
+installed loadpath has it.
 
 Measured 2026-12-01 on the 2-core development machine shared with about eight other jobs (load
 average 7 for BEFORE, 17-24 for AFTER: every time is several times its idle value, and the
@@ -54,10 +58,38 @@ median of 3 (the 1000-layer file: 1 run)::
     gusset-100                  7.33    78.85  10.8     37.91   5.2      296    3.93
     specimen-1000              74.91  1251.44  16.7    358.27   4.8     1321    2.78
 
-Where a repeated run still goes (100-layer specimen, in process, from the cache, load 19, before
-the 15 % / 40 % bead runs halved its output lines):
+Measured 2026-12-02 (issue 17, second pass: the verdict's predictions, the linked runs and each
+layer's bead neighbours in the cache; a cached run loads no scipy; the bead neighbour search on
+per-layer columns with segment reductions, reusing identical layers).  ``--quick --only
+example,gusset-gyroid30``, one run each, BEFORE = 4220ea9 and AFTER = this branch run side by side
+(load average 12-16 on the 2 cores: the slicer's 0.3 s of CPU took 4 s of wall)::
+
+    part                     slice s  first s     x  repeat s     x  peak MB  out/in  cpu:sl  first  repeat
+    BEFORE
+    example                     4.00   245.24  61.3    217.17  54.3      404    3.60     0.3   17.5    14.8
+    gusset-gyroid30            12.38   140.92  11.4     92.94   7.5      372    1.08     1.3   20.4    16.6
+    AFTER
+    example                     4.20   231.29  55.1     39.55   9.4      412    3.60     0.3   16.9     2.6
+    gusset-gyroid30            13.75   216.51  15.7     66.95   4.9      367    1.08     1.3   19.1     7.6
+
+The repeated run's CPU: 14.8 -> 2.6 s on the example (its beads are the same: both predictions and
+every link come from the cache), 16.6 -> 7.6 s on the gusset (PrusaSlicer's gyroid moves at the other
+speeds, so both predictions are made again, from the kept neighbours of the layers that did not
+change).  Outputs byte-identical to BEFORE's (without the verdict's date) and the same verdict figures
+on the example, a fresh PrusaSlicer slice of it, its re-slice with other speeds and the gusset.  The
+100-layer specimen's first run was killed after 900 s at this load, BEFORE and AFTER alike: not
+measured; nor the 1000-layer file.
+
+Where a repeated run still goes (2026-12-01, 100-layer specimen, in process, from the cache, load
+19, before the 15 % / 40 % bead runs halved its output lines):
 parse 2.1 s, geometry 12.3 s, loadcase 4.9 s, fea 0.9 s, paths 0.6 s, splice 110 s, check
 9.5 s: the splice (Python, per vertex and per path) is what is left to make fast.
+
+And now (2026-12-02, the example from the cache, CPU profile, 5.8 s with the profiler): the splice
+2.7 s (its Ramer-Douglas-Peucker passes 1.05 s, the rewrite and text 1.15 s), imports about 1.5 s
+(numpy 0.56 s, the settings and engine registry 0.7 s), parse and geometry 0.5 s, the verdict 0.3 s
+(the deposits and their hash).  The first run: linking 8.5 s of wall at load 10 (``accept``, one link
+at a time: sequential by design), the prediction 10 s, the engine with its kernels' loading 9.6 s.
 """
 
 from __future__ import annotations
