@@ -52,7 +52,7 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     assert set(cache2.stats.misses) <= {"links", "prediction", "beads"} and cache2.stats.hits["fea"] == 1
     assert cache2.stats.hits["paths"] == n_paths
     assert cache2.stats.hits.get("prediction", 0) + cache2.stats.misses.get("prediction", 0) == 2
-    if cache2.stats.misses.get("prediction"):  # predicted again: the unchanged layers' neighbours are kept ones
+    if cache2.stats.misses.get("prediction"):  # predicted again: the unchanged layers' neighbours are kept
         assert cache2.stats.hits["beads"] > cache2.stats.misses.get("beads", 0)
     assert all(np.array_equal(a, b) for a, b in zip(_paths(r1), _paths(r2), strict=True))
     # what the cache gave is what a run without it makes, to the byte (the check passed on both),
