@@ -503,8 +503,33 @@ def geo_kind(geo, block: int) -> str | None:
     return None
 
 
-def _simplified(paths, plan: PlanOptions) -> tuple[Path, ...]:
-    """Simplify paths once (every layer that prints them would otherwise do it again)."""
+def _simplified(paths, plan: PlanOptions, cache=None) -> tuple[Path, ...]:
+    """Simplify paths once (every layer that prints them would otherwise do it again).
+
+    With a ``cache``: kept under the paths' exact bytes, the three tolerances and the code (the
+    splicer's sources included, :func:`loadpath.cache.source_stamp`).
+    """
+    key = None
+    if cache is not None:
+        from loadpath.cache import code_stamp, digest, source_stamp
+
+        parts: list[bytes | str] = ["simplified", code_stamp(), source_stamp("splice")]
+        parts.append(repr((float(plan.resolution), float(plan.pitch_resolution), float(plan.min_segment))))
+        for p in paths:
+            parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
+            parts.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
+        key = digest(parts)
+        hit = cache.get("simplified", key)
+        if isinstance(hit, tuple):
+            return hit
+    out = _simplify_paths(paths, plan)
+    if key is not None:
+        cache.put("simplified", key, out, evict=False)
+    return out
+
+
+def _simplify_paths(paths, plan: PlanOptions) -> tuple[Path, ...]:
+    """:func:`_simplified` without the cache."""
     simple = simplify(
         [(p.points, p.pitch) for p in paths], plan.resolution, plan.pitch_resolution, plan.min_segment
     )
@@ -571,7 +596,7 @@ def _fills(
                         link_stats[k] = link_stats.get(k, 0) + v
             return runs
 
-        base_raw = _simplified(tp.paths, plan)
+        base_raw = _simplified(tp.paths, plan, cache)
         base = linked(base_raw, job.unit)
         shifted = shifted_raw = None
         flags = []
@@ -580,10 +605,10 @@ def _fills(
             if use_shift and shifted is None:
                 u0 = job.unit
                 if by_engine:
-                    shifted_raw = _simplified(shifted_paths[ji].paths, plan)
+                    shifted_raw = _simplified(shifted_paths[ji].paths, plan, cache)
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
-                    shifted_raw = _simplified(moved, plan)
+                    shifted_raw = _simplified(moved, plan, cache)
                 shifted = linked(shifted_raw, u0)
             paths = shifted if use_shift else base
             if not u.fill_region.equals(job.unit.fill_region):
@@ -611,7 +636,7 @@ def _fills(
                 link_stats,
             )
         )
-    if kept[0]:
+    if cache is not None and (kept[0] or cache.stats.misses.get("simplified")):
         cache.evict()
     fills = []
     for block, e in sorted(per_block.items()):

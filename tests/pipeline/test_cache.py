@@ -38,9 +38,10 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     n_jobs = len(r1.pipeline.jobs)
     assert n_jobs >= 1 and r1.changed
     n_paths = n_jobs + sum(len(j.units) > 1 for j in r1.pipeline.jobs)
-    # the verdict's two predictions (the slicer's beads, loadpath's), their layers' bead neighbours
-    # and every linking are kept too
+    # the verdict's two predictions (the slicer's beads, loadpath's), their layers' bead neighbours,
+    # every simplification of the engine's paths and every linking are kept too
     assert cache.stats.misses.pop("links") >= 1 and cache.stats.misses.pop("beads") >= 1
+    assert cache.stats.misses.pop("simplified") >= 1
     assert cache.stats.misses == {"fea": 1, "paths": n_paths, "prediction": 2}
     assert cache.stats.hits == {}
 
@@ -50,6 +51,7 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     # both predictions are made again (from the other layers' kept neighbours), and that layer's links;
     # the analysis and the paths are reused
     assert set(cache2.stats.misses) <= {"links", "prediction", "beads"} and cache2.stats.hits["fea"] == 1
+    assert cache2.stats.hits["simplified"] >= 1  # the same engine paths
     assert cache2.stats.hits["paths"] == n_paths
     assert cache2.stats.hits.get("prediction", 0) + cache2.stats.misses.get("prediction", 0) == 2
     if cache2.stats.misses.get("prediction"):  # predicted again: the unchanged layers' neighbours are kept
