@@ -73,7 +73,8 @@ example,gusset-gyroid30``, one run each, BEFORE = 4220ea9 and AFTER = this branc
     gusset-gyroid30            13.75   216.51  15.7     66.95   4.9      367    1.08     1.3   19.1     7.6
 
 The repeated run's CPU: 14.8 -> 2.6 s on the example (its beads are the same: both predictions and
-every link come from the cache), 16.6 -> 7.6 s on the gusset (PrusaSlicer's gyroid moves at the other
+every link come from the cache; 2.2 s once the simplified engine paths are kept too, commit 6df682c,
+``/usr/bin/time`` at load 8-10), 16.6 -> 7.6 s on the gusset (PrusaSlicer's gyroid moves at the other
 speeds, so both predictions are made again, from the kept neighbours of the layers that did not
 change).  Outputs byte-identical to BEFORE's (without the verdict's date) and the same verdict figures
 on the example, a fresh PrusaSlicer slice of it, its re-slice with other speeds and the gusset.  The

@@ -8,7 +8,7 @@ paths depend on.  :class:`Cache` keeps those results under a hash of exactly wha
 
 Where: ``$LOADPATH_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/loadpath``, else
 ``~/.cache/loadpath`` (:func:`default_folder`); one sub-folder per kind of entry (``fea``,
-``paths``, ``links``, ``prediction``, ``beads``).  ``loadpath run --no-cache`` (setting
+``paths``, ``simplified``, ``links``, ``prediction``, ``beads``).  ``loadpath run --no-cache`` (setting
 ``cache = false``) neither reads nor writes it.
 
 Safety:
