@@ -30,7 +30,11 @@ with its ratio to the slicing time; the largest peak resident memory of any load
 the input's size and the output's against it (``out/in``, first run).  Targets of issue 17 are
 printed under the table with the measured figure and met/missed.  ``--quick``: one repeat, the
 example, the 100-layer specimen and the default gyroid gusset only.  ``OUT_DIR/bench_latency.json``
-keeps the rows when a folder is given.
+keeps the rows when a folder is given.  ``cpu:sl``, ``first``, ``repeat``: CPU seconds (user + system,
+``RUSAGE_CHILDREN``) of the slicer and of the two runs: on a machine shared with other jobs the wall
+times are mostly waiting, the CPU seconds are what each program did (a first run's engine workers
+live under a forkserver and may be left out: a lower bound).  The children may write bytecode, as an
+installed loadpath has it.
 
 Measured 2026-12-01 on the 2-core development machine shared with about eight other jobs (load
 average 7 for BEFORE, 17-24 for AFTER: every time is several times its idle value, and the
@@ -54,10 +58,39 @@ median of 3 (the 1000-layer file: 1 run)::
     gusset-100                  7.33    78.85  10.8     37.91   5.2      296    3.93
     specimen-1000              74.91  1251.44  16.7    358.27   4.8     1321    2.78
 
-Where a repeated run still goes (100-layer specimen, in process, from the cache, load 19, before
-the 15 % / 40 % bead runs halved its output lines):
+Measured 2026-12-02 (issue 17, second pass: the verdict's predictions, the linked runs and each
+layer's bead neighbours in the cache; a cached run loads no scipy; the bead neighbour search on
+per-layer columns with segment reductions, reusing identical layers).  ``--quick --only
+example,gusset-gyroid30``, one run each, BEFORE = 4220ea9 and AFTER = this branch run side by side
+(load average 12-16 on the 2 cores: the slicer's 0.3 s of CPU took 4 s of wall)::
+
+    part                     slice s  first s     x  repeat s     x  peak MB  out/in  cpu:sl  first  repeat
+    BEFORE
+    example                     4.00   245.24  61.3    217.17  54.3      404    3.60     0.3   17.5    14.8
+    gusset-gyroid30            12.38   140.92  11.4     92.94   7.5      372    1.08     1.3   20.4    16.6
+    AFTER
+    example                     4.20   231.29  55.1     39.55   9.4      412    3.60     0.3   16.9     2.6
+    gusset-gyroid30            13.75   216.51  15.7     66.95   4.9      367    1.08     1.3   19.1     7.6
+
+The repeated run's CPU: 14.8 -> 2.6 s on the example (its beads are the same: both predictions and
+every link come from the cache; 2.2 s once the simplified engine paths are kept too, commit 6df682c,
+``/usr/bin/time`` at load 8-10), 16.6 -> 7.6 s on the gusset (PrusaSlicer's gyroid moves at the other
+speeds, so both predictions are made again, from the kept neighbours of the layers that did not
+change).  Outputs byte-identical to BEFORE's (without the verdict's date) and the same verdict figures
+on the example, a fresh PrusaSlicer slice of it, its re-slice with other speeds and the gusset.  The
+100-layer specimen's first run was killed after 900 s at this load, BEFORE and AFTER alike: not
+measured; nor the 1000-layer file.
+
+Where a repeated run still goes (2026-12-01, 100-layer specimen, in process, from the cache, load
+19, before the 15 % / 40 % bead runs halved its output lines):
 parse 2.1 s, geometry 12.3 s, loadcase 4.9 s, fea 0.9 s, paths 0.6 s, splice 110 s, check
 9.5 s: the splice (Python, per vertex and per path) is what is left to make fast.
+
+And now (2026-12-02, the example from the cache, CPU profile, 5.8 s with the profiler): the splice
+2.7 s (its Ramer-Douglas-Peucker passes 1.05 s, the rewrite and text 1.15 s), imports about 1.5 s
+(numpy 0.56 s, the settings and engine registry 0.7 s), parse and geometry 0.5 s, the verdict 0.3 s
+(the deposits and their hash).  The first run: linking 8.5 s of wall at load 10 (``accept``, one link
+at a time: sequential by design), the prediction 10 s, the engine with its kernels' loading 9.6 s.
 """
 
 from __future__ import annotations
@@ -119,22 +152,35 @@ def gusset_mesh(leg: float = 60.0, thickness: float = 8.0, hole: float = 5.0):
     return mesh
 
 
-def _slice(stl: Path, out: Path, repeats: int, settings: dict) -> float:
-    times = []
+def _cpu() -> float:
+    """CPU seconds (user + system) of every child process waited for so far."""
+    import resource
+
+    u = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return u.ru_utime + u.ru_stime
+
+
+def _slice(stl: Path, out: Path, repeats: int, settings: dict) -> tuple[float, float]:
+    times, cpu = [], []
     for _ in range(repeats):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), _cpu()
         slicing.slice_prusa(stl, out, **settings)
         times.append(time.perf_counter() - t)
-    return statistics.median(times)
+        cpu.append(_cpu() - c)
+    return statistics.median(times), statistics.median(cpu)
 
 
 def _run(gcode: Path, case: Path, out: Path, cache: Path, extra: list[str], timeout: float):
     env = {**os.environ, "LOADPATH_CACHE_DIR": str(cache)}
+    # an installed loadpath has its bytecode compiled (pip does it); a development shell that forbids
+    # writing it would make every run compile ~100 modules again (0.4 s of CPU), which no user sees
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     cmd = [LOADPATH, "run", str(gcode), "--loadcase", str(case), "-o", str(out), *extra]
+    c = _cpu()
     wall, rss, status, err = _child(cmd, timeout=timeout, env=env)
     if status != 0:
         raise SystemExit(f"loadpath run failed on {gcode.name}: {err}")
-    return wall, rss
+    return wall, rss, _cpu() - c
 
 
 def bench(name, stl, settings, folder: Path, repeats: int, extra: list[str], timeout: float, given=None):
@@ -145,23 +191,27 @@ def bench(name, stl, settings, folder: Path, repeats: int, extra: list[str], tim
     case.write_text(GRIP_PULL, encoding="utf-8")
     sliced = folder / f"{name}.gcode"
     row: dict = {"part": name, "options": " ".join(extra)}
-    row["prusaslicer_s"] = _slice(stl, sliced, repeats, settings)
+    row["prusaslicer_s"], row["prusaslicer_cpu_s"] = _slice(stl, sliced, repeats, settings)
     gcode = given if given is not None else sliced
     other = slicing.slice_prusa(stl, folder / f"{name}.speeds.gcode", **{**settings, **OTHER_SPEEDS})
     row["layers"] = len(gc.read(gcode).layers)
     out = folder / f"{name}.loadpath.gcode"
     first, repeat, rss = [], [], []
+    cpu: dict[str, list[float]] = {"first": [], "repeat": []}
     for k in range(repeats):
-        w, m = _run(gcode, case, out, folder / f"cache-{name}-{k}", extra, timeout)
+        w, m, c = _run(gcode, case, out, folder / f"cache-{name}-{k}", extra, timeout)
         first.append(w)
         rss.append(m)
+        cpu["first"].append(c)
     row["size_in_mb"] = gcode.stat().st_size / 1e6
     row["size_out_mb"] = out.stat().st_size / 1e6
     for _ in range(repeats):
         again = folder / f"{name}.speeds.loadpath.gcode"
-        w, m = _run(other, case, again, folder / f"cache-{name}-0", extra, timeout)
+        w, m, c = _run(other, case, again, folder / f"cache-{name}-0", extra, timeout)
         repeat.append(w)
         rss.append(m)
+        cpu["repeat"].append(c)
+    row["first_cpu_s"], row["repeat_cpu_s"] = (statistics.median(cpu[k]) for k in ("first", "repeat"))
     row["first_s"], row["first_s_all"] = statistics.median(first), first
     row["repeat_s"], row["repeat_s_all"] = statistics.median(repeat), repeat
     row["peak_rss_mb"] = max(rss)
@@ -173,7 +223,8 @@ def _show(r: dict) -> None:
     print(
         f"{r['part']:<24}{r['layers']:>7}{s:>9.2f}{r['first_s']:>9.2f}{r['first_s'] / s:>7.1f}"
         f"{r['repeat_s']:>9.2f}{r['repeat_s'] / s:>7.1f}{r['peak_rss_mb']:>9.0f}"
-        f"{r['size_in_mb']:>8.2f}{r['size_out_mb'] / r['size_in_mb']:>7.2f}",
+        f"{r['size_in_mb']:>8.2f}{r['size_out_mb'] / r['size_in_mb']:>7.2f}"
+        f"{r['prusaslicer_cpu_s']:>8.1f}{r['first_cpu_s']:>8.1f}{r['repeat_cpu_s']:>8.1f}",
         flush=True,
     )
 
@@ -215,7 +266,7 @@ def main(argv=None) -> int:
     eng = ["--engine", args.engine]
     head = (
         f"{'part':<24}{'layers':>7}{'slice s':>9}{'first s':>9}{'x':>7}{'repeat s':>9}{'x':>7}"
-        f"{'peak MB':>9}{'in MB':>8}{'out/in':>7}"
+        f"{'peak MB':>9}{'in MB':>8}{'out/in':>7}{'cpu:sl':>8}{'first':>8}{'repeat':>8}"
     )
     rows: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="bench_latency_") as tmp:

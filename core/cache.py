@@ -8,7 +8,8 @@ paths depend on.  :class:`Cache` keeps those results under a hash of exactly wha
 
 Where: ``$LOADPATH_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/loadpath``, else
 ``~/.cache/loadpath`` (:func:`default_folder`); one sub-folder per kind of entry (``fea``,
-``paths``).  ``loadpath run --no-cache`` (setting ``cache = false``) neither reads nor writes it.
+``paths``, ``simplified``, ``links``, ``prediction``, ``beads``).  ``loadpath run --no-cache`` (setting
+``cache = false``) neither reads nor writes it.
 
 Safety:
 
@@ -38,7 +39,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Cache", "CacheStats", "default_folder", "code_stamp", "digest", "geometry_bytes", "fea_key"]
+__all__ = [
+    "Cache",
+    "CacheStats",
+    "default_folder",
+    "code_stamp",
+    "source_stamp",
+    "digest",
+    "geometry_bytes",
+    "fea_key",
+]
 
 ENV_DIR = "LOADPATH_CACHE_DIR"
 ENV_MAX_MB = "LOADPATH_CACHE_MAX_MB"
@@ -95,6 +105,27 @@ def code_stamp() -> str:
                 h.update(p.read_bytes())
         _STAMP = h.hexdigest()
     return _STAMP
+
+
+_SOURCE_STAMPS: dict[str, str] = {}
+
+
+def source_stamp(sub: str) -> str:
+    """Hash of the ``.py`` files of one sub-package of :data:`UNRELATED` (once per process).
+
+    For an entry that depends on such a package (the verdict's prediction on ``stiffness``) besides
+    everything :func:`code_stamp` covers.
+    """
+    if sub not in _SOURCE_STAMPS:
+        import loadpath
+
+        h = hashlib.sha256(f"loadpath {loadpath.__version__} {sub}\n".encode())
+        for root in sorted({Path(p).resolve() for p in loadpath.__path__}):
+            for p in sorted((root / sub).rglob("*.py")):
+                h.update(str(p.relative_to(root)).encode() + b"\0")
+                h.update(p.read_bytes())
+        _SOURCE_STAMPS[sub] = h.hexdigest()
+    return _SOURCE_STAMPS[sub]
 
 
 def digest(parts: Iterable[bytes | str]) -> str:

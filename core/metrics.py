@@ -47,7 +47,6 @@ from loadpath.errors import SettingsError
 from loadpath.field import StressField
 from loadpath.tolerances import TOL
 from loadpath.toolpath import Path, Toolpaths
-from scipy.spatial import cKDTree
 
 __all__ = [
     "AlignmentResult",
@@ -357,6 +356,8 @@ def _neighbour_distances(
     Candidates are the segments through the ``k`` nearest vertices of the paths densified to
     ``pitch / 2``; points left without an answer are retried with a larger ``k``.
     """
+    from scipy.spatial import cKDTree  # here: the verdict imports this module; a cached run loads no scipy
+
     dense, dense_id = _densify(paths, 0.5 * pitch)
     out = np.full(len(pts), np.nan)
     if len(dense) == 0:

@@ -276,7 +276,7 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
         raise SettingsError(why)
 
 
-def _prediction(pres, s, warnings: list[str]):
+def _prediction(pres, s, warnings: list[str], cache=None):
     """The predicted stiffness and failure-load change and, when there is none, why (a warning when the model failed).
 
     The failure load is first-ply failure with the file's material card, on the same two solves.
@@ -306,6 +306,8 @@ def _prediction(pres, s, warnings: list[str]):
             new_deposits(pres.jobs, volumes),
             s.filament_diameter,
             card=card_for(pres.program.config)[0],
+            cache=cache,
+            fea_keys=pres.fea_keys,
         ), ""
     except (_Err, ValueError, FloatingPointError, np_error()) as exc:
         warnings.append(f"no stiffness prediction ({type(exc).__name__}: {' '.join(str(exc).split())})")
@@ -388,7 +390,8 @@ def _run(
     # the verdict (cheap but for the stiffness prediction) and the report are made before the
     # output is written: a failure of either costs nothing on disk
     t = time.perf_counter()
-    stiff, why = _prediction(pres, s, result.warnings) if pres.changed and request.predict else (None, "")
+    asked = pres.changed and request.predict
+    stiff, why = _prediction(pres, s, result.warnings, cache) if asked else (None, "")
     times["verdict"] = time.perf_counter() - t
     report = None
     if request.report is not None:

@@ -51,7 +51,6 @@ import numpy as np
 import shapely
 from loadpath._typing import Points2, Region
 from loadpath.toolpath import Path
-from scipy.spatial import cKDTree
 
 __all__ = ["LinkOptions", "link_paths", "drop_fragments", "pieces"]
 
@@ -197,6 +196,8 @@ def link_paths(
         near a link laid before), and ``links_at`` (per run: the vertex ranges of its links, for
         :func:`pieces`).
     """
+    from scipy.spatial import cKDTree  # here: a run whose links come from the cache never loads scipy
+
     ps = [p for p in paths if len(p.points) >= 2]
     stats: dict = {"paths_in": len(ps), "links": 0, "boundary_links": 0, "link_mm": 0.0, "dropped": 0}
     if options.min_fragment > 0:

@@ -207,6 +207,9 @@ class PipelineResult:
     warnings : tuple of str
     passthrough : str or None
         Why the file came back unchanged.
+    fea_keys : dict of str -> str
+        Object name -> its analysis's key in the cache (:func:`loadpath.cache.fea_key`; empty
+        without a cache): what the verdict's prediction is kept under.
     """
 
     data: bytes
@@ -219,6 +222,7 @@ class PipelineResult:
     times: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     passthrough: str | None = None
+    fea_keys: dict = field(default_factory=dict)
 
     @property
     def changed(self) -> bool:
@@ -423,7 +427,7 @@ def run(
     results = results[: len(jobs)]
     clock.lap("paths")
 
-    job_results, fills = _fills(units, jobs, results, options, splice_options.plan, shifted)
+    job_results, fills = _fills(units, jobs, results, options, splice_options.plan, shifted, cache)
     sres = splice(program, fills, splice_options)
     for block, why in sres.skipped:
         b = program.block(block)
@@ -449,7 +453,8 @@ def run(
             )
     clock.lap("check")
     return PipelineResult(
-        sres.data, program, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings)
+        sres.data, program, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings),
+        fea_keys={k: v for k, v in fea_keys.items() if v},
     )
 
 
@@ -498,12 +503,55 @@ def geo_kind(geo, block: int) -> str | None:
     return None
 
 
-def _simplified(paths, plan: PlanOptions) -> tuple[Path, ...]:
-    """Simplify paths once (every layer that prints them would otherwise do it again)."""
+def _simplified(paths, plan: PlanOptions, cache=None) -> tuple[Path, ...]:
+    """Simplify paths once (every layer that prints them would otherwise do it again).
+
+    With a ``cache``: kept under the paths' exact bytes, the three tolerances and the code (the
+    splicer's sources included, :func:`loadpath.cache.source_stamp`).
+    """
+    key = None
+    if cache is not None:
+        from loadpath.cache import code_stamp, digest, source_stamp
+
+        parts: list[bytes | str] = ["simplified", code_stamp(), source_stamp("splice")]
+        parts.append(repr((float(plan.resolution), float(plan.pitch_resolution), float(plan.min_segment))))
+        for p in paths:
+            parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
+            parts.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
+        key = digest(parts)
+        hit = cache.get("simplified", key)
+        if isinstance(hit, tuple):
+            return hit
+    out = _simplify_paths(paths, plan)
+    if key is not None:
+        cache.put("simplified", key, out, evict=False)
+    return out
+
+
+def _simplify_paths(paths, plan: PlanOptions) -> tuple[Path, ...]:
+    """:func:`_simplified` without the cache."""
     simple = simplify(
         [(p.points, p.pitch) for p in paths], plan.resolution, plan.pitch_resolution, plan.min_segment
     )
     return tuple(Path(pts, w, p.kind) for (pts, w), p in zip(simple, paths, strict=True) if len(pts) >= 2)
+
+
+def _link_key(paths: tuple[Path, ...], region, pitch: float) -> str:
+    """Key of one :func:`link_paths` call in the cache: the paths' and the region's exact bytes, the pitch.
+
+    Exact (no snapping): the links are a function of exactly these inputs, so a hit gives the very
+    runs a new linking would.  The options are the defaults (:class:`LinkOptions`), named by their
+    repr; the code by :func:`loadpath.cache.code_stamp`.
+    """
+    from loadpath.cache import code_stamp, digest
+    from loadpath.engines.linking import LinkOptions
+
+    parts: list[bytes | str] = ["links", code_stamp(), repr(LinkOptions()), repr(float(pitch))]
+    parts.append(shapely.to_wkb(region, hex=False) if region is not None else b"none")
+    for p in paths:
+        parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
+        parts.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
+    return digest(parts)
 
 
 def _fills(
@@ -513,14 +561,17 @@ def _fills(
     options: PipelineOptions,
     plan: PlanOptions,
     shifted_paths: dict[int, Toolpaths] | None = None,
+    cache=None,
 ) -> tuple[list[EngineRun], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them.
 
     ``shifted_paths`` (job index -> paths): the engine's own staggered copy of a job; other jobs'
     staggered copies (engines that cannot lay one) are their paths shifted by half a pitch
-    (:func:`stagger`).
+    (:func:`stagger`).  With a ``cache`` the linked runs are kept under :func:`_link_key` (a
+    re-export links the same paths in the same region again).
     """
     shifted_paths = shifted_paths or {}
+    kept = [0]
     per_block: dict[int, dict[str, Any]] = {}
     job_results = []
     for ji, (job, (tp, secs)) in enumerate(zip(jobs, results, strict=True)):
@@ -531,14 +582,21 @@ def _fills(
         def linked(ps: tuple[Path, ...], u: Unit, count: bool = True) -> tuple[Path, ...]:
             if not options.link or len(ps) < 2:
                 return ps
-            runs, st = link_paths(ps, u.fill_region, u.pitch)
+            key = _link_key(ps, u.fill_region, u.pitch) if cache is not None else None
+            hit = cache.get("links", key) if key is not None else None
+            if isinstance(hit, tuple) and len(hit) == 2:
+                runs, st = hit
+            else:
+                runs, st = link_paths(ps, u.fill_region, u.pitch)
+                if key is not None:
+                    kept[0] += cache.put("links", key, (runs, st), evict=False)
             if count:
                 for k, v in st.items():
                     if isinstance(v, (int, float)):
                         link_stats[k] = link_stats.get(k, 0) + v
             return runs
 
-        base_raw = _simplified(tp.paths, plan)
+        base_raw = _simplified(tp.paths, plan, cache)
         base = linked(base_raw, job.unit)
         shifted = shifted_raw = None
         flags = []
@@ -547,10 +605,10 @@ def _fills(
             if use_shift and shifted is None:
                 u0 = job.unit
                 if by_engine:
-                    shifted_raw = _simplified(shifted_paths[ji].paths, plan)
+                    shifted_raw = _simplified(shifted_paths[ji].paths, plan, cache)
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
-                    shifted_raw = _simplified(moved, plan)
+                    shifted_raw = _simplified(moved, plan, cache)
                 shifted = linked(shifted_raw, u0)
             paths = shifted if use_shift else base
             if not u.fill_region.equals(job.unit.fill_region):
@@ -578,6 +636,8 @@ def _fills(
                 link_stats,
             )
         )
+    if cache is not None and (kept[0] or cache.stats.misses.get("simplified")):
+        cache.evict()
     fills = []
     for block, e in sorted(per_block.items()):
         u: Unit = e["unit"]

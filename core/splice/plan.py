@@ -220,13 +220,18 @@ def simplify_mask(
         dx, dy = px[z] - px[a], py[z] - py[a]
         seg2 = dx * dx + dy * dy
         seg = np.sqrt(seg2)
+        wa, dw = pit[a], pit[z] - pit[a]
         rx, ry = px[idx] - px[a][seg_id], py[idx] - py[a][seg_id]
-        dx, dy, seg2, seg = dx[seg_id], dy[seg_id], seg2[seg_id], seg[seg_id]
-        safe = np.where(seg > 0, seg, 1.0)
-        dist = np.where(seg > 0, np.abs(rx * dy - ry * dx) / safe, np.hypot(rx, ry))
-        t = np.where(seg2 > 0, np.clip((rx * dx + ry * dy) / np.where(seg2 > 0, seg2, 1.0), 0, 1), 0.0)
-        wa, wz = pit[a][seg_id], pit[z][seg_id]
-        err = np.maximum(dist / tol, np.abs(pit[idx] - (wa + t * (wz - wa))) / pitch_tol)
+        if np.all(seg > 0):  # the usual case: no chord of zero length (the same figures, fewer passes)
+            dx, dy, seg2, seg = dx[seg_id], dy[seg_id], seg2[seg_id], seg[seg_id]
+            dist = np.abs(rx * dy - ry * dx) / seg
+            t = np.clip((rx * dx + ry * dy) / seg2, 0, 1)
+        else:
+            dx, dy, seg2, seg = dx[seg_id], dy[seg_id], seg2[seg_id], seg[seg_id]
+            safe = np.where(seg > 0, seg, 1.0)
+            dist = np.where(seg > 0, np.abs(rx * dy - ry * dx) / safe, np.hypot(rx, ry))
+            t = np.where(seg2 > 0, np.clip((rx * dx + ry * dy) / np.where(seg2 > 0, seg2, 1.0), 0, 1), 0.0)
+        err = np.maximum(dist / tol, np.abs(pit[idx] - (wa[seg_id] + t * dw[seg_id])) / pitch_tol)
         # worst vertex of each segment: its largest error (NaN ignored), the first one on a tie
         worst_err = np.fmax.reduceat(err, first)
         split = worst_err > 1.0

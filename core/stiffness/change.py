@@ -6,22 +6,37 @@ mesh), so it costs two material samplings and two solves per body.  Given the fi
 (:func:`loadpath.stiffness.card_for`) it also predicts the failure-load change: first-ply failure
 (:func:`loadpath.stiffness.strength.first_failure`) on those same two solves, no further solve.
 Without a card it predicts **stiffness only** and says so in :attr:`StiffnessChange.label`.
+
+With a :class:`loadpath.cache.Cache` and the bodies' FEA keys, each of the two predictions (the
+slicer's deposits, loadpath's) is kept under :func:`prediction_key`: the deposits' own bytes, the
+analysis (its key names mesh, load case and supports), the options, the card and the code.  A
+re-export with other speeds or temperatures deposits the same beads, so it re-uses both; a run with
+other loadpath settings still re-uses the slicer's.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+from contextlib import nullcontext
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
 from loadpath.stiffness.deposits import Deposits, from_program, from_toolpaths
 from loadpath.stiffness.predict import StiffnessOptions, predict
 from loadpath.stiffness.strength import first_failure
 
-__all__ = ["StiffnessChange", "BodyChange", "predicted_change", "new_deposits", "VERDICT_RESOLUTION"]
+__all__ = [
+    "StiffnessChange",
+    "BodyChange",
+    "predicted_change",
+    "new_deposits",
+    "prediction_key",
+    "VERDICT_RESOLUTION",
+]
 
 VERDICT_RESOLUTION = 0.5
 """Bead sampling step for the verdict, mm: the run's FEA elements are several mm across.  On the
@@ -87,6 +102,78 @@ class StiffnessChange:
     seconds: float = 0.0
 
 
+@dataclass(frozen=True)
+class _Predicted:
+    """What the verdict keeps of one :func:`predict` (and its first-ply failure): a cache entry."""
+
+    compliance: float
+    mass: float
+    energy_density: np.ndarray
+    failure: float | None
+
+
+def prediction_key(
+    fea_key: str, deposits: Deposits, options: StiffnessOptions, card: MaterialCard | None
+) -> str:
+    """Key of one body's prediction in the cache: everything :func:`predict` and the failure load read.
+
+    ``fea_key`` (:func:`loadpath.cache.fea_key`) names the analysis whose mesh, load case and supports
+    are reused; the deposits enter by their bytes (any changed bead is another key), the options and
+    the card by their repr; :func:`loadpath.cache.code_stamp` and the stiffness model's own sources
+    (:func:`loadpath.cache.source_stamp`) name the code.
+    """
+    from loadpath.cache import code_stamp, digest, source_stamp
+
+    parts: list[bytes | str] = ["prediction", code_stamp(), source_stamp("stiffness"), fea_key]
+    parts += [repr(options), repr(card)]
+    for name in ("start", "end", "z0", "height", "volume", "layer", "role"):
+        a = np.ascontiguousarray(getattr(deposits, name))
+        parts += [f"{name} {a.dtype.str} {a.shape}", a.tobytes()]
+    return digest(parts)
+
+
+def _predict(an, deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
+    """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept."""
+    k = prediction_key(key, deposits, options, card) if cache is not None and key else None
+    if k is not None:
+        hit = cache.get("prediction", k)
+        if isinstance(hit, _Predicted):
+            return hit
+    p = predict(an.resolved, deposits, options, an.mesh)
+    failure = None if card is None else first_failure(p, card).load_factor
+    out = _Predicted(p.compliance, p.mass, p.energy_density, failure)
+    if k is not None:
+        cache.put("prediction", k, out)
+    return out
+
+
+class _CachedLayers:
+    """The bead neighbour search's layers (:func:`loadpath.stiffness.beads.layer_store`) in the run cache.
+
+    A re-slice that moves a few beads of one layer changes both predictions' keys; the other layers'
+    neighbours (about half of a prediction's time) are still those of the last run.
+    """
+
+    def __init__(self, cache) -> None:  # type: ignore[no-untyped-def]
+        from loadpath.cache import code_stamp, source_stamp
+
+        self.cache = cache
+        self.stamp = f"{code_stamp()} {source_stamp('stiffness')}"
+        self.kept = 0
+
+    def _key(self, key: bytes) -> str:
+        from loadpath.cache import digest
+
+        return digest(["bead layer", self.stamp, key])
+
+    def get(self, key: bytes):  # type: ignore[no-untyped-def]
+        hit = self.cache.get("beads", self._key(key))
+        return hit if isinstance(hit, tuple) and len(hit) == 5 else None
+
+    def put(self, key: bytes, value: tuple) -> None:
+        self.kept += self.cache.put("beads", self._key(key), value, evict=False)
+
+
 def new_deposits(jobs: Sequence, volumes: Mapping[int, float]) -> dict[str, list[Deposits]]:
     """Deposits of the engine's paths on every unit whose blocks were replaced, by object name.
 
@@ -117,6 +204,8 @@ def predicted_change(
     filament_diameter: float,
     options: StiffnessOptions | None = None,
     card: MaterialCard | None = None,
+    cache=None,
+    fea_keys: Mapping[str, str] | None = None,
 ) -> StiffnessChange:
     """Predict the part's stiffness before and after a run.
 
@@ -138,6 +227,11 @@ def predicted_change(
     card : MaterialCard, optional
         The file's material (:func:`loadpath.stiffness.card_for`): its elastic ply replaces the
         options' material and the failure load is predicted; None: stiffness only.
+    cache : loadpath.cache.Cache, optional
+        Keeps each prediction under :func:`prediction_key` (with ``fea_keys``).
+    fea_keys : mapping of str -> str, optional
+        Object name -> the key of its analysis in the cache (``PipelineResult.fea_keys``); a body
+        without one is predicted, not kept.
 
     Returns
     -------
@@ -152,24 +246,42 @@ def predicted_change(
     options = StiffnessOptions(resolution=VERDICT_RESOLUTION) if options is None else options
     if card is not None:
         options = dataclasses.replace(options, material=card.elastic)
+    layers = _CachedLayers(cache) if cache is not None and fea_keys else None
+    with layer_store(layers) if layers is not None else nullcontext():
+        args = (analyses, program, object_codes, replaced, added, filament_diameter)
+        bodies = _bodies(*args, options, card, cache, fea_keys)
+    if layers is not None and layers.kept:
+        cache.evict()
+    return _summary(bodies, card, t0)
+
+
+def _bodies(  # type: ignore[no-untyped-def]
+    analyses, program, object_codes, replaced, added, filament_diameter, options, card, cache, fea_keys
+):
+    """Each body before and after (:func:`predicted_change`)."""
     bodies = []
     for name, an in analyses.items():
         code = object_codes[name]
         before = from_program(program, code, filament_diameter)
         kept = from_program(program, code, filament_diameter, exclude_blocks=replaced)
         after = Deposits.concat([kept, *added.get(name, ())])
-        p0 = predict(an.resolved, before, options, an.mesh)
-        p1 = predict(an.resolved, after, options, an.mesh)
+        key = (fea_keys or {}).get(name, "")
+        # first-ply failure (with a card) on the same two solves
+        p0 = _predict(an, before, options, card, cache, key)
+        p1 = _predict(an, after, options, card, cache, key)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(p0.energy_density > 0, p1.energy_density / p0.energy_density, np.nan)
-        f0 = f1 = None
-        if card is not None:  # first-ply failure on the same two solves
-            f0, f1 = (first_failure(p, card).load_factor for p in (p0, p1))
+        f0, f1 = p0.failure, p1.failure
         bodies.append(
             BodyChange(
                 name, p0.compliance, p1.compliance, p0.mass, p1.mass, ratio, an.mesh, failure_before=f0, failure_after=f1
             )
         )
+    return bodies
+
+
+def _summary(bodies: list[BodyChange], card: MaterialCard | None, t0: float) -> StiffnessChange:
+    """The part's change from its bodies' (:func:`predicted_change`)."""
     c0 = sum(b.compliance_before for b in bodies)
     c1 = sum(b.compliance_after for b in bodies)
     m0 = sum(b.mass_before for b in bodies)
