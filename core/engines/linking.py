@@ -83,6 +83,9 @@ class LinkOptions:
         A short run is dropped when less than this share of its bead covers what no other bead does.
     link_width : float
         A link's pitch (its flow width) as a share of its ends' pitch.
+    grow_chains : bool
+        Grow chains link by link from a free end (:func:`_grow`); False: accept the candidate links
+        shortest first over the whole layer.
     """
 
     max_link: float = 3.0
@@ -94,6 +97,7 @@ class LinkOptions:
     min_fragment: float = 3.0
     fragment_share: float = 0.5
     link_width: float = 1.0
+    grow_chains: bool = True
 
 
 def _root(parent: list[int], i: int) -> int:
@@ -294,14 +298,14 @@ def link_paths(
             and (n1 < 1e-9 or float(e_dir[eb] @ d1) / n1 >= cos_t)
         )
 
-    def accept(ea: int, eb: int, straight_ok: bool, edge_ok: bool) -> None:
+    def accept(ea: int, eb: int, straight_ok: bool, edge_ok: bool) -> bool:
         if used[ea] or used[eb]:
-            return
+            return False
         pa, pb = ea // 2, eb // 2
         ra, rb = _root(parent, pa), _root(parent, pb)
         if ra == rb:
             stats["rejected_loop"] = stats.get("rejected_loop", 0) + 1
-            return
+            return False
         pts = None
         boundary = False
         if straight_ok:
@@ -321,7 +325,7 @@ def link_paths(
                 pts, boundary = cand, True
         if pts is None:
             stats["rejected_geometry"] = stats.get("rejected_geometry", 0) + 1
-            return
+            return False
         # clear of the links laid so far
         s = _samples(pts, 0.25 * pitch)
         if pending:
@@ -330,7 +334,7 @@ def link_paths(
             pending.clear()
         if laid_tree[0] is not None and any(laid_tree[0].query_ball_point(s, clear - 0.125 * pitch)):
             stats["rejected_links"] = stats.get("rejected_links", 0) + 1
-            return
+            return False
         pending.append(s)
         used[ea] = used[eb] = True
         parent[ra] = rb
@@ -339,9 +343,14 @@ def link_paths(
         stats["links"] += 1
         stats["boundary_links"] += int(boundary)
         stats["link_mm"] += float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+        return True
 
-    for k in order:
-        accept(int(a[k]), int(b[k]), bool(straight_dir[k] and straight_in[k]), bool(near_edge[k]))
+    if options.grow_chains:
+        _grow(order, a, b, 2 * n, used, link, lambda k, ea, eb: accept(
+            ea, eb, bool(straight_dir[k] and straight_in[k]), bool(near_edge[k])))
+    else:
+        for k in order:
+            accept(int(a[k]), int(b[k]), bool(straight_dir[k] and straight_in[k]), bool(near_edge[k]))
 
     # second pass: the ends still free, by longer straight links through what is left empty
     if options.max_long_link > options.max_link:
@@ -368,6 +377,45 @@ def link_paths(
     stats["runs"] = len(runs)
     stats["links_at"] = spans
     return tuple(runs), stats
+
+
+def _grow(order: np.ndarray, a: np.ndarray, b: np.ndarray, n_ends: int, used: np.ndarray, link: dict, try_link) -> None:
+    """Grow chains one link at a time, the way a slicer chains its infill lines.
+
+    Each chain starts at the free end with the fewest candidate links (a zig-zag's corner) and
+    leaves by its path's other end; from the end it leaves by, it takes the shortest candidate
+    link that ``try_link(k, end, other)`` accepts, enters that path, leaves by its far end, and so
+    on; when no candidate is accepted, the chain grows back from its start.  Taking all candidates
+    shortest first instead (``grow_chains = False``) breaks a zig-zag wherever the links of two
+    neighbours' near ends and of their far ends are both short: the second closes a loop, and each
+    such break costs a run (bench's two-island part, PrusaSlicer 100 %: 9 runs on a layer of 92
+    straight paths, where one zig-zag per island suffices).
+    """
+    cand: list[list[int]] = [[] for _ in range(n_ends)]
+    for k in order:  # shortest first
+        cand[int(a[k])].append(int(k))
+        cand[int(b[k])].append(int(k))
+
+    def far_free(e: int) -> int:
+        while e in link:
+            e = link[e][0] ^ 1
+        return e
+
+    def grow(e: int) -> None:
+        while not used[e]:
+            for k in cand[e]:
+                o = int(b[k]) if int(a[k]) == e else int(a[k])
+                if not used[o] and try_link(k, e, o):
+                    e = far_free(o ^ 1)
+                    break
+            else:
+                return
+
+    for s in sorted(range(n_ends), key=lambda e: (len(cand[e]), e)):
+        if used[s] or not cand[s]:
+            continue
+        grow(far_free(s ^ 1))
+        grow(s)
 
 
 def _walk(

@@ -224,6 +224,15 @@ def bead_runs(
     if path_ends is not None:
         ends = np.unique(np.asarray(path_ends, dtype=float) @ np.array([1.0, 1j]))
         cut = np.isin(pts @ np.array([1.0, 1j]), ends)
+    # sharp turns (more than 90 degrees: a linked run's hairpins) cut too: the simplification's
+    # material test interpolates along the chord, which means nothing across a fold, and a chord
+    # spanning hairpins split at the wrong vertices (issue 19: linked runs of the shipped example
+    # kept 24,746 vertices at 40 % against 17,936 at 10 %; 10,194 unlinked)
+    mid = np.arange(1, len(pts) - 1)
+    mid = mid[~np.isin(mid, vstart) & ~np.isin(mid, vlast)]
+    if len(mid):
+        d1, d2 = pts[mid] - pts[mid - 1], pts[mid + 1] - pts[mid]
+        cut[mid[np.sum(d1 * d2, axis=1) < 0.0]] = True
     cut[vstart] = cut[vlast] = True
     stretch = np.cumsum(cut[seg_v]) - 1  # stretch of each segment (a chain end always cuts)
     fil = smooth_filament(fil0, seg, options.smooth * flow_width, stretch)
