@@ -9,7 +9,7 @@ sorts every travel between two of the new paths by what its two ends lie next to
 1.5 pitches of the fill region's outer boundary), ``hole`` (of an inner ring), ``inner`` (neither:
 a path ending inside the region, where the field ends it -- a neutral axis, a swarm path squeezed
 out between two others); with its length, whether it retracted, and whether the two ends belong to
-the same island.  Also, per block, the runs' lengths (how many are fragments shorter than 3 pitches).
+the same island (``<limit``: the end-to-start gap is shorter than ``retract_before_travel``).  Also, per block, the runs' lengths (how many are fragments shorter than 3 pitches).
 """
 
 from __future__ import annotations
@@ -96,8 +96,7 @@ def main(argv: list[str] | None = None) -> int:
                 g = mv[stops[k] + 1 : starts[k + 1]]
                 p0 = np.array([mv["x1"][stops[k]], mv["y1"][stops[k]]])
                 p1 = np.array([mv["x0"][starts[k + 1]], mv["y0"][starts[k + 1]]])
-                tr = g["travel"]
-                d = float(np.sum(np.hypot(g["x1"] - g["x0"], g["y1"] - g["y0"])[tr]))
+                d = float(np.hypot(*(p1 - p0)))  # end to start (a wipe moves the nozzle back first)
                 r = bool(np.any(g["retract"] | g["wipe"]))
                 w = _where(region, np.array([p0, p1]), pitch)
                 same = True
@@ -116,10 +115,10 @@ def main(argv: list[str] | None = None) -> int:
         f"runs: median {np.median(rl):.1f} mm; shorter than 3 pitches {int(np.sum(rl < 3 * pitch))}, "
         f"than 10 pitches {int(np.sum(rl < 10 * pitch))}"
     )
-    print(f"{'travel between':28} {'count':>6} {'retracted':>9} {'<limit':>7} {'median mm':>9}")
+    print(f"{'travel between':28} {'count':>6} {'retracted':>9} {'<limit':>7} {'median gap mm':>13}")
     for k, c in kinds.most_common():
         ln = np.array(lengths[k])
-        print(f"{k:28} {c:6d} {retracted[k]:9d} {int(np.sum(ln < limit)):7d} {np.median(ln):9.2f}")
+        print(f"{k:28} {c:6d} {retracted[k]:9d} {int(np.sum(ln < limit)):7d} {np.median(ln):13.2f}")
     print(f"{'total':28} {sum(kinds.values()):6d} {sum(retracted.values()):9d}")
     m = pr.check.problems if pr.check else []
     print("check problems:", len(m))

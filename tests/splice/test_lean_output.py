@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import pytest
 import shapely
 from loadpath import gcode, loadcase, pipeline
 from loadpath.cache import Cache
