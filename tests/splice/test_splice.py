@@ -85,7 +85,9 @@ def test_travels_leave_the_region_only_retracted(spliced):
 
     name, program, fills, result, out, check = spliced
     st = out.state
-    short = float(str(program.config.get("retract_before_travel", "0")).split(",")[0] or 0)
+    from loadpath.plugin import settings as S
+
+    short = S.splice_options(S.resolve(program)).motion.retraction.before_travel  # as run_splice
     n_checked = 0
     for f in fills:
         region = f.region.buffer(0.01)
