@@ -25,7 +25,10 @@ A link is accepted when
   own two paths except within a pitch of the ends it joins (sampled every quarter pitch; so it
   crosses nothing and never runs back along its own path), and from every link accepted before it;
 
-shortest links first, each end once, never closing a loop (union-find), so the result is chains.
+each end once, never closing a loop (union-find), so the result is chains.  The links are chosen
+two ways and the one with fewer runs is kept (:attr:`LinkOptions.grow_chains`): chains grown end
+by end from a free end, each taking its shortest acceptable link (:func:`_grow`, how a slicer
+chains its lines), and all candidates shortest first over the layer.
 Each link is printed with the pitch of its ends (interpolated along it): the flow of the local
 pitch.  Short pieces that cost a travel and add little are dropped first (:func:`drop_fragments`).
 
