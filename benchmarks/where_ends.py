@@ -9,7 +9,8 @@ sorts every travel between two of the new paths by what its two ends lie next to
 1.5 pitches of the fill region's outer boundary), ``hole`` (of an inner ring), ``inner`` (neither:
 a path ending inside the region, where the field ends it -- a neutral axis, a swarm path squeezed
 out between two others); with its length, whether it retracted, and whether the two ends belong to
-the same island (``<limit``: the end-to-start gap is shorter than ``retract_before_travel``).  Also, per block, the runs' lengths (how many are fragments shorter than 3 pitches).
+the same island (``<limit``: the end-to-start gap is shorter than ``retract_before_travel``).
+Also, per block, the runs' lengths (how many are fragments shorter than 3 pitches).
 """
 
 from __future__ import annotations

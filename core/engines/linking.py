@@ -367,8 +367,11 @@ def _link(
         return True
 
     if options.grow_chains:
-        _grow(order, a, b, 2 * n, used, link, lambda k, ea, eb: accept(
-            ea, eb, bool(straight_dir[k] and straight_in[k]), bool(near_edge[k])))
+
+        def try_link(k: int, ea: int, eb: int) -> bool:
+            return accept(ea, eb, bool(straight_dir[k] and straight_in[k]), bool(near_edge[k]))
+
+        _grow(order, a, b, 2 * n, used, link, try_link)
     else:
         for k in order:
             accept(int(a[k]), int(b[k]), bool(straight_dir[k] and straight_in[k]), bool(near_edge[k]))
@@ -400,7 +403,9 @@ def _link(
     return tuple(runs), stats
 
 
-def _grow(order: np.ndarray, a: np.ndarray, b: np.ndarray, n_ends: int, used: np.ndarray, link: dict, try_link) -> None:
+def _grow(
+    order: np.ndarray, a: np.ndarray, b: np.ndarray, n_ends: int, used: np.ndarray, link: dict, try_link
+) -> None:
     """Grow chains one link at a time, the way a slicer chains its infill lines.
 
     Each chain starts at the free end with the fewest candidate links (a zig-zag's corner) and

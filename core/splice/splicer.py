@@ -279,7 +279,8 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
     plan_options = options.plan
     if plan_options.free_travel <= 0:  # the order prefers the travels the slicer would not retract
         r = options.motion.retraction
-        plan_options = replace(plan_options, free_travel=float("inf") if r.only_when_crossing else r.before_travel)
+        free = float("inf") if r.only_when_crossing else r.before_travel
+        plan_options = replace(plan_options, free_travel=free)
     for fill in fills:
         b = program.block(fill.block)
         why = refusal(program, b)

@@ -177,10 +177,8 @@ def test_parallel_paths_link_into_one_zigzag():
     from loadpath.toolpath import Path
 
     w = 0.45
-    paths = [
-        Path(np.array([[0.225 + k * w, 0.2], [0.225 + k * w, 5.0], [0.225 + k * w, 9.8]]), np.full(3, w), "fill")
-        for k in range(44)
-    ]
+    xs = 0.225 + w * np.arange(44)
+    paths = [Path(np.array([[x, 0.2], [x, 5.0], [x, 9.8]]), np.full(3, w), "fill") for x in xs]
     region = box(0, 0, 20, 10)
     runs, st = link_paths(paths, region, w)
     assert len(runs) == 1 and st["links"] == 43
