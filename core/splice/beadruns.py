@@ -238,12 +238,23 @@ def bead_runs(
     #    vertex is within tol of the new segment, and the material between kept vertices moves along
     #    the path by at most ``shift`` (width ramps keep their vertices); one-segment stretches (links)
     #    have nothing to drop
-    at = np.flatnonzero(cut)
+    # sharp turns (more than 90 degrees: a linked run's hairpins) bound the pieces simplified too,
+    # though not the stretches (the material is smoothed across them as before): the material test
+    # interpolates along the chord, which means nothing across a fold, and a chord spanning hairpins
+    # split at the wrong vertices (issue 19: linked runs of the shipped example kept 24,746
+    # vertices at 40 % against 17,936 at 10 %; 10,194 unlinked)
+    turn = cut.copy()
+    mid = np.arange(1, len(pts) - 1)
+    mid = mid[~np.isin(mid, vstart) & ~np.isin(mid, vlast)]
+    if len(mid):
+        d1, d2 = pts[mid] - pts[mid - 1], pts[mid + 1] - pts[mid]
+        turn[mid[np.sum(d1 * d2, axis=1) < 0.0]] = True
+    at = np.flatnonzero(turn)
     first_v, last_v = at[:-1], at[1:]
     inner = ~np.isin(first_v, vlast)  # not from one chain's end to the next chain's start
     first_v, last_v = first_v[inner], last_v[inner]
     keep = np.zeros(len(pts), dtype=bool)
-    keep[cut] = True
+    keep[turn] = True
     long = np.flatnonzero(last_v - first_v > 1)
     if tol <= 0 or shift <= 0:
         keep[:] = True

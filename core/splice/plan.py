@@ -94,6 +94,16 @@ class PlanOptions:
         Largest relative change of the flow that the volume policy may apply.
     order : bool
         Reorder the paths (False: print them as given, each in its own direction).
+    free_travel : float, mm
+        Travels shorter than this cost no retraction (PrusaSlicer's ``retract_before_travel``:
+        ``GCode::needs_retraction`` in ``src/libslic3r/GCode.cpp`` skips the retraction of a travel
+        shorter than it); the order prefers them (:func:`order_paths`).  0: every travel costs its
+        length only.  The splicer sets it from the file's retraction settings.
+    retract_cost : float, mm
+        What a retracted travel costs beyond its length, in mm of travel, in the order.  Measured on
+        the bench's beam (PrusaSlicer MK3S settings, ``benchmarks/bench_printability.py``): a
+        retraction with its wipe, lift and prime takes about 0.2 s beyond its travel, the time of a
+        10 mm travel at 1000 mm/s^2.
     """
 
     nozzle_diameter: float = 0.4
@@ -108,6 +118,8 @@ class PlanOptions:
     volume_floor: float = 0.0
     max_correction: float = 0.15
     order: bool = True
+    free_travel: float = 0.0
+    retract_cost: float = 10.0
 
 
 @dataclass(frozen=True)
@@ -298,20 +310,28 @@ def simplify(
 
 
 def order_paths(
-    paths: Sequence[tuple[Points2, Floats]], start: Points2, passes: int = 4, max_2opt: int = 300
+    paths: Sequence[tuple[Points2, Floats]],
+    start: Points2,
+    passes: int = 4,
+    max_2opt: int = 300,
+    free_travel: float = 0.0,
+    retract_cost: float = 0.0,
 ) -> list[tuple[Points2, Floats]]:
     """Print order from ``start``: greedy nearest neighbour, then 2-opt (paths reversed where nearer).
 
-    The greedy order takes the nearest free path end next (what slicers do for infill); 2-opt then
-    reverses any stretch of the order (each path in it turned round) that shortens the travel
-    ``end(k - 1) -> start(k)`` summed, the first travel from the nozzle included, for up to
-    ``passes`` passes (orders of more than ``max_2opt`` paths keep the greedy one).
+    The greedy order takes the cheapest free path end next (what slicers do for infill); 2-opt then
+    reverses any stretch of the order (each path in it turned round) that lowers the cost of the
+    travels ``end(k - 1) -> start(k)`` summed, the first travel from the nozzle included, for up to
+    ``passes`` passes (orders of more than ``max_2opt`` paths keep the greedy one).  A travel costs
+    its length, plus ``retract_cost`` when it is ``free_travel`` or longer (the slicer retracts it).
 
     Parameters
     ----------
     paths : sequence of (points (n, 2), pitch (n,))
     start : (2,) float, mm
         Nozzle position before the first path.
+    free_travel, retract_cost : float, mm
+        See :class:`PlanOptions` (0: the cost is the length).
     """
     m = len(paths)
     if m == 0:
@@ -321,9 +341,10 @@ def order_paths(
     free = np.ones(m, dtype=bool)
     pos = np.asarray(start, dtype=float)
     seq: list[tuple[int, bool]] = []
+    cost = _travel_cost(free_travel, retract_cost)
     for _ in range(m):
-        dh = np.where(free, np.hypot(*(heads - pos).T), np.inf)
-        dt = np.where(free, np.hypot(*(tails - pos).T), np.inf)
+        dh = np.where(free, cost(np.hypot(*(heads - pos).T)), np.inf)
+        dt = np.where(free, cost(np.hypot(*(tails - pos).T)), np.inf)
         ih, it = int(np.argmin(dh)), int(np.argmin(dt))
         if dh[ih] <= dt[it]:
             k, rev = ih, False
@@ -333,7 +354,7 @@ def order_paths(
         seq.append((k, rev))
         pos = heads[k] if rev else tails[k]
     if 2 < m <= max_2opt:
-        seq = _two_opt(seq, heads, tails, np.asarray(start, dtype=float), passes)
+        seq = _two_opt(seq, heads, tails, np.asarray(start, dtype=float), passes, cost)
     out = []
     for k, rev in seq:
         pts, pitch = paths[k]
@@ -341,8 +362,15 @@ def order_paths(
     return out
 
 
+def _travel_cost(free_travel: float, retract_cost: float):
+    """``cost(d)`` of travels of lengths ``d`` (:func:`order_paths`), vectorized."""
+    if free_travel <= 0 or retract_cost <= 0:
+        return lambda d: d
+    return lambda d: d + retract_cost * (np.asarray(d) >= free_travel)
+
+
 def _order_by_island(
-    paths: list[tuple[Points2, Floats]], start: Points2, region: Region | None
+    paths: list[tuple[Points2, Floats]], start: Points2, region: Region | None, **kw: float
 ) -> list[tuple[Points2, Floats]]:
     """:func:`order_paths` island by island: all of one island's paths before the next island's.
 
@@ -352,7 +380,7 @@ def _order_by_island(
     """
     parts = list(getattr(region, "geoms", [])) if region is not None else []
     if len(parts) < 2 or len(paths) < 2:
-        return order_paths(paths, start)
+        return order_paths(paths, start, **kw)
     mids = shapely.points(np.array([p[len(p) // 2] for p, _ in paths]))
     island = np.argmin(np.stack([shapely.distance(g, mids) for g in parts], axis=1), axis=1)
     groups = {int(k): [paths[i] for i in np.flatnonzero(island == k)] for k in np.unique(island)}
@@ -364,15 +392,16 @@ def _order_by_island(
             for k, g in groups.items()
         }
         k = min(near, key=near.__getitem__)
-        out += order_paths(groups.pop(k), pos)
+        out += order_paths(groups.pop(k), pos, **kw)
         pos = out[-1][0][-1]
     return out
 
 
 def _two_opt(
-    seq: list[tuple[int, bool]], heads: Points2, tails: Points2, start: Points2, passes: int
+    seq: list[tuple[int, bool]], heads: Points2, tails: Points2, start: Points2, passes: int, cost=None
 ) -> list[tuple[int, bool]]:
     """2-opt on an open tour of oriented paths from a fixed start (see :func:`order_paths`)."""
+    cost = cost or (lambda d: d)
     idx = np.array([k for k, _ in seq])
     rev = np.array([r for _, r in seq])
     for _ in range(passes):
@@ -382,11 +411,11 @@ def _two_opt(
             e_pt = np.where(rev[:, None], heads[idx], tails[idx])  # and ends
             before = start if i == 0 else e_pt[i - 1]
             j = np.arange(i + 1, len(idx))
-            old = np.hypot(*(s_pt[i] - before)) + np.where(
-                j + 1 < len(idx), np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - e_pt[j]).T), 0.0
+            old = cost(np.hypot(*(s_pt[i] - before))) + np.where(
+                j + 1 < len(idx), cost(np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - e_pt[j]).T)), 0.0
             )
-            new = np.hypot(*(e_pt[j] - before).T) + np.where(
-                j + 1 < len(idx), np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - s_pt[i]).T), 0.0
+            new = cost(np.hypot(*(e_pt[j] - before).T)) + np.where(
+                j + 1 < len(idx), cost(np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - s_pt[i]).T)), 0.0
             )
             gain = old - new
             best = int(np.argmax(gain))
@@ -453,7 +482,9 @@ def plan_block(
         raw = simplify(raw, options.resolution, options.pitch_resolution, options.min_segment)
     prepared = [(pts, pitch) for pts, pitch in raw if len(pts) >= 2 and np.any(pts[1:] != pts[:-1])]
     if options.order:
-        prepared = _order_by_island(prepared, start, region)
+        prepared = _order_by_island(
+            prepared, start, region, free_travel=options.free_travel, retract_cost=options.retract_cost
+        )
     if not prepared:
         return BlockPlan((), 0, 0, 1.0, 0.0)
     all_pitch = np.concatenate([pp for _, pp in prepared])

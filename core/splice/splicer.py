@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from loadpath._typing import Region
@@ -272,6 +272,11 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
     vol_area = options.flow.filament_area if options.flow.volumetric else None
     edits: list[tuple[int, int, bytes]] = []
     reports, skipped = [], []
+    plan_options = options.plan
+    if plan_options.free_travel <= 0:  # the order prefers the travels the slicer would not retract
+        r = options.motion.retraction
+        free = float("inf") if r.only_when_crossing else r.before_travel
+        plan_options = replace(plan_options, free_travel=free)
     for fill in fills:
         b = program.block(fill.block)
         why = refusal(program, b)
@@ -287,7 +292,7 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
             height,
             feed,
             options.flow,
-            options.plan,
+            plan_options,
             region=fill.region,
             nominal_pitch=fill.nominal_pitch,
             flow_width=fill.flow_width,

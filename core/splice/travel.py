@@ -10,8 +10,11 @@ a post-processor can apply them; ``slicer-conventions.md`` §5):
   straight segment leaves the region is routed inside it: along the region's edge around each
   piece it would cross (:func:`route`); a travel that cannot be routed (another island) stays
   straight;
-- a travel that leaves the region (not routed) always retracts, however short (PrusaSlicer would
-  not retract one under ``retract_before_travel``; the splicer never leaves the region primed);
+- a travel that leaves the region (not routed) retracts, unless it is shorter than
+  ``retract_before_travel`` and stays within :data:`SHORT_REACH` of the region (over the innermost
+  perimeter): PrusaSlicer retracts no travel shorter than that (``GCode::needs_retraction``,
+  ``src/libslic3r/GCode.cpp``: the length test comes first), and a travel that far out crosses no
+  perimeter; any other travel leaving the region retracts, however short;
 - inside the region, a travel retracts when it is longer than ``retract_before_travel``, unless
   ``only_retract_when_crossing_perimeters`` (Cura: combing; Orca / Bambu:
   ``reduce_infill_retraction``) is on;
@@ -34,7 +37,12 @@ from loadpath.gcode.model import Program
 from loadpath.splice.emit import Writer
 from shapely.geometry import LineString
 
+SHORT_REACH = 0.35
+"""How far past the region's edge a travel shorter than ``retract_before_travel`` may pass primed,
+mm: over the innermost perimeter beside the region (the reach :func:`route` gives its ends)."""
+
 __all__ = [
+    "SHORT_REACH",
     "Retraction",
     "Motion",
     "TravelState",
@@ -318,6 +326,11 @@ def travel(
     way = np.asarray(target, dtype=float)[None]
     if d > 1e-9:
         inside = _inside(st, here, target)
+        if not inside and d < r.before_travel and st.region is not None:
+            # PrusaSlicer never retracts a travel shorter than retract_before_travel, whatever it
+            # crosses (``GCode::needs_retraction``, src/libslic3r/GCode.cpp); one that stays over the
+            # innermost perimeter beside the region is taken primed, as the slicer would
+            inside = bool(_near_region(st, SHORT_REACH).covers(LineString([here, target])))
         if not inside and (r.avoid_crossing or r.only_when_crossing):
             routed = route(st, here, target)
             if routed is not None:

@@ -133,3 +133,54 @@ def test_route_goes_round_a_hole():
     assert region.buffer(2e-3).covers(shapely.LineString(full))
     assert 20.0 < np.sum(np.hypot(*np.diff(full, axis=0).T)) < 20.0 + 4 * np.pi
     assert route(st, np.array([10.0, 10.0]), np.array([10.0, 30.0])) is None  # outside the region
+
+
+def test_prusa_retracts_only_where_the_slicer_would(prusa_run):
+    """Every retraction in the new blocks serves a gap (run end to next run start) of at least
+    ``retract_before_travel``, or one leaving the region by more than the perimeter beside it:
+    PrusaSlicer's ``GCode::needs_retraction`` skips shorter travels whatever they cross."""
+    from loadpath.splice.travel import SHORT_REACH
+
+    program, res = prusa_run
+    out = res.output
+    limit = float(str(program.config["retract_before_travel"]).split(",")[0])
+    near = {}
+    for jr in res.jobs:
+        for u in jr.units:
+            for b in u.blocks:
+                near[b.block_index] = u.fill_region.buffer(SHORT_REACH)
+    n_short = n_retracted = 0
+    for rep in res.splice.blocks:
+        for a, z in res.splice.output_ranges(program, rep.block):
+            mv = out.moves[out.move_rows(a, z)]
+            ext = np.flatnonzero(mv["extrude"])
+            for i, j in zip(ext[:-1], ext[1:], strict=True):
+                if j == i + 1:
+                    continue
+                gap = mv[i + 1 : j]
+                p0 = (mv["x1"][i], mv["y1"][i])
+                p1 = (mv["x0"][j], mv["y0"][j])
+                d = float(np.hypot(p1[0] - p0[0], p1[1] - p0[1]))
+                pulled = bool(np.any(gap["retract"] | gap["wipe"]))
+                n_retracted += pulled
+                if d < limit - 1e-3 and near[rep.block].covers(shapely.LineString([p0, p1])):
+                    n_short += 1
+                    assert not pulled, (d, p0, p1)
+    assert n_retracted > 0 and n_short > 0
+
+
+def test_parallel_paths_link_into_one_zigzag():
+    """44 straight paths across a 20 x 10 mm plate, a pitch apart (a uniaxial field's paths): one run,
+    as the slicer's rectilinear zig-zag.  Taking the candidate links shortest first over the whole
+    layer (``grow_chains = False``) links both ends of neighbours, closes loops and leaves 8 runs."""
+    from loadpath.engines.linking import LinkOptions
+    from loadpath.toolpath import Path
+
+    w = 0.45
+    xs = 0.225 + w * np.arange(44)
+    paths = [Path(np.array([[x, 0.2], [x, 5.0], [x, 9.8]]), np.full(3, w), "fill") for x in xs]
+    region = box(0, 0, 20, 10)
+    runs, st = link_paths(paths, region, w)
+    assert len(runs) == 1 and st["links"] == 43
+    assert metrics.crossings(runs) == 0 and region.buffer(1e-3).covers(shapely.LineString(runs[0].points))
+    assert len(link_paths(paths, region, w, LinkOptions(grow_chains=False))[0]) > 4
