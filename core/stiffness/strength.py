@@ -207,8 +207,9 @@ def first_failure(  # type: ignore[no-untyped-def]
     for k in range(len(fields.layers)):
         theta = 0.5 * np.arctan2(fields.moments[k, :, 1], fields.moments[k, :, 0])
         e1, e2, g = _rotate_strain(eps, theta).T
-        phi = np.clip(fields.extra.get("fused", np.ones((1, m)))[k], 0, 1)
-        eta = np.clip(fields.extra.get("transfer", np.ones((1, m)))[k], 0, 1)
+        # fill models other than the bead model measure no fusion or transfer: fully fused, full length
+        phi = np.clip(fields.extra["fused"][k], 0, 1) if "fused" in fields.extra else np.ones(m)
+        eta = np.clip(fields.extra["transfer"][k], 0, 1) if "transfer" in fields.extra else np.ones(m)
         s1 = eta * (phi * (Q[0, 0] * e1 + Q[0, 1] * e2) + (1 - phi) * E1 * e1)
         s2 = phi * (Q[0, 1] * e1 + Q[1, 1] * e2)
         t = phi * Q[2, 2] * g

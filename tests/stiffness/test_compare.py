@@ -132,3 +132,16 @@ def test_compare_refuses_a_missing_file_in_one_line(tmp_path, capsys):
     assert status == 1 and len(err) == 1
     assert "nope.gcode" in err[0] and "check the path" in err[0]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("model", ["linear", "nmo"])
+def test_every_fill_model_gives_a_failure_load(prusa_pair, tmp_path, model):
+    """The models other than the bead model measure no fusion or bead transfer; the failure
+    criterion takes them as fully fused (``--fill-model linear`` raised an IndexError on a part of
+    more than one layer)."""
+    out = tmp_path / "rows.json"
+    argv = ["compare", *map(str, prusa_pair), "--loadcase", str(CASE), "--json", str(out), "--fill-model", model]
+    assert main(argv) == 0
+    rows = json.loads(out.read_text())
+    assert all(r["failure_load"] > 0 and r["safety_factor"] > 0 and len(r["failure_location"]) == 3 for r in rows)
+    assert rows[0]["relative_failure_load"] == 1.0 and rows[1]["relative_failure_load"] > 0
