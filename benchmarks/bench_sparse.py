@@ -183,12 +183,26 @@ def slice_part(part: str, slicer: str, pattern: str, fill: int, folder: Path) ->
 
 
 def measure(files: list[Path], case_path: Path) -> list[dict]:
-    """Predicted mechanics of each file, relative to the first (the one call of the model)."""
+    """Predicted mechanics of each file, relative to the first (the one call of the model).
+
+    The model of ``loadpath compare`` with its defaults (issue 14): the beads as printed (fusion,
+    crossings, bead ends), the file's material card, first-ply (Tsai-Wu) failure.  Per file: mass
+    (g, of the deposited beads), stiffness and failure load over the first file's, absolute and per
+    mass (``(c m)_first / (c m)``, ``(F / m) / (F / m)_first``), the failure load (N) and beta.
+    """
     from loadpath.stiffness import compare_files
 
     rows, _ = compare_files([str(f) for f in files], loadcase.read(case_path))
     return [
-        {"mass": r.mass, "stiffness": r.relative_stiffness, "failure": float("nan"), "beta": r.beta}
+        {
+            "mass": r.mass,
+            "stiffness": r.relative_stiffness,
+            "stiffness_pm": r.relative_stiffness_per_mass,
+            "failure": r.relative_failure_load,
+            "failure_pm": r.relative_failure_load_per_mass,
+            "failure_n": r.failure_load,
+            "beta": r.beta,
+        }
         for r in rows
     ]
 
@@ -225,7 +239,7 @@ def timing(folder: Path, engine: str, repeats: int = 3) -> int:
     for k in range(repeats):
         t0 = time.perf_counter()
         res = run_job(JobRequest(src, case, output=folder / f"bracket8-{k}.loadpath.gcode",
-                                 cli={"engine": engine, "replace": ("solid", "sparse")}))
+                                 cli={"engine": engine, "replace": ("solid", "sparse"), "cache": False}))
         t_run.append(time.perf_counter() - t0)
         if res.error:
             print(f"loadpath run failed: {res.error}")
@@ -263,7 +277,8 @@ def main(argv: list[str] | None = None) -> int:
         configs = [(c.split("-")[0], c.split("-")[1], int(c.split("-")[2])) for c in args.configs.split(",")]
     if args.variants:
         variants = args.variants.split(",")
-    head = (f"{'part':8} {'slice':16} {'variant':9} {'mass':>6} {'stiff':>6} {'fail':>5} {'beta':>5} "
+    head = (f"{'part':8} {'slice':16} {'variant':9} {'mass':>6} {'stiff':>6} {'st/m':>6} {'fail':>6} "
+            f"{'fa/m':>6} {'fail N':>7} {'beta':>5} "
             f"{'trav':>6} {'travmx':>6} {'retr':>6} {'time':>5} {'size':>5} {'check':>6} {'run s':>6}")
     print(f"engine {args.engine}; files in {folder}")
     print(head)
@@ -278,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
             for v in variants:
                 out = src.with_name(f"{src.stem}.{v}.gcode")
                 t0 = time.perf_counter()
-                cli = {"engine": args.engine, "replace": ("solid", "sparse"), **VARIANTS[v]}
+                cli = {"engine": args.engine, "replace": ("solid", "sparse"), "cache": False, **VARIANTS[v]}
                 res = run_job(JobRequest(src, case, output=out, cli=cli))
                 secs = time.perf_counter() - t0
                 if res.error or not res.written:
@@ -296,14 +311,16 @@ def main(argv: list[str] | None = None) -> int:
             rows = measure([src, *outs], case)
             label = f"{slicer}-{pattern}{fill}"
             r0 = rows[0]
-            print(f"{part:8} {label:16} {'slicer':9} {1.0:6.3f} {1.0:6.3f} {'n/a':>5} {r0['beta']:5.2f} "
+            print(f"{part:8} {label:16} {'slicer':9} {1.0:6.3f} {1.0:6.3f} {1.0:6.3f} {1.0:6.3f} {1.0:6.3f} "
+                  f"{r0['failure_n']:7.0f} {r0['beta']:5.2f} "
                   f"{1.0:6.2f} {1.0:6.2f} {1.0:6.2f} {1.0:5.2f} {1.0:5.2f} {'-':>6} {'-':>6}")
             for (v, secs, tr, size, clean, out), r in zip(info, rows[1:], strict=True):
                 mot = infill_motion(out)
                 ratios = [(mot.get(k, (0.0, 0))[0] + 1.0) / (t + 1.0) for k, (t, _) in base.items()]
                 rr = [(mot.get(k, (0.0, 0))[1] + 1.0) / (n + 1.0) for k, (_, n) in base.items()]
                 print(f"{part:8} {label:16} {v:9} {r['mass'] / r0['mass']:6.3f} {r['stiffness']:6.3f} "
-                      f"{'n/a':>5} {r['beta']:5.2f} {np.mean(ratios):6.2f} {np.max(ratios):6.2f} "
+                      f"{r['stiffness_pm']:6.3f} {r['failure']:6.3f} {r['failure_pm']:6.3f} "
+                      f"{r['failure_n']:7.0f} {r['beta']:5.2f} {np.mean(ratios):6.2f} {np.max(ratios):6.2f} "
                       f"{np.mean(rr):6.2f} {tr:5.2f} {size:5.2f} {'clean' if clean else 'PROBLEM':>6} "
                       f"{secs:6.0f}")
             sys.stdout.flush()
