@@ -264,6 +264,8 @@ def density_bytes(df: Any) -> bytes:
     pitch = np.nan_to_num(np.round(np.asarray(df.pitch, dtype=float), 3), nan=-1.0)
     head = f"{df.origin[0]:.3f} {df.origin[1]:.3f} {df.cell:.3f} {df.flow_width:.3f} {pitch.shape}"
     return head.encode() + b"\0" + pitch.tobytes()
+
+
 def volume_scale(job: Job) -> float:
     """The job's plastic over the slicer's: 1, or the user's sparse fill over the slicer's.
 
