@@ -42,6 +42,7 @@ part, slice            variant  mass   stiff  fail   trav   travmx  retr   time 
 beam, Prusa gyroid 20  density  1.000  1.230  1.829  13.8   150     8.1    1.10   0.85   clean
 beam, Prusa gyroid 20  uniform  1.000  1.054  1.261  18.9   207     10.3   1.22   0.86   clean
 beam, Prusa gyroid 40  density  1.000  1.450  2.692  19.2   222     18.2   1.16   0.41   clean
+beam, Cura grid 20     density  1.000  1.252  1.762  1.07   1.24    1.00   0.92   3.48   clean
 beam, Prusa 0/90 20    density  1.000  1.232  1.667  13.0   168     14.0   1.30   5.25   clean
 beam, Prusa 0/90 20    uniform  1.000  1.055  0.977  11.2   147     10.3   1.25   5.00   clean
 beam, Prusa 0/90 20    cross30  1.000  1.108  1.057  9.6    116     12.0   1.21   5.66   clean
@@ -54,9 +55,15 @@ bracket, Cura grid 20  density  1.000  1.153  0.913  1.04   1.36    1.00   0.99 
 bracket, Cura grid 20  uniform  1.000  1.087  0.989  1.42   1.61    1.00   0.94   1.93   clean
 shelf, Prusa gyroid 20 density  1.000  1.144  1.395  1.21   2.31    4.30   1.18   0.89   clean
 shelf, Prusa gyroid 20 uniform  1.000  1.047  1.004  1.39   3.17    3.83   1.20   0.85   clean
+islands, Prusa gyr 20  density  1.000  1.162  1.304  1.64   3.09    2.47   1.14   0.58   clean
+islands, Prusa gyr 20  uniform  1.000  1.195  1.483  1.45   2.94    1.38   1.06   0.44   clean
 =====================  =======  =====  =====  =====  =====  ======  =====  =====  =====  =====
 
 (The masses are equal to 0.1 %, so per mass equals absolute to the third digit on every row.)
+Not run in this round (time): the other variants (failure, energy1, cross45) on every part, the
+40 % slices but the beam's, Cura gyroid, Prusa rectilinear but the beam's 0/90, and Cura grid of
+the specimen, shelf and islands.  On the bracket, ``replace = solid`` alone gives -3.0 % failure
+load (``loadpath run`` verdict, same slice), so the bracket's loss comes from the sparse layers.
 Against the beam's 0/90 slice (PrusaSlicer rectilinear, ``fill_angle = 0``, same case and mass):
 the slicer's own gyroid 0.993x as stiff and 0.910x the failure load; loadpath's output of the
 gyroid slice 1.222x and 1.665x; of the 0/90 slice 1.232x and 1.667x.  The bracket fails first at
@@ -67,7 +74,7 @@ Issue 15's targets beside these figures:
 =================================================  ===========================================
 target                                             measured
 =================================================  ===========================================
-stiffness >= 1.5x the slicer's, every part         20 %: 1.14-1.24x (density): miss;
+stiffness >= 1.5x the slicer's, every part         20 %: 1.14-1.25x (density): miss;
                                                    beam 40 %: 1.45x
 beam 20 % >= 3x against 0/90 (Strecs3D 1.65x,      1.23x: miss (the lead's 4.0x was not
 thesis 4.7x printed)                               reproduced on this beam and case)
