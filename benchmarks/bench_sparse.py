@@ -316,8 +316,8 @@ def timing(folder: Path, engine: str, repeats: int = 3) -> int:
     ms, mr = float(np.median(t_slice)), float(np.median(t_run))
     print(f"{layers}-layer 30 % gyroid bracket: PrusaSlicer {ms:.1f} s, loadpath run ({engine}) {mr:.1f} s "
           f"(medians of {repeats}): {mr / ms:.1f}x (target <= 5x)")
-    names = sorted({k for st in stages for k in st}, key=lambda k: -np.median([st.get(k, 0.0) for st in stages]))
-    print("stages (median s): " + ", ".join(f"{k} {np.median([st.get(k, 0.0) for st in stages]):.1f}" for k in names))
+    med = {k: float(np.median([st.get(k, 0.0) for st in stages])) for st in stages for k in st}
+    print("stages (median s): " + ", ".join(f"{k} {v:.1f}" for k, v in sorted(med.items(), key=lambda kv: -kv[1])))
     return 0
 
 
