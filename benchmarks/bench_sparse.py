@@ -90,7 +90,7 @@ mass within 2 % of the slicer's                    1.000 on every file: met
 travel per layer <= the slicer's                   mean 0.93-18.9x: met on 1 of 23 files
                                                    (shelf, Cura grid), miss
 retractions per layer <= the slicer's              mean 1.0-18.2x: met on 5 of 23 files
-                                                   (Cura grid: 1.00-1.50), miss on every Prusa file
+                                                   (Cura grid, 1.00; two Cura files 1.50), miss on every Prusa file
 print time of the replaced blocks <= 1.1x          0.92-1.30x: met on 12 of 23 files, miss
 output <= 1.5x the input                           0.15-0.89x on gyroid, 1.9-5.7x on
                                                    Cura grid / Prusa rectilinear: miss
