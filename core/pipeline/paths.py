@@ -227,8 +227,9 @@ def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, len
     length_retry : float
         As :func:`run_jobs` (a fixed-width job may be run again at another pitch).
 
-    The rest comes from the job: its region (to 1 µm), pitch (to 1 µm), load entry, seed and, for a
-    fixed-width job, the slicer's extruded length it matches (to 1 µm).
+    The rest comes from the job: its region (to 1 µm), pitch (to 1 µm), load entry, seed, its
+    density field (:func:`density_bytes`) and, for a fixed-width job, the slicer's extruded length
+    it matches (to 1 µm).
     """
     from loadpath.cache import code_stamp, digest, geometry_bytes
 
@@ -246,8 +247,25 @@ def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, len
             "none" if target is None else f"{target:.3f}",
             geometry_bytes(inp.region),
             geometry_bytes(inp.load_entry),
+            density_bytes(inp.density),
         ]
     )
+
+
+def density_bytes(df: Any) -> bytes:
+    """Canonical bytes of a job's density field (:class:`loadpath.density.DensityField`; None: ``none``).
+
+    Its grid (origin and cell to 1 µm), flow width and pitch per cell (to 1 µm): what the zones the
+    engine lays are cut from.  Without it a run with ``density = "uniform"`` and one with a density
+    field on the same region shared one cache entry (bench_sparse: identical files).
+    """
+    if df is None:
+        return b"none"
+    pitch = np.nan_to_num(np.round(np.asarray(df.pitch, dtype=float), 3), nan=-1.0)
+    head = f"{df.origin[0]:.3f} {df.origin[1]:.3f} {df.cell:.3f} {df.flow_width:.3f} {pitch.shape}"
+    return head.encode() + b"\0" + pitch.tobytes()
+
+
 def volume_scale(job: Job) -> float:
     """The job's plastic over the slicer's: 1, or the user's sparse fill over the slicer's.
 

@@ -208,3 +208,33 @@ def test_a_run_from_the_cache_imports_no_solver_and_no_engine(sliced, tmp_path):
     # loaded: no mesher, no engine, no solver (the links and the verdict's prediction come from the
     # cache too)
     assert run() == "0 []"
+
+
+def test_paths_key_names_the_density_field():
+    # bench_sparse found density = "uniform" and "energy" runs of one beam giving identical files:
+    # the key of an engine run left the density field out, so the second run loaded the first's paths
+    from loadpath.density import DensityOptions, density_field
+    from loadpath.field import AnalyticField
+    from loadpath.pipeline.paths import Job, job_key
+    from loadpath.pipeline.units import Unit
+    from loadpath.toolpath import EngineInput
+    from shapely.geometry import box
+
+    beam = box(0.0, -10.0, 120.0, 10.0)
+    def bending(p):
+        return np.column_stack([10.0 * p[:, 1], 0 * p[:, 1], 0 * p[:, 1]])
+
+    field = AnalyticField(bending, beam, scale=100.0)
+    unit = Unit("beam", 3, 0, "sparse", beam, (), 2.25, 0.45, 0.2, 0.8)
+    inp = EngineInput(beam, field, 2.25)
+
+    def key(density):
+        df = None if density is None else density_field(field, beam, 0.45, 2.25, density)
+        job = Job(unit, "max_abs", EngineInput(beam, field, 2.25, density=df), [0])
+        return job_key(job, "swarm", {}, "f", 0.03)
+
+    opts = [DensityOptions("energy"), DensityOptions("energy", 0.5), DensityOptions("failure")]
+    keys = [key(None), *(key(o) for o in opts)]
+    assert len(set(keys)) == 4
+    assert key(DensityOptions("energy")) == keys[1]  # the same field: the same entry
+    assert job_key(Job(unit, "max_abs", inp, [0]), "swarm", {}, "f", 0.03) == keys[0]
