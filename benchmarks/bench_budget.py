@@ -8,7 +8,7 @@ Usage::
 
 Every committed real slicer file (``tests/data/**``, ``examples/ohs.gcode``) goes through
 ``loadpath inspect`` (geometry: segments per layer, samples of the nearest-lines split) and, with
-``--run``, through ``loadpath run`` with the grip pull of ``tests/cases.py`` (``--replace
+``--run``, through ``loadpath run`` with a side pull (:data:`SIDES`) (``--replace
 solid,sparse``: mesh estimate and gmsh's node count, engine pitch cells).  Each budget check is
 recorded (``loadpath.budget.check`` wrapped, nothing else changed), and the table prints, per
 budget, the largest value any real file reached, which file, and the ratio budget / largest: the
@@ -26,7 +26,18 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "tests"))
+
+SIDES = """version = 1
+[[supports]]
+name = "clamp"
+where = { side = "x_min", within = 5.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "pull"
+where = { side = "x_max", within = 5.0 }
+force = [500.0, 0.0, 0.0]
+"""
+"""A load case any part takes: clamped at its smallest x, pulled at its largest."""
 
 _NAMES = {
     "extrusion segments": "LAYER_SEGMENTS",
@@ -45,7 +56,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--files", nargs="*", type=Path, default=None)
     args, _ = ap.parse_known_args(argv)
 
-    from cases import GRIP_PULL
     from loadpath import budget
     from loadpath.plugin.cli import main as cli
 
@@ -61,13 +71,23 @@ def main(argv: list[str] | None = None) -> int:
 
     budget.check = recording
     files = args.files or sorted((REPO / "tests" / "data").rglob("*.gcode")) + [REPO / "examples" / "ohs.gcode"]
+    try:
+        _measure(files, args.run, SIDES, cli, current)
+    except KeyboardInterrupt:  # the table of what was measured so far
+        print("(stopped)")
+    budget.check = real_check
+    _table(budget, seen)
+    return 0
+
+
+def _measure(files, run: bool, loadcase: str, cli, current) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         case = Path(tmp) / "case.toml"
-        case.write_text(GRIP_PULL)
+        case.write_text(loadcase)
         for f in files:
             current[0] = f.name
             commands = [["inspect", str(f)]]
-            if args.run:
+            if run:
                 commands.append(["run", str(f), "--loadcase", str(case), "-o", str(Path(tmp) / "out.gcode"),
                                  "--replace", "solid,sparse", "--no-cache", "--set", "jobs=1"])
             for cmd in commands:
@@ -76,8 +96,11 @@ def main(argv: list[str] | None = None) -> int:
                 with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
                     code = cli(cmd)
                 last = (err.getvalue().strip().splitlines() or [""])[-1][:90]
-                print(f"{cmd[0]:<8} {f.name:<52} exit {code}  {time.perf_counter() - t0:6.1f} s  {last}")
-    budget.check = real_check
+                print(f"{cmd[0]:<8} {f.name:<52} exit {code}  {time.perf_counter() - t0:6.1f} s  {last}",
+                      flush=True)
+
+
+def _table(budget, seen) -> None:
     limits = {"LAYER_SEGMENTS": budget.LAYER_SEGMENTS, "SPLIT_SAMPLES": budget.SPLIT_SAMPLES,
               "MESH_ELEMENTS": budget.MESH_ELEMENTS, "MESH_ELEMENTS (3D)": budget.MESH_ELEMENTS,
               "MESH_NODES": budget.MESH_NODES, "ENGINE_CELLS": budget.ENGINE_CELLS}
@@ -87,7 +110,6 @@ def main(argv: list[str] | None = None) -> int:
         value, where = seen.get(key, (0.0, "(not reached by these files)"))
         margin = f"{limit / value:7.0f}x" if value else "     -"
         print(f"{key:<20} {limit:>12,} {value:>14,.0f} {margin}  {where}")
-    return 0
 
 
 if __name__ == "__main__":

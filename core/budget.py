@@ -10,9 +10,8 @@ what is too big and what to do::
     layer 12 (z = 2.4 mm), object 'part': 3,200,000 samples of the nearest-lines split exceed the
     budget of 1,000,000; ...
 
-The defaults are far above every real slicer part in the tests and the benchmarks (measured by
-``benchmarks/bench_budget.py``: the largest real figures are printed beside each budget there), so
-only a damaged or hostile file meets them.
+The defaults are far above every real slicer part in the tests (``benchmarks/bench_budget.py``
+prints the largest real figure beside each budget), so only a damaged or hostile file meets them.
 
 One owner: every budget is a module constant, read at call time (tests lower them with
 ``monkeypatch`` to hit a budget with a small real part; the behaviour is the same at any value).
@@ -34,13 +33,14 @@ __all__ = [
 
 LAYER_SEGMENTS = 2_000_000
 """Extrusion segments of one object in one layer that the geometry turns into walls, beads and
-islands (real parts: a few thousand; the largest in the tests about 21,000)."""
+islands (the committed real files: at most 1,528, the PrusaSlicer 2.7.4 plant sign)."""
 
 SPLIT_SAMPLES = 100_000
 """Samples of the centre lines in one island's nearest-lines (Voronoi) split of sparse blocks.
 
 The split costs about a millisecond per sample (GEOS's snap-rounded union of the cells; 12,800
-samples took 14 s on the shared test machine), so this is a minute or two.  A 250 x 250 mm island
+samples took 14 s on the shared test machine), so this is a minute or two.  The committed real
+files need at most 833 (the OrcaSlicer P1S cube, layer 95); a 250 x 250 mm island
 of 20 % sparse infill in two blocks would have about 60,000; a bead width shrunk a thousandfold
 (a damaged E) millions."""
 

@@ -180,6 +180,9 @@ def _child(target, argv: list[str], stdout: Path, stderr: Path, cpu_s: float, me
             f = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
             os.dup2(f, fd)
             os.close(f)
+        # the streams a caller may have swapped (pytest's capture) are rebound to the files
+        sys.stdout = open(1, "w", closefd=False, errors="backslashreplace")  # noqa: SIM115
+        sys.stderr = open(2, "w", closefd=False, errors="backslashreplace")  # noqa: SIM115
         lim = max(1, int(math.ceil(cpu_s)))
         resource.setrlimit(resource.RLIMIT_CPU, (lim, lim + 5))
         if mem_gib:

@@ -102,3 +102,15 @@ def test_a_mutated_real_file_through_run(tmp_path):
     path.write_bytes(fuzz.mutate((REPO / "examples" / "ohs.gcode").read_bytes(), random.Random(20), 3))
     kind, text = fuzz.classify(path, "run", tmp_path, 60.0)
     assert kind in ("ok", "refused"), f"run: {kind}: {text}"
+
+
+def test_the_fuzz_harness_sees_each_kind_of_finding(tmp_path):
+    """The fork harness of ``scripts/fuzz.py`` on deliberately broken commands (a few seconds).
+
+    A bug deep in the real ``inspect`` (the reader replaced by one that divides by zero: the
+    catch-all's one ``internal error`` line), an exception escaping ``main``, a refusal of two lines,
+    a busy loop past a 1 s CPU limit, a command that rewrites its input and one that leaves a process
+    behind must each be classified as that finding, and the real ``inspect`` of the shipped specimen
+    as ``ok``; otherwise a long fuzz run reporting zero findings would prove nothing.
+    """
+    assert _fuzz()._selftest(tmp_path) == []
