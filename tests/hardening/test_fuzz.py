@@ -2,9 +2,11 @@
 ``scripts/fuzz.py`` (byte, line and number mutations of every committed real slicer file) and
 generates G-code lines of its own, inserted into those files.
 
-Every outcome must be a parsed file or one ``LoadpathError`` line; through the command line, exit 0
-or one ``loadpath:`` line, never an ``internal error``, a hang (30 s) or a changed input.  The long
-run is ``python scripts/fuzz.py --n 100000`` (see its docstring).
+Every outcome must be a parsed file or one ``LoadpathError`` line; through the command line (the
+script's fork harness: one child per case with a CPU limit, its process group killed after), exit 0
+or one ``loadpath:`` line, never an ``internal error``, a hang (30 s) or a changed input.  The
+harness itself is checked on deliberately broken commands.  The long run is
+``nice -n 10 python scripts/fuzz.py --slice --n 100000`` (see its docstring).
 """
 
 from __future__ import annotations
