@@ -35,6 +35,9 @@ every ``--report`` cases, so a stopped run still has its figures) and ends with 
 inputs are kept in ``OUT`` with their messages.  ``--selftest`` checks that the harness itself sees a
 traceback, a multi-line refusal, a hang and a changed input.  ``tests/hardening/test_fuzz.py`` runs
 the same mutators and harness under hypothesis within a bounded budget in CI.
+
+(Over 400 lines: one tool, its mutators, its fork harness with the harness's self-test and its
+driver; the CI test imports the first two from here.)
 """
 
 from __future__ import annotations

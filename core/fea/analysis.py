@@ -106,12 +106,8 @@ def build_mesh(
     return _mesh_and_body(rb, size, pitch, max_cells)[0]
 
 
-def _mesh_and_body(
-    rb: ResolvedBody,
-    size: MeshSize | float | None,
-    pitch: float | None,
-    max_cells: int | None,
-) -> tuple[MeshData, ResolvedBody]:
+def _mesh_and_body(rb: ResolvedBody, size: MeshSize | float | None, pitch: float | None,
+                   max_cells: int | None) -> tuple[MeshData, ResolvedBody]:
     """Return the mesh and the resolved body its facets are picked on (the coarser stack in 3D).
 
     A mesh over its budget (:mod:`loadpath.budget`) stops with the body's name and heights.
@@ -123,12 +119,8 @@ def _mesh_and_body(
         raise exc.at(f"object {rb.name!r} (z = {z0:g}..{z1:g} mm), its FEA mesh") from None
 
 
-def _mesh_of(
-    rb: ResolvedBody,
-    size: MeshSize | float | None,
-    pitch: float | None,
-    max_cells: int | None,
-) -> tuple[MeshData, ResolvedBody]:
+def _mesh_of(rb: ResolvedBody, size: MeshSize | float | None, pitch: float | None,
+             max_cells: int | None) -> tuple[MeshData, ResolvedBody]:
     from loadpath.mesh.gmsh_mesher import mesh_2d
     from loadpath.mesh.layered import TooManyCells, mesh_3d
 
