@@ -16,6 +16,7 @@ Third-party failures (gmsh, OSQP, file I/O) are wrapped at the boundary into one
     ├── SettingsError          (bad option values)
     ├── ToolMissingError       (an external program is not installed)
     ├── SpliceError            (the spliced G-code failed its check; nothing was written)
+    ├── BudgetError            (a stage's input exceeds its size budget: loadpath.budget)
     └── InternalError          (a bug or out of memory met by a job, worded as one line)
     LoadpathWarning
 """
@@ -33,6 +34,7 @@ __all__ = [
     "SettingsError",
     "ToolMissingError",
     "SpliceError",
+    "BudgetError",
     "InternalError",
     "LoadpathWarning",
 ]
@@ -112,6 +114,23 @@ class SpliceError(LoadpathError):
 
     A bug to report; the input is left untouched.
     """
+
+
+class BudgetError(LoadpathError):
+    """A stage's input exceeds its size budget (:mod:`loadpath.budget`): stopped before the work.
+
+    ``where`` names the layer or body once known; :meth:`at` adds it when the raiser did not know it.
+    """
+
+    def __init__(self, message: str, where: str = "") -> None:
+        super().__init__(message)
+        self.where = where
+
+    def at(self, where: str) -> BudgetError:
+        """The same error, prefixed with ``where`` (unless it already names a place)."""
+        if self.where:
+            return self
+        return BudgetError(f"{where}: {self}", where)
 
 
 class InternalError(LoadpathError):

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import shapely
 from loadpath.body import cover_slabs
-from loadpath.errors import LoadCaseError
+from loadpath.errors import BudgetError, LoadCaseError
 from loadpath.fea.boundary import Facets, check_rigid, facets_of, load_vector, pick, support_dofs
 from loadpath.fea.field import FEStressField, field_from_2d, field_from_slice
 from loadpath.fea.material import elasticity_matrix
@@ -106,13 +106,21 @@ def build_mesh(
     return _mesh_and_body(rb, size, pitch, max_cells)[0]
 
 
-def _mesh_and_body(
-    rb: ResolvedBody,
-    size: MeshSize | float | None,
-    pitch: float | None,
-    max_cells: int | None,
-) -> tuple[MeshData, ResolvedBody]:
-    """Return the mesh and the resolved body its facets are picked on (the coarser stack in 3D)."""
+def _mesh_and_body(rb: ResolvedBody, size: MeshSize | float | None, pitch: float | None,
+                   max_cells: int | None) -> tuple[MeshData, ResolvedBody]:
+    """Return the mesh and the resolved body its facets are picked on (the coarser stack in 3D).
+
+    A mesh over its budget (:mod:`loadpath.budget`) stops with the body's name and heights.
+    """
+    try:
+        return _mesh_of(rb, size, pitch, max_cells)
+    except BudgetError as exc:
+        z0, z1 = rb.body.z_range
+        raise exc.at(f"object {rb.name!r} (z = {z0:g}..{z1:g} mm), its FEA mesh") from None
+
+
+def _mesh_of(rb: ResolvedBody, size: MeshSize | float | None, pitch: float | None,
+             max_cells: int | None) -> tuple[MeshData, ResolvedBody]:
     from loadpath.mesh.gmsh_mesher import mesh_2d
     from loadpath.mesh.layered import TooManyCells, mesh_3d
 

@@ -16,7 +16,9 @@ Limits (:class:`Bounds`):
   most :data:`MAX_BEAD_MM`.
 - Feedrate: at most :data:`MAX_FEED_MM_MIN`.
 - Filament per line: ``|dE| <=`` :data:`MAX_DE_MM`; along an extrusion in a layer at most
-  :data:`MAX_DE_PER_MM` mm of filament per mm of path (a 10 mm x 5 mm bead of 1.75 mm filament).
+  :data:`MAX_DE_PER_MM` mm of filament per mm of path (a 10 mm x 5 mm bead of 1.75 mm filament), and
+  over more than :data:`MIN_LEN_STARVED_MM` at least :data:`MIN_FLOW_SHARE` of what its
+  ``;WIDTH:`` x ``;HEIGHT:`` bead needs.
 - Every value finite (overflowing numbers are refused when the words are read, :mod:`.words`).
 
 Each failure is one :class:`~loadpath.errors.GCodeParseError` naming the line, the value, the limit
@@ -48,6 +50,11 @@ MAX_DE_MM = 5000.0
 """Largest filament length one line may push or pull, mm."""
 MAX_DE_PER_MM = 25.0
 """Largest filament per path length of an extrusion in a layer, mm/mm."""
+MIN_FLOW_SHARE = 0.01
+"""Least filament an extrusion longer than :data:`MIN_LEN_STARVED_MM` may carry, as a share of what
+its ``;WIDTH:`` x ``;HEIGHT:`` bead needs (ironing, the thinnest real extrusion, runs at 10-15 %)."""
+MIN_LEN_STARVED_MM = 5.0
+"""Shorter extrusions are not checked for :data:`MIN_FLOW_SHARE` (rounding of E on short moves)."""
 _MIN_LEN_FOR_RATIO = 0.1  # mm: shorter moves carry rounding of their 3-decimal coordinates
 
 
@@ -102,6 +109,12 @@ def bounds_of(config: dict[str, str]) -> Bounds:
     zsrc = (f"the file's {hkey} {height:g} mm, with {MARGIN_MM:g} mm to spare" if height
             else f"no build height in the file: Z <= {g:g} mm")
     return Bounds(x=x, y=y, z=z, source=src, z_source=zsrc)
+
+
+def _filament_area(config) -> float:
+    """Cross-section of the file's filament, mm^2 (1.75 mm when the file does not say)."""
+    d = _number(str(config.get("filament_diameter", "")).split(",")[0]) or 1.75
+    return float(np.pi * d * d / 4.0) if 0.5 < d < 5.0 else float(np.pi * 1.75**2 / 4.0)
 
 
 def _fail(program: Program, line: int, what: str) -> None:
@@ -169,6 +182,16 @@ def check_bounds(program: Program) -> None:
         ratio = np.where(seg >= _MIN_LEN_FOR_RATIO, e / np.maximum(seg, 1e-300), 0.0)
     checks.append((in_layer & (ratio > MAX_DE_PER_MM), lambda i: (
         f"the extrusion pushes {ratio[i]:.3g} mm of filament per mm of path (at most {MAX_DE_PER_MM:g}); {fix}")))
+    # a long extrusion with almost no filament for its ;WIDTH: x ;HEIGHT: is a damaged coordinate (a
+    # perimeter point moved across the bed turns one bead into a spike the FEA meshes into slivers)
+    w, h = mv["width"], mv["height"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = e * _filament_area(program.config) / (seg * w * h)
+    starved = in_layer & (seg > MIN_LEN_STARVED_MM) & (w > 0) & (h > 0) & (share < MIN_FLOW_SHARE)
+    checks.append((starved, lambda i: (
+        f"the extrusion runs {seg[i]:.1f} mm with {e[i]:g} mm of filament, {100 * share[i]:.2g} % of what its "
+        f"bead ({w[i]:g} x {h[i]:g} mm) needs (at least {100 * MIN_FLOW_SHARE:g} % over more than "
+        f"{MIN_LEN_STARVED_MM:g} mm); {fix}")))
     for name, col in (("width", "width"), ("height", "height")):
         v = mv[col]
         low = (v <= 0) if (col == "width" or program.dialect.family != "cura") else np.zeros(len(v), bool)

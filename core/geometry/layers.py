@@ -20,7 +20,8 @@ from collections.abc import Iterable
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Region
-from loadpath.errors import GeometryError
+from loadpath import budget
+from loadpath.errors import BudgetError, GeometryError
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
 from loadpath.geometry.classify import classify, exposed_fraction
@@ -39,6 +40,8 @@ MIN_STRAIGHT = 0.7
 
 _PERIMETER = np.array([Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER])
 _INSIDE = np.array([r for r in Role if r.is_infill] + [Role.GAP_FILL, Role.IRONING])
+_SEGMENTS_FIX = ("check the file for a damaged or repeated stretch of G-code (one layer of a real part has some "
+                 "thousands); loadpath stopped before deriving the layer's regions")
 _FIX = ("slice with at least one perimeter (PrusaSlicer: perimeters >= 1; Cura: wall_line_count >= 1); "
         "loadpath finds the infill domain from the perimeters")
 
@@ -99,7 +102,11 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
             if len(p_rows) == 0:
                 raise GeometryError(f"{where} has infill but no perimeters; {_FIX}")
             height = float(np.median(m["height"][p_rows]))
-            islands = _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
+            budget.check(len(r), budget.LAYER_SEGMENTS, where, "extrusion segments", _SEGMENTS_FIX)
+            try:
+                islands = _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
+            except BudgetError as exc:
+                raise exc.at(where) from None
             per_object[code].append(LayerGeometry(li, float(layer.z), height, name, islands))
 
     objects = []

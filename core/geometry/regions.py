@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from loadpath import budget
 from loadpath._typing import Floats, Region
 from loadpath.geometry.ops import EMPTY, as_region, bead_union, clean
 from loadpath.tolerances import TOL
@@ -139,7 +140,12 @@ def nearest_split(area: Region, blocks: list[BlockLines]) -> list[Region]:
     x1 = np.concatenate([b.x1 for b in blocks])
     y1 = np.concatenate([b.y1 for b in blocks])
     owner = np.repeat(np.arange(n), [len(b.x0) for b in blocks])
-    k = np.ceil(np.hypot(x1 - x0, y1 - y0) / step).astype(np.int64) + 1  # samples per segment, ends included
+    k = np.ceil(np.hypot(x1 - x0, y1 - y0) / step) + 1  # samples per segment, ends included
+    budget.check(float(k.sum()), budget.SPLIT_SAMPLES, "", "samples of the nearest-lines split of its sparse "
+                 f"infill (lines {float(np.hypot(x1 - x0, y1 - y0).sum()):.0f} mm long sampled every {step:.2g} mm)",
+                 "the infill's bead width or pitch is implausibly small: check the ;WIDTH: lines and the "
+                 "extrusion (E) of the layer's infill, or re-slice the part")
+    k = k.astype(np.int64)
     seg = np.repeat(np.arange(len(k)), k)
     t = (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)) / np.repeat(k - 1, k).clip(min=1)
     pts = np.column_stack([x0[seg] + t * (x1[seg] - x0[seg]), y0[seg] + t * (y1[seg] - y0[seg])])

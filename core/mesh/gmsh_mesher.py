@@ -24,8 +24,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from loadpath import budget
 from loadpath._typing import Points2, Region
-from loadpath.errors import MeshingError, ToolMissingError
+from loadpath.errors import BudgetError, MeshingError, ToolMissingError
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.outline import decimate, prepare_rings, refine_groups
 from loadpath.mesh.sizing import MeshSize
@@ -113,7 +114,7 @@ def _session(name: str) -> Iterator[Any]:
                 opt(key, value)
             gmsh.model.add(name)
             yield gmsh
-        except (MeshingError, ToolMissingError):
+        except (MeshingError, ToolMissingError, BudgetError):
             raise
         except Exception as exc:
             raise MeshingError(f"gmsh failed to mesh the {name}: {exc}; try another mesh size") from exc
@@ -211,6 +212,7 @@ def mesh_2d(
         ``tri6`` (or ``tri3``) cells, counter-clockwise.
     """
     sz = MeshSize.uniform(float(size)) if not isinstance(size, MeshSize) else size
+    _check_budget(outline, sz, [*refine_outlines], [*refine_at, *embed])
     t0 = time.perf_counter()
     polys = prepare_rings(outline, sz, split_at)
     groups = refine_groups([outline, *refine_outlines], sz, [*refine_at, *embed])
@@ -262,6 +264,23 @@ def mesh_2d(
     )
 
 
+_MESH_FIX = ("the mesh is sized from the infill pitch, which is implausibly small for the part's size: set a "
+             "larger --pitch, or check the file's infill (;WIDTH: lines, extrusion)")
+
+
+def _check_budget(outline: Region, sz: MeshSize, more: Sequence[Region], lines: Sequence[BaseGeometry]) -> None:
+    """Stop before gmsh when the mesh would exceed :data:`loadpath.budget.MESH_ELEMENTS` triangles."""
+    from loadpath.body import polygons_of
+    from loadpath.mesh.sizing import reentrant_corners
+
+    holes = sum(r.length for o in (outline, *more) for p in polygons_of(o) for r in p.interiors)
+    refined = holes + sum(g.length for g in lines)
+    corners = len(reentrant_corners(outline))
+    est = budget.mesh_elements_estimate(outline.area, sz.h, sz.h_min, sz.grading, refined, corners)
+    budget.check(est, budget.MESH_ELEMENTS, "", f"triangles estimated for the mesh ({outline.area:,.0f} mm2 "
+                 f"at {sz.h:.3g} mm, {sz.h_min:.3g} mm at {refined:,.0f} mm of holes and boundary)", _MESH_FIX)
+
+
 def _check_inside(outline: Region, embed: Sequence[BaseGeometry], tol: float) -> None:
     """Raise :class:`MeshingError` when an embedded line runs outside the outline (by more than ``tol`` mm).
 
@@ -297,6 +316,7 @@ def _surface_of(polys: list[list[np.ndarray]], p: np.ndarray) -> int:
 def _extract(gmsh: Any, dim: int, etype: int, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Nodes used by the elements of one type, renumbered from 0, and the elements."""
     tags, coords, _ = gmsh.model.mesh.getNodes()
+    budget.check(len(tags), budget.MESH_NODES, "", "mesh nodes from gmsh", _MESH_FIX)
     coords = np.asarray(coords).reshape(-1, 3)
     tags = np.asarray(tags, dtype=np.int64)
     etypes, _, enodes = gmsh.model.mesh.getElements(dim)

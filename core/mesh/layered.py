@@ -28,6 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import shapely
+from loadpath import budget
 from loadpath.body import Slab
 from loadpath.errors import MeshingError
 from loadpath.mesh.data import MeshData
@@ -276,6 +277,8 @@ def mesh_3d(
     P = np.concatenate(prisms) if prisms else np.zeros((0, 6), dtype=np.int64)
     if max_cells is not None and 3 * len(P) > max_cells:
         raise TooManyCells(3 * len(P), max_cells)
+    budget.check(3 * len(P), budget.MESH_ELEMENTS, "", "tetrahedra of the layered mesh",
+                 "the part is too large for its mesh size even after coarsening: set a larger --pitch")
     tets = split_prisms(P)
     used, inv = np.unique(tets, return_inverse=True)
     z = np.asarray(levels)[used // n2]

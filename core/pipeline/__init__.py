@@ -63,6 +63,7 @@ from loadpath.pipeline.paths import (
 )
 from loadpath.pipeline.units import (
     Unit,
+    check_engine_budget,
     passthrough_reason,
     purge_blocks,
     select_units,
@@ -338,6 +339,7 @@ def run(
     units = select_units(geo, names, options.replace, options.pitch, exclude=purges | set(unsure))
     if options.overlap:
         units = with_overlap(units, program, geo)
+    check_engine_budget(units)  # before the FEA: a unit too big for the engines stops the run now
     clock.lap("loadcase")
     if not units:
         kinds = ", ".join(options.replace)

@@ -25,6 +25,7 @@ from loadpath.options import user_pitch
 
 __all__ = [
     "Unit",
+    "check_engine_budget",
     "select_units",
     "passthrough_reason",
     "purge_blocks",
@@ -98,6 +99,23 @@ class Unit:
     def fixed_width(self) -> bool:
         """Printed at the slicer's bead width (sparse infill) rather than at the local pitch."""
         return self.kind in FIXED_WIDTH_KINDS
+
+
+def check_engine_budget(units: Sequence[Unit]) -> None:
+    """Stop when a unit's fill region has more pitch cells than :data:`loadpath.budget.ENGINE_CELLS`.
+
+    The engines' path samples, agents and QP unknowns grow with ``area / pitch^2``; counted here,
+    before the FEA, so an implausible pitch stops the run with its layer instead of exhausting memory.
+    """
+    from loadpath import budget
+
+    for u in units:
+        area = float(u.fill_region.area)
+        budget.check(area / u.pitch**2, budget.ENGINE_CELLS,
+                     f"layer {u.layer + 1} (z = {u.z:g} mm), object {u.object!r}",
+                     f"pitch cells for the path engine ({area:,.0f} mm2 of {u.kind} infill at a {u.pitch:.3g} mm "
+                     "pitch)", "set a larger --pitch (the slicer's own is 0.4-0.5 mm for solid infill), or check "
+                     "the file's infill")
 
 
 def passthrough_reason(

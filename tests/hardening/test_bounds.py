@@ -134,3 +134,26 @@ def test_cut_right_after_an_object_label_says_truncated(sliced, tmp_path, repo_r
             with pytest.raises(GCodeParseError, match="looks truncated"):
                 gcode.read(path)
     shutil.rmtree(tmp_path, ignore_errors=True)
+
+
+def test_perimeter_point_moved_across_the_bed_is_refused_at_its_line(sliced, tmp_path):
+    """Found by the long fuzz run (scripts/fuzz.py, case 200 of seed 2020): one perimeter point of a
+    small PrusaSlicer bracket with its X set to 0 (``X121.213`` -> ``X0``) stays on the bed, but makes
+    that bead a 121 mm spike carrying 0.2 % of its filament.  The part became a 3D body whose
+    tetrahedra are slivers along the spike, and ``run`` spent more than 90 s of CPU in the FEA's
+    AMG-CG before falling back to a direct solve; now the reader refuses the line.
+    """
+    src = sliced("prusa", "ohs", "mixed")
+    lines = src.read_text().split("\n")
+    inside = False
+    for i, line in enumerate(lines):
+        if line.startswith(";TYPE:"):
+            inside = line.strip() == ";TYPE:Perimeter"
+        elif inside and re.match(r"G1 X\d+\.\d+ Y\d+\.\d+ E\.0", line):
+            break
+    lines[i] = re.sub(r"X\d+\.\d+", "X0", lines[i])
+    path = tmp_path / "part.gcode"
+    path.write_text("\n".join(lines))
+    with pytest.raises(GCodeParseError, match=rf"^line {i + 1} .*the extrusion runs [0-9.]+ mm with [0-9.e-]+ mm "
+                                              r"of filament, [0-9.]+ % of what its bead .* needs"):
+        gcode.read(path)

@@ -2,9 +2,11 @@
 ``scripts/fuzz.py`` (byte, line and number mutations of every committed real slicer file) and
 generates G-code lines of its own, inserted into those files.
 
-Every outcome must be a parsed file or one ``LoadpathError`` line; through the command line, exit 0
-or one ``loadpath:`` line, never an ``internal error``, a hang (30 s) or a changed input.  The long
-run is ``python scripts/fuzz.py --n 100000`` (see its docstring).
+Every outcome must be a parsed file or one ``LoadpathError`` line; through the command line (the
+script's fork harness: one child per case with a CPU limit, its process group killed after), exit 0
+or one ``loadpath:`` line, never an ``internal error``, a hang (30 s) or a changed input.  The
+harness itself is checked on deliberately broken commands.  The long run is
+``nice -n 10 python scripts/fuzz.py --slice --n 100000`` (see its docstring).
 """
 
 from __future__ import annotations
@@ -102,3 +104,15 @@ def test_a_mutated_real_file_through_run(tmp_path):
     path.write_bytes(fuzz.mutate((REPO / "examples" / "ohs.gcode").read_bytes(), random.Random(20), 3))
     kind, text = fuzz.classify(path, "run", tmp_path, 60.0)
     assert kind in ("ok", "refused"), f"run: {kind}: {text}"
+
+
+def test_the_fuzz_harness_sees_each_kind_of_finding(tmp_path):
+    """The fork harness of ``scripts/fuzz.py`` on deliberately broken commands (a few seconds).
+
+    A bug deep in the real ``inspect`` (the reader replaced by one that divides by zero: the
+    catch-all's one ``internal error`` line), an exception escaping ``main``, a refusal of two lines,
+    a busy loop past a 1 s CPU limit, a command that rewrites its input and one that leaves a process
+    behind must each be classified as that finding, and the real ``inspect`` of the shipped specimen
+    as ``ok``; otherwise a long fuzz run reporting zero findings would prove nothing.
+    """
+    assert _fuzz()._selftest(tmp_path) == []
