@@ -96,26 +96,6 @@ def dogbone_mesh(thickness: float = D638["thickness"]) -> trimesh.Trimesh:
     return mesh
 
 
-def coupon_case(length: float, grip: float, force: float = 500.0) -> str:
-    """Uniaxial tension along x from 0: one end face held in x (y at its middle), the other pulled."""
-    return f"""
-version = 1
-frame = "part"
-[[supports]]
-name = "end"
-where = {{ x_max = 0.3 }}
-fix = ["x"]
-[[supports]]
-name = "centre"
-where = {{ x_max = 0.3, y_min = {grip / 2 - 1:.3f}, y_max = {grip / 2 + 1:.3f} }}
-fix = ["y"]
-[[loads]]
-name = "pull"
-where = {{ x_min = {length - 0.3:.3f} }}
-force = [{force:.1f}, 0.0, 0.0]
-"""
-
-
 @dataclass(frozen=True)
 class Spec:
     """One published specimen: its label, the slicer settings that print it and the published figure."""
@@ -223,7 +203,7 @@ def main() -> int:
     folder.mkdir(parents=True, exist_ok=True)
     print(f"coupon validation: PrusaSlicer {slicing.prusa_version()}, files in {folder}")
     L, G = D638["length"], D638["grip"]  # noqa: N806
-    case = coupon_case(L, G)
+    case = bm.tension_case(L, G)
     gauge = (L / 2 - GAUGE / 2, L / 2 + GAUGE / 2)
     area = D638["width"] * D638["thickness"]
 

@@ -56,39 +56,30 @@ PAPER_STRENGTH = {"aligned": 44.14 / 24.57, "swarm K=5": 44.08 / 24.57}
 # Uniaxial tension: x held on one end face, y at the middle of that face, the pull on the other end
 # face, so the part contracts freely (a 2D model cannot clamp the faces a real grip presses on; a
 # clamped edge would be a singular corner that no grip has)
-SPECIMEN_CASE = """
+def tension_case(length: float, width: float, force: float = 500.0) -> str:
+    """Uniaxial tension along x of a part from x = 0 to ``length`` (mm), ``width`` wide in y: the end
+    face x = 0 held in x, a 2 mm strip at the middle of that face held in y, ``force`` N on the far
+    end face."""
+    return f"""
 version = 1
 frame = "part"
 [[supports]]
 name = "end"
-where = { x_max = 0.3 }
+where = {{ x_max = 0.3 }}
 fix = ["x"]
 [[supports]]
 name = "centre"
-where = { x_max = 0.3, y_min = 17.0, y_max = 19.0 }
+where = {{ x_max = 0.3, y_min = {width / 2 - 1:.3f}, y_max = {width / 2 + 1:.3f} }}
 fix = ["y"]
 [[loads]]
 name = "pull"
-where = { x_min = 149.7 }
-force = [1000.0, 0.0, 0.0]
+where = {{ x_min = {length - 0.3:.3f} }}
+force = [{force:.1f}, 0.0, 0.0]
 """
 
-BAR_CASE = """
-version = 1
-frame = "part"
-[[supports]]
-name = "end"
-where = { x_max = 0.3 }
-fix = ["x"]
-[[supports]]
-name = "centre"
-where = { x_max = 0.3, y_min = 5.0, y_max = 7.0 }
-fix = ["y"]
-[[loads]]
-name = "pull"
-where = { x_min = 99.7 }
-force = [500.0, 0.0, 0.0]
-"""
+
+SPECIMEN_CASE = tension_case(150.0, 36.0, 1000.0)
+BAR_CASE = tension_case(100.0, 12.0, 500.0)
 
 BEND_CASE = """
 version = 1
@@ -185,8 +176,7 @@ def rows_for(files: dict[str, Path], case_text: str, folder: Path, tag: str, gau
     return dict(zip(files, rows, strict=True)), results, dt
 
 
-WIDE_CASE = BAR_CASE.replace("y_min = 5.0, y_max = 7.0", "y_min = 11.5, y_max = 13.5").replace(
-    "x_min = 99.7", "x_min = 149.7")
+WIDE_CASE = tension_case(150.0, 25.0, 500.0)
 WIDE_GAUGE = (25.0, 125.0)
 
 
@@ -198,7 +188,7 @@ def laminate_ratios(card) -> dict[str, tuple[float, float, float]]:  # type: ign
     """
     import numpy as np
     from loadpath.fea.orthotropic import rotate
-    from loadpath.stiffness.strength import tsai_wu_factor
+    from loadpath.stiffness.strength import _rotate_strain, tsai_wu_factor
 
     Q = card.elastic.plane_stress()  # noqa: N806
     k = card.strength
@@ -207,17 +197,11 @@ def laminate_ratios(card) -> dict[str, tuple[float, float, float]]:  # type: ign
         th = np.radians(angles)
         A = rotate(Q, th).mean(axis=0)  # noqa: N806
         eps = np.linalg.solve(A, [1.0, 0.0, 0.0])  # strain under sigma_x = 1 MPa, [ex, ey, gxy]
-        tw, th_ = [], []
-        for t in th:
-            c, s_ = np.cos(t), np.sin(t)
-            e1 = c * c * eps[0] + s_ * s_ * eps[1] + c * s_ * eps[2]
-            e2 = s_ * s_ * eps[0] + c * c * eps[1] - c * s_ * eps[2]
-            g12 = -2 * c * s_ * eps[0] + 2 * c * s_ * eps[1] + (c * c - s_ * s_) * eps[2]
-            s1, s2, t12 = Q @ np.array([e1, e2, g12])
-            tw.append(float(tsai_wu_factor(np.array(s1), np.array(s2), np.array(t12), card)[0]))
-            X, Y = (k.Xt if s1 >= 0 else k.Xc), (k.Yt if s2 >= 0 else k.Yc)  # noqa: N806
-            th_.append(1.0 / np.sqrt((s1 / X) ** 2 - s1 * s2 / X**2 + (s2 / Y) ** 2 + (t12 / k.S) ** 2))
-        out[name] = (1.0 / float(np.linalg.inv(A)[0, 0]), min(tw), min(th_))
+        s1, s2, t12 = (_rotate_strain(np.tile(eps, (len(th), 1)), th) @ Q.T).T  # per ply, bead axes
+        tw = tsai_wu_factor(s1, s2, t12, card)[0]
+        X, Y = np.where(s1 >= 0, k.Xt, k.Xc), np.where(s2 >= 0, k.Yt, k.Yc)  # noqa: N806
+        hill = 1.0 / np.sqrt((s1 / X) ** 2 - s1 * s2 / X**2 + (s2 / Y) ** 2 + (t12 / k.S) ** 2)
+        out[name] = (1.0 / float(np.linalg.inv(A)[0, 0]), float(np.min(tw)), float(np.min(hill)))
     return out
 
 
