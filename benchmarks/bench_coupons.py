@@ -197,7 +197,7 @@ def table(title: str, specs: list[Spec], got: dict, area: float, ref: str) -> di
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("out", nargs="?", default=None)
-    ap.add_argument("--quick", action="store_true", help="skip the 80 % patterns (0.1 mm layers, slowest)")
+    ap.add_argument("--quick", action="store_true", help="skip the 80 %% patterns (0.1 mm layers, slowest)")
     args, _ = ap.parse_known_args()
     folder = Path(args.out or tempfile.mkdtemp(prefix="bench_coupons_"))
     folder.mkdir(parents=True, exist_ok=True)
