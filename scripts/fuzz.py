@@ -59,16 +59,8 @@ from typing import NamedTuple
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-CASE = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 10.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 10.0 }
-force = [1000.0, 0.0, 0.0]
-"""
+sys.path.insert(0, str(REPO / "tests"))
+from cases import GRIP_PULL as CASE  # noqa: E402  clamped at x_min, pulled at x_max: any part takes it
 
 _NUM = re.compile(rb"(?<=[XYZEFIJR])-?\d*\.?\d+")
 
@@ -296,7 +288,6 @@ def classify(path: Path, command: str, out: Path, hang_s: float, *, engine: str 
 
 def small_slices(folder: Path) -> list[Path]:
     """Slice the small seed parts with the real PrusaSlicer and CuraEngine (a few seconds)."""
-    sys.path.insert(0, str(REPO / "tests"))
     import slicing as sl
 
     folder.mkdir(parents=True, exist_ok=True)
