@@ -26,17 +26,10 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+from cases import side_case  # noqa: E402
 
-SIDES = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 5.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 5.0 }
-force = [500.0, 0.0, 0.0]
-"""
+SIDES = side_case((500.0, 0.0, 0.0), held_within=5.0, loaded_within=5.0)
 """A load case any part takes: clamped at its smallest x, pulled at its largest."""
 
 _NAMES = {

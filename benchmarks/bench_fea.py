@@ -50,18 +50,9 @@ from shapely.geometry import Point, box  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 import slicing  # noqa: E402
+from cases import TOWER_PUSH, side_case  # noqa: E402
 
-OPEN_HOLE = """
-version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 0.5 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 0.5 }
-force = [1000.0, 0.0, 0.0]
-"""
+OPEN_HOLE = side_case((1000.0, 0.0, 0.0), held_within=0.5, loaded_within=0.5)
 BRACKET = """
 version = 1
 [[supports]]
@@ -283,18 +274,7 @@ def section_growth(repeats, quick):
     print()
 
 
-TOWER = """
-version = 1
-frame = "part"
-[[supports]]
-name = "base"
-where = { side = "z_min", within = 0.5 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "push"
-where = { side = "z_max", within = 0.5 }
-force = [100.0, 0.0, 0.0]
-"""
+TOWER = TOWER_PUSH
 
 
 def _tower_body():

@@ -126,21 +126,12 @@ from loadpath.plugin.job import JobRequest, run_job  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import slicing  # noqa: E402
+from cases import BEAM_3PT, side_case  # noqa: E402
 
 THICK = 4.0
 
 CASES = {
-    "ohs": """version = 1
-frame = "part"
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 10.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 0.5 }
-force = [1000.0, 0.0, 0.0]
-""",
+    "ohs": side_case((1000.0, 0.0, 0.0), loaded_within=0.5, part_frame=True),
     "bracket": """version = 1
 frame = "part"
 [[supports]]
@@ -152,21 +143,7 @@ name = "pin"
 where = { hole_near = [52.5, 7.5], radius = 5.0 }
 force = [0.0, -300.0, 0.0]
 """,
-    "beam": """version = 1
-frame = "part"
-[[supports]]
-name = "left"
-where = { x_max = 4.0, y_max = 0.5 }
-fix = ["x", "y", "z"]
-[[supports]]
-name = "right"
-where = { x_min = 116.0, y_max = 0.5 }
-fix = ["y"]
-[[loads]]
-name = "press"
-where = { x_min = 57.0, x_max = 63.0, y_min = 19.5 }
-force = [0.0, -500.0, 0.0]
-""",
+    "beam": BEAM_3PT,
     "shelf": """version = 1
 frame = "part"
 [[supports]]
@@ -182,17 +159,10 @@ name = "tip"
 where = { side = "x_max", within = 0.5 }
 force = [0.0, -200.0, 0.0]
 """,
-    "islands": """version = 1
-frame = "part"
-[[supports]]
-name = "base"
-where = { side = "y_min", within = 0.5 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "y_max", within = 0.5 }
-force = [0.0, 500.0, 0.0]
-""",
+    "islands": side_case(
+        (0.0, 500.0, 0.0), held="y_min", held_within=0.5, loaded="y_max", loaded_within=0.5,
+        part_frame=True, support="base",
+    ),
 }
 
 

@@ -62,7 +62,7 @@ PAPER = {0.5: (0.981, 6.1e-3), 5.0: (0.993, 12.9e-3), 50.0: (0.998, 16.4e-3)}
 PAPER_TIME_S = 0.198
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))
-from cases import END_PULL  # noqa: E402
+from cases import END_PULL, side_case  # noqa: E402
 
 # the paper's specimen (Fig. 5): clamped at x_min, pulled through the end face at x_max (the shipped
 # examples/ohs.toml, with its material and a 1 mm pull window, is printed as a second line)
@@ -80,17 +80,7 @@ where = { hole_near = [52.5, 7.5], radius = 5.0 }
 force = [0.0, -300.0, 0.0]
 """
 
-PLATE_CASE = """
-version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 5.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 5.0 }
-force = [5000.0, 0.0, 0.0]
-"""
+PLATE_CASE = side_case((5000.0, 0.0, 0.0), held_within=5.0, loaded_within=5.0)
 
 
 def specimen_region():

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import slicing
+from cases import TOWER_PUSH
 from loadpath.loadcase import Body, parse
 from shapely.geometry import Point, box
 
@@ -63,18 +64,7 @@ def rate(h: np.ndarray, err: np.ndarray) -> float:
     return float(np.polyfit(np.log(h), np.log(err), 1)[0])
 
 
-TOWER_CASE = """
-version = 1
-frame = "part"
-[[supports]]
-name = "base"
-where = { side = "z_min", within = 0.5 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "push"
-where = { side = "z_max", within = 0.5 }
-force = [100.0, 0.0, 0.0]
-"""
+TOWER_CASE = TOWER_PUSH
 
 
 def twisted_tower(n: int = 120, dz: float = 0.2, twist: float = 30.0, scale_top: float = 0.6) -> Body:

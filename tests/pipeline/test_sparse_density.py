@@ -9,26 +9,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import slicing
+from cases import BEAM_3PT
 import trimesh
 from loadpath import gcode
 from loadpath.gcode import Role
 from loadpath.plugin.job import JobRequest, run_job
 
-CASE = """version = 1
-frame = "part"
-[[supports]]
-name = "left"
-where = { x_max = 4.0, y_max = 0.5 }
-fix = ["x", "y", "z"]
-[[supports]]
-name = "right"
-where = { x_min = 116.0, y_max = 0.5 }
-fix = ["y"]
-[[loads]]
-name = "press"
-where = { x_min = 57.0, x_max = 63.0, y_min = 19.5 }
-force = [0.0, -500.0, 0.0]
-"""
+CASE = BEAM_3PT
 
 
 @pytest.fixture(scope="module")
