@@ -20,8 +20,12 @@ neighbours ``two_islands`` + ``bracket`` as two separate objects on one bed).  S
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
+import os
 import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import conftest as _root_conftest  # tests/conftest.py, which imports this module at its end
@@ -30,6 +34,7 @@ import slicing
 
 __all__ = [
     "without_verdict",
+    "made_once",
     "slice_cache",
     "sliced",
     "test_stls",
@@ -66,10 +71,46 @@ _TOOL = {"prusa": "prusa-slicer", "cura": "CuraEngine"}
 _lock = threading.RLock()
 
 
+@contextlib.contextmanager
+def _file_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on ``path`` (created if missing) across processes."""
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def made_once(out: Path, make: Callable[[], object]) -> Path:
+    """``out``, made by ``make()`` the first time any test process asks for it.
+
+    The suite runs in several pytest-xdist worker processes that share :func:`slice_cache`: a lock
+    file next to ``out`` lets one process make it while the others wait, and a ``.done`` marker
+    (written after ``make`` returned) tells a finished file from one a failed or killed run left half
+    written, which is made again.
+    """
+    done = out.with_name(out.name + ".done")
+    with _lock, _file_lock(out.with_name(out.name + ".lock")):
+        if not done.exists():
+            make()
+            done.touch()
+    return out
+
+
 @pytest.fixture(scope="session")
 def slice_cache(tmp_path_factory) -> Path:
-    """Folder where this session's STLs and sliced G-code are kept."""
-    return tmp_path_factory.mktemp("sliced")
+    """Folder where this run's STLs and sliced G-code are kept, shared by its xdist workers.
+
+    Files in it are named by what made them (part, slicer, settings, a digest of the overrides), so
+    two workers that ask for the same G-code get the same file, sliced once (:func:`made_once`).
+    Without xdist (no ``PYTEST_XDIST_WORKER``, or ``-p no:xdist``) the folder is the session's own.
+    """
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return tmp_path_factory.mktemp("sliced")
+    shared = tmp_path_factory.getbasetemp().parent / "sliced"  # the run's basetemp, above popen-gwN/
+    shared.mkdir(exist_ok=True)
+    return shared
 
 
 @pytest.fixture(scope="session")
@@ -80,10 +121,7 @@ def test_stls(slice_cache):
         if part == "two_objects":
             return [*make("two_islands"), *make("bracket")]
         path = slice_cache / f"{part}.stl"
-        with _lock:
-            if not path.exists():
-                slicing.write_stl(slicing.PARTS[part](), path)
-        return [path]
+        return [made_once(path, lambda: slicing.write_stl(slicing.PARTS[part](), path))]
 
     return make
 
@@ -93,7 +131,8 @@ def sliced(slice_cache, test_stls):
     """Factory ``sliced(slicer, part, settings="mixed", **overrides) -> Path`` of real G-code.
 
     ``slicer`` is ``"prusa"`` (PrusaSlicer 2.5, MK3S presets, relative E) or ``"cura"`` (CuraEngine
-    4.13, prusa_i3_mk3, absolute E).  Results are cached for the session by their arguments.
+    4.13, prusa_i3_mk3, absolute E).  Results are cached for the run by their arguments, across
+    xdist workers (:func:`slice_cache`).
     """
 
     def make(slicer: str, part: str, settings: str = "mixed", **overrides) -> Path:
@@ -105,13 +144,14 @@ def sliced(slice_cache, test_stls):
             key = repr(sorted((k, str(v)) for k, v in overrides.items())).encode()
             extra = "-" + hashlib.sha1(key).hexdigest()[:10]
         out = slice_cache / f"{slicer}-{part}-{settings}{extra}.gcode"
-        with _lock:
-            if not out.exists():
-                stls = test_stls(part)
-                conf = {**_SETTINGS[slicer][settings], **{k: str(v) for k, v in overrides.items()}}
-                fn = slicing.slice_prusa if slicer == "prusa" else slicing.slice_cura
-                fn(stls, out, **conf)
-        return out
+
+        def slice_it() -> None:
+            stls = test_stls(part)
+            conf = {**_SETTINGS[slicer][settings], **{k: str(v) for k, v in overrides.items()}}
+            fn = slicing.slice_prusa if slicer == "prusa" else slicing.slice_cura
+            fn(stls, out, **conf)
+
+        return made_once(out, slice_it)
 
     return make
 

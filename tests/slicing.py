@@ -304,7 +304,7 @@ def write_prusa_profile(folder: str | os.PathLike) -> list[Path]:
     for kind, flat in flatten_prusa_presets().items():
         p = folder / f"mk3s_{kind}.ini"
         if not p.exists():
-            tmp = p.with_suffix(".tmp")
+            tmp = p.with_suffix(f".{os.getpid()}.tmp")  # test processes may write the same folder at once
             tmp.write_text("".join(f"{k} = {v}\n" for k, v in sorted(flat.items())), encoding="utf-8")
             tmp.replace(p)
         paths.append(p)

@@ -30,9 +30,11 @@ def test_prusa_absolute_e_gives_the_same_extrusions(sliced):
     close = np.abs(b["e"] - a["e"]) <= 2e-5
     assert np.mean(close) > 0.99
     np.testing.assert_allclose(np.cumsum(b["e"]), np.cumsum(a["e"]), rtol=1e-5, atol=1e-4)
-    # the same positions (two separate slicer runs: a couple of points move by the last digit)
+    # the same positions (two separate slicer runs: a couple of points move in the last of the three
+    # decimals PrusaSlicer writes; one move of the specimen was seen at x = 121.382, 121.383 and
+    # 121.389 in runs of the same input, so the bound is a unit of the second decimal)
     assert np.mean(b["x1"] == a["x1"]) > 0.999
-    np.testing.assert_allclose(b["x1"], a["x1"], atol=0.005)
+    np.testing.assert_allclose(b["x1"], a["x1"], atol=0.01)
 
 
 def test_prusa_volumetric_e_is_turned_into_filament_length(sliced):

@@ -10,6 +10,7 @@ import conftest as _root  # tests/conftest.py (require_tool)
 import pytest
 import slicing
 import trimesh
+from fixtures import made_once  # tests/fixtures.py: one slice per run, shared by xdist workers
 
 
 def step_mesh() -> trimesh.Trimesh:
@@ -32,13 +33,14 @@ def sliced_step(slice_cache):
         if slicer == "cura":
             _root.require_tool("cura")
         stl = slice_cache / "step.stl"
-        if not stl.exists():
-            slicing.write_stl(step_mesh(), stl)
+        made_once(stl, lambda: slicing.write_stl(step_mesh(), stl))
         out = slice_cache / f"{slicer}-step-{settings}.gcode"
-        if not out.exists():
+
+        def slice_it() -> None:
             conf = {"prusa": {"mixed": slicing.PRUSA_MIXED, "solid": slicing.PRUSA_SOLID},
                     "cura": {"mixed": slicing.CURA_MIXED, "solid": slicing.CURA_SOLID}}[slicer][settings]
             (slicing.slice_prusa if slicer == "prusa" else slicing.slice_cura)(stl, out, **conf)
-        return out
+
+        return made_once(out, slice_it)
 
     return make

@@ -44,12 +44,29 @@ def test_overlap_is_measured_from_the_slicers_lines_and_grows_the_engine_region(
     assert all(slicer_overlap(p2, u) < 0.03 for u in u2)
 
 
-def test_overlap_reaches_the_output(sliced, tmp_path):
-    """A whole run: the new beads reach past the region's edge as the slicer's did, and the check passes."""
+@pytest.fixture(scope="module")
+def solid_run(sliced, tmp_path_factory):
+    """Factory ``solid_run(engine) -> JobResult``: one whole run per engine on the specimen (solid infill).
+
+    Made once for the module: the overlap test and the staggered-layer test check the same run.
+    """
     from pipeline_helpers import run, write_case
 
-    case = write_case(tmp_path)
-    program, result, out = run(sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode", engine="swarm")
+    made = {}
+
+    def make(engine: str):
+        if engine not in made:
+            folder = tmp_path_factory.mktemp(f"solid-{engine}")
+            case = write_case(folder)
+            made[engine] = run(sliced("prusa", "ohs", "solid"), case, folder / "out.gcode", engine=engine)[1]
+        return made[engine]
+
+    return make
+
+
+def test_overlap_reaches_the_output(solid_run):
+    """A whole run: the new beads reach past the region's edge as the slicer's did, and the check passes."""
+    result = solid_run("swarm")
     assert result.pipeline.check.problems == []
     units = [u for j in result.pipeline.jobs for u in j.units]
     assert units and all(u.overlap > 0.05 for u in units)
@@ -64,16 +81,14 @@ def test_overlap_reaches_the_output(sliced, tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["swarm", "streamlines"])
-def test_staggered_layers_are_laid_by_the_engine_itself(sliced, tmp_path, engine):
+def test_staggered_layers_are_laid_by_the_engine_itself(solid_run, engine):
     """Identical layers alternate between the engine's paths and its own copy from seeds half a pitch on.
 
     Real PrusaSlicer 2.5 specimen, solid infill.
     """
     from loadpath.metrics import coverage, resample
-    from pipeline_helpers import run, write_case
 
-    case = write_case(tmp_path)
-    _, result, _ = run(sliced("prusa", "ohs", "solid"), case, tmp_path / "out.gcode", engine=engine)
+    result = solid_run(engine)
     assert result.pipeline.check.problems == []
     multi = [j for j in result.pipeline.jobs if len(j.units) > 1]
     assert multi
