@@ -110,7 +110,9 @@ def layer_geometry(program: Program, check: bool = True, cache: Any = None) -> P
                 raise GeometryError(f"{where} has infill but no perimeters; {_FIX}")
             height = float(np.median(m["height"][p_rows]))
             budget.check(len(r), budget.LAYER_SEGMENTS, where, "extrusion segments", _SEGMENTS_FIX)
-            key = islands_key(m, p_rows, i_rows, fw_all, bead_all, block_of, program) if cache is not None else None
+            key = None
+            if cache is not None:
+                key = islands_key(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
             islands = _rebased(cache.get("islands", key[0]), key[1]) if key else None
             if islands is None:
                 try:
@@ -151,10 +153,11 @@ def islands_key(m: np.ndarray, p_rows: Ints, i_rows: Ints, fw_all: Floats, bead_
     blk = block_of[i_rows]
     inside = blk[blk >= 0]
     base = int(inside.min()) if len(inside) else 0
-    parts: list[bytes | str] = ["islands", code_stamp(), source_stamp("gcode"), f"{len(p_rows)} {len(i_rows)}"]
+    parts: list[bytes | str] = ["islands", code_stamp(), source_stamp("gcode")]
+    parts.append(f"{len(p_rows)} {len(i_rows)}")
     for rows in (p_rows, i_rows):
         parts += [np.ascontiguousarray(m[k][rows]).tobytes() for k in _ISLAND_MOVES]
-        parts += [np.ascontiguousarray(fw_all[rows]).tobytes(), np.ascontiguousarray(bead_all[rows]).tobytes()]
+        parts += [np.ascontiguousarray(w[rows]).tobytes() for w in (fw_all, bead_all)]
     parts.append(np.where(blk >= 0, blk - base, -1).astype(np.int64).tobytes())
     used = np.unique(inside)
     parts.append(np.ascontiguousarray(program.blocks["length"][used]).tobytes())

@@ -16,12 +16,16 @@ from loadpath.cache import Cache
 def _differences(a, b, path="geometry") -> list[str]:
     """Where two geometries differ: every field, every shapely geometry by its WKB, arrays exactly."""
     if dataclasses.is_dataclass(a):
-        return [d for f in dataclasses.fields(a) for d in _differences(getattr(a, f.name), getattr(b, f.name),
-                                                                     f"{path}.{f.name}")]
+        return [
+            d
+            for f in dataclasses.fields(a)
+            for d in _differences(getattr(a, f.name), getattr(b, f.name), f"{path}.{f.name}")
+        ]
     if isinstance(a, tuple):
         if len(a) != len(b):
             return [f"{path}: {len(a)} != {len(b)} items"]
-        return [d for k, (x, y) in enumerate(zip(a, b, strict=True)) for d in _differences(x, y, f"{path}[{k}]")]
+        pairs = enumerate(zip(a, b, strict=True))
+        return [d for k, (x, y) in pairs for d in _differences(x, y, f"{path}[{k}]")]
     if hasattr(a, "wkb"):
         return [] if a.wkb == b.wkb else [path]
     if isinstance(a, np.ndarray):
