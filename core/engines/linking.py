@@ -270,6 +270,9 @@ class _Layer:
         ``(ea, eb, straight_ok, edge_ok)`` -> the link's points, their samples and whether it is a
         boundary link, or None: the geometric test of a candidate does not depend on the links laid
         before it, so each is made once for both ways.
+    straight_links : dict or None
+        The straight candidates' points, samples and clearance, both ways, all made at the first
+        straight link tried (:meth:`_straight_links`).
     """
 
     ps: list[Path]
@@ -293,6 +296,7 @@ class _Layer:
     order: np.ndarray
     ring_cache: dict
     tried: dict
+    straight_links: dict | None = None
 
     @classmethod
     def of(cls, ps: list[Path], region: Region, pitch: float, options: LinkOptions) -> _Layer | None:
@@ -375,6 +379,48 @@ class _Layer:
         d = self.s_arc[h] if e % 2 == 0 else self.p_len[pid] - self.s_arc[h]
         return (self.s_pid[h] == pid) & (d <= 2.0 * self.pitch)
 
+    def _straight_links(self) -> dict[tuple[int, int], tuple[Points2, Points2, bool]]:
+        """Every straight candidate link, both ways: ``(ea, eb) -> (points, samples, clear)``.
+
+        All sampled and tested against the paths at once (one tree query, the exemptions of each
+        link's own ends as arrays): the same samples as :func:`_samples` (the same arithmetic, link
+        by link) and the same test as :meth:`clear_of_paths`.
+        """
+        import itertools
+
+        ks = np.flatnonzero(self.straight)
+        ea = np.concatenate([self.a[ks], self.b[ks]])
+        eb = np.concatenate([self.b[ks], self.a[ks]])
+        if not len(ea):
+            return {}
+        p0, p1 = self.e_pt[ea], self.e_pt[eb]
+        dv = p1 - p0
+        n = np.maximum(1, np.ceil(np.hypot(dv[:, 0], dv[:, 1]) / (0.25 * self.pitch)).astype(np.int64))
+        total = n + 1  # n pieces and the far end
+        link_of = np.repeat(np.arange(len(ea)), total)
+        k = np.arange(int(total.sum())) - np.repeat(np.cumsum(total) - total, total)
+        pts = p0[link_of] + (k / n[link_of])[:, None] * dv[link_of]
+        last = k == n[link_of]
+        pts[last] = p1[link_of[last]]
+        hits = self.tree.query_ball_point(pts, self.options.clearance * self.pitch - 0.125 * self.pitch)
+        count = np.fromiter((len(x) for x in hits), dtype=np.int64, count=len(hits))
+        h = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=int(count.sum()))
+        c = np.repeat(link_of, count)
+        bad = ~self._exempt_of(h, ea[c]) & ~self._exempt_of(h, eb[c])
+        clear = np.ones(len(ea), dtype=bool)
+        clear[c[bad]] = False
+        ends = np.concatenate([[0], np.cumsum(total)])
+        return {
+            (int(ea[i]), int(eb[i])): (np.vstack([p0[i], p1[i]]), pts[ends[i] : ends[i + 1]], bool(clear[i]))
+            for i in range(len(ea))
+        }
+
+    def _exempt_of(self, h: np.ndarray, e: np.ndarray) -> np.ndarray:
+        """:meth:`_exempt` with one end per sample hit."""
+        pid = e // 2
+        d = np.where(e % 2 == 0, self.s_arc[h], self.p_len[pid] - self.s_arc[h])
+        return (self.s_pid[h] == pid) & (d <= 2.0 * self.pitch)
+
     def forward(self, pts: Points2, ea: int, eb: int) -> bool:
         """Whether a link leaves each end at most ``max_turn`` off its direction."""
         cos_t = np.cos(np.radians(self.options.max_turn))
@@ -401,10 +447,17 @@ class _Layer:
         pitch, e_pt = self.pitch, self.e_pt
         out = None
         if straight_ok:
-            cand = np.vstack([e_pt[ea], e_pt[eb]])
-            s = _samples(cand, 0.25 * pitch)
-            if self.clear_of_paths(s, ea, eb):
-                out = (cand, s, False)
+            if self.straight_links is None:
+                self.straight_links = self._straight_links()
+            known = self.straight_links.get((ea, eb))
+            if known is not None:
+                if known[2]:
+                    out = (known[0], known[1], False)
+            else:  # a long link of the second pass
+                cand = np.vstack([e_pt[ea], e_pt[eb]])
+                s = _samples(cand, 0.25 * pitch)
+                if self.clear_of_paths(s, ea, eb):
+                    out = (cand, s, False)
         if out is None and edge_ok:
             o = self.options
             edge_limit = max(o.max_edge_link, o.max_link) * pitch
