@@ -379,8 +379,9 @@ class _Layer:
         d = self.s_arc[h] if e % 2 == 0 else self.p_len[pid] - self.s_arc[h]
         return (self.s_pid[h] == pid) & (d <= 2.0 * self.pitch)
 
-    def _straight_links(self) -> dict[tuple[int, int], tuple[Points2, Points2, bool]]:
-        """Every straight candidate link, both ways: ``(ea, eb) -> (points, samples, clear)``.
+    def _straight_links(self) -> dict[tuple[int, int], tuple]:
+        """Every straight candidate link, both ways: ``(ea, eb) -> (i, lo, hi, clear, samples)``, its
+        samples ``samples[lo:hi]`` and whether it is clear of the paths.
 
         All sampled and tested against the paths at once (one tree query, the exemptions of each
         link's own ends as arrays): the same samples as :func:`_samples` (the same arithmetic, link
@@ -409,10 +410,10 @@ class _Layer:
         bad = ~self._exempt_of(h, ea[c]) & ~self._exempt_of(h, eb[c])
         clear = np.ones(len(ea), dtype=bool)
         clear[c[bad]] = False
-        ends = np.concatenate([[0], np.cumsum(total)])
+        ends = np.concatenate([[0], np.cumsum(total)]).tolist()
         return {
-            (int(ea[i]), int(eb[i])): (np.vstack([p0[i], p1[i]]), pts[ends[i] : ends[i + 1]], bool(clear[i]))
-            for i in range(len(ea))
+            (x, y): (i, ends[i], ends[i + 1], ok, pts)
+            for i, (x, y, ok) in enumerate(zip(ea.tolist(), eb.tolist(), clear.tolist(), strict=True))
         }
 
     def _exempt_of(self, h: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -451,8 +452,9 @@ class _Layer:
                 self.straight_links = self._straight_links()
             known = self.straight_links.get((ea, eb))
             if known is not None:
-                if known[2]:
-                    out = (known[0], known[1], False)
+                _, lo, hi, ok, pts = known
+                if ok:
+                    out = (np.vstack([e_pt[ea], e_pt[eb]]), pts[lo:hi], False)
             else:  # a long link of the second pass
                 cand = np.vstack([e_pt[ea], e_pt[eb]])
                 s = _samples(cand, 0.25 * pitch)
