@@ -620,7 +620,8 @@ def _link_all(
     for i in todo:
         if keys[i] is not None:
             kept[0] += cache.put("links", keys[i], out[i], evict=False)
-    return [o if o is not None else out[first[k]] for o, k in zip(out, keys, strict=True)]  # type: ignore[misc]
+    # a repeated key takes its first task's runs
+    return [o if o is not None else out[first[k]] for o, k in zip(out, keys, strict=True)]  # type: ignore
 
 
 def _fills(
