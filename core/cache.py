@@ -3,12 +3,13 @@
 A post-processor runs at every export (PrusaSlicer) or every slice (OrcaSlicer, Bambu Studio); most
 re-exports change speeds, temperatures or other settings that neither the stress analysis nor the
 paths depend on.  :class:`Cache` keeps those results under a hash of exactly what determines them
-(the callers build the keys: :func:`loadpath.cache.fea_key` for a body's analysis,
+(the callers build the keys: :func:`loadpath.geometry.layers.islands_key` for one layer's islands,
+:func:`loadpath.cache.fea_key` for a body's analysis,
 :func:`loadpath.pipeline.paths.job_key` for one engine run), so the next run loads them instead.
 
 Where: ``$LOADPATH_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/loadpath``, else
-``~/.cache/loadpath`` (:func:`default_folder`); one sub-folder per kind of entry (``fea``,
-``paths``, ``simplified``, ``links``, ``prediction``, ``beads``).  ``loadpath run --no-cache`` (setting
+``~/.cache/loadpath`` (:func:`default_folder`); one sub-folder per kind of entry (``islands``,
+``fea``, ``paths``, ``simplified``, ``links``, ``prediction``, ``beads``).  ``loadpath run --no-cache`` (setting
 ``cache = false``) neither reads nor writes it.
 
 Safety:

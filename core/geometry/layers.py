@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 import shapely
@@ -54,7 +55,7 @@ def object_names(labels: Iterable[str]) -> list[str]:
     return [s if short.count(s) == 1 else lb for s, lb in zip(short, labels, strict=True)]
 
 
-def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
+def layer_geometry(program: Program, check: bool = True, cache: Any = None) -> PrintGeometry:
     """Derive the layer geometry of every object of a program.
 
     Parameters
@@ -63,6 +64,11 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
         From :func:`loadpath.gcode.read` / :func:`~loadpath.gcode.parse`.
     check : bool
         Raise when a block's extrusions leave its derived region (see :mod:`.regions`).
+    cache : loadpath.cache.Cache, optional
+        Keeps each layer's islands of each object under :func:`islands_key` (what they are derived
+        from): a re-export finds those of every layer it extrudes the same (PrusaSlicer at other
+        speeds: 22 of the gusset's 40 layers, 8 of the example's 10).  The classification across
+        layers and the check are made again.
 
     Returns
     -------
@@ -88,6 +94,7 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
     codes = sorted({int(c) for c in np.unique(m["object"][rows])})
     names = object_names([program.objects[c] if c >= 0 else "part" for c in codes])
     per_object: dict[int, list[LayerGeometry]] = {c: [] for c in codes}
+    kept = False
     layer_rows = np.split(rows, np.searchsorted(m["layer"][rows], np.arange(1, len(program.layers))))
     for li, lr in enumerate(layer_rows):
         if len(lr) == 0:
@@ -103,12 +110,21 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
                 raise GeometryError(f"{where} has infill but no perimeters; {_FIX}")
             height = float(np.median(m["height"][p_rows]))
             budget.check(len(r), budget.LAYER_SEGMENTS, where, "extrusion segments", _SEGMENTS_FIX)
-            try:
-                islands = _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
-            except BudgetError as exc:
-                raise exc.at(where) from None
+            key = None
+            if cache is not None:
+                key = islands_key(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
+            islands = _rebased(cache.get("islands", key[0]), key[1]) if key else None
+            if islands is None:
+                try:
+                    islands = _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
+                except BudgetError as exc:
+                    raise exc.at(where) from None
+                if key:
+                    kept = cache.put("islands", key[0], _rebased(islands, -key[1]), evict=False) or kept
             per_object[code].append(LayerGeometry(li, float(layer.z), height, name, islands))
 
+    if kept:
+        cache.evict()
     objects = []
     for code, name in zip(codes, names, strict=True):
         layers = _classified(per_object[code])
@@ -116,6 +132,53 @@ def layer_geometry(program: Program, check: bool = True) -> PrintGeometry:
             _check(layers, program)
         objects.append(ObjectGeometry(name, program.objects[code] if code >= 0 else "", code, tuple(layers)))
     return PrintGeometry(tuple(objects), program.dialect, len(program.layers), diameter, source)
+
+
+_ISLAND_MOVES = ("x0", "y0", "x1", "y1", "e", "width", "height", "role", "feature")
+
+
+def islands_key(m: np.ndarray, p_rows: Ints, i_rows: Ints, fw_all: Floats, bead_all: Floats, block_of: Ints,
+                program: Program) -> tuple[str, int]:
+    """Key of one layer's islands of one object in the cache, and the block numbering's base.
+
+    What :func:`_islands` reads: the perimeter and infill rows' :data:`_ISLAND_MOVES` columns, flow
+    and bead widths (these carry the file's filament diameter), their blocks numbered from the
+    layer's first one (``base``: a block added or dropped earlier in the file shifts the numbers,
+    not the islands), those blocks' lengths and the feature names; :func:`loadpath.cache.code_stamp`
+    and the G-code package's sources (:func:`loadpath.cache.source_stamp`, the roles).  Exact bytes:
+    a hit gives the very islands a new derivation would.
+    """
+    from loadpath.cache import code_stamp, digest, source_stamp
+
+    blk = block_of[i_rows]
+    inside = blk[blk >= 0]
+    base = int(inside.min()) if len(inside) else 0
+    parts: list[bytes | str] = ["islands", code_stamp(), source_stamp("gcode")]
+    parts.append(f"{len(p_rows)} {len(i_rows)}")
+    for rows in (p_rows, i_rows):
+        parts += [np.ascontiguousarray(m[k][rows]).tobytes() for k in _ISLAND_MOVES]
+        parts += [np.ascontiguousarray(w[rows]).tobytes() for w in (fw_all, bead_all)]
+    parts.append(np.where(blk >= 0, blk - base, -1).astype(np.int64).tobytes())
+    used = np.unique(inside)
+    parts.append(np.ascontiguousarray(program.blocks["length"][used]).tobytes())
+    parts.append(repr(tuple(program.features)))
+    return digest(parts), base
+
+
+def _rebased(islands: Any, base: int) -> tuple[Island, ...] | None:
+    """``islands`` with every block's index moved by ``base`` (None when not a tuple of islands)."""
+    from dataclasses import replace
+
+    if not isinstance(islands, tuple) or not all(isinstance(i, Island) for i in islands):
+        return None
+    if base == 0:
+        return islands
+    return tuple(
+        replace(isl, blocks=tuple(
+            replace(b, block_index=b.block_index + base) if b.block_index >= 0 else b for b in isl.blocks
+        ))
+        for isl in islands
+    )
 
 
 def _islands(m: np.ndarray, p_rows: Ints, i_rows: Ints, fw_all: Floats, bead_all: Floats, block_of: Ints,

@@ -313,7 +313,7 @@ def run(
         )
 
     tell("geometry", 0, 1)
-    geo = geometry.layer_geometry(program, check=False)  # blocks that fail its check are kept, below
+    geo = geometry.layer_geometry(program, check=False, cache=cache)  # blocks failing the check: kept, below
     clock.lap("geometry")
     resolved = resolve(loadcase, geo.bodies())
     names = [rb.name for rb in resolved]
@@ -556,6 +556,74 @@ def _link_key(paths: tuple[Path, ...], region, pitch: float) -> str:
     return digest(parts)
 
 
+_LINK_WORK: list[tuple[tuple[Path, ...], Any, float]] = []
+"""The linkings :func:`_link_all` hands to its worker processes (inherited by fork, not pickled)."""
+
+
+def _link_one(i: int) -> tuple[tuple[Path, ...], dict]:
+    ps, region, pitch = _LINK_WORK[i]
+    return link_paths(ps, region, pitch)
+
+
+def _link_all(
+    tasks: list[tuple[tuple[Path, ...], Any, float]], cache: Any, workers: int, kept: list[int]
+) -> list[tuple[tuple[Path, ...], dict]]:
+    """Link every ``(paths, region, pitch)`` of ``tasks``: ``(runs, stats)`` of :func:`link_paths` each.
+
+    With a ``cache``: what it holds under :func:`_link_key` is loaded, the same key twice in the
+    list is linked once, and what was linked is kept (``kept[0]`` counts the entries written).  The
+    rest is linked in ``workers`` processes (forked: they inherit the tasks) when there are several,
+    each layer on its own: the same runs as one process would link, in task order.
+    """
+    global _LINK_WORK
+    out: list[tuple[tuple[Path, ...], dict] | None] = [None] * len(tasks)
+    keys = [_link_key(*t) for t in tasks] if cache is not None else [None] * len(tasks)
+    first: dict[str, int] = {}
+    todo = []
+    for i, key in enumerate(keys):
+        if key is not None:
+            if key in first:
+                continue
+            first[key] = i
+            hit = cache.get("links", key)
+            if isinstance(hit, tuple) and len(hit) == 2:
+                out[i] = hit
+                continue
+        todo.append(i)
+    import multiprocessing
+
+    if workers > 1 and len(todo) > 1 and "fork" in multiprocessing.get_all_start_methods():
+        import os
+        from concurrent.futures import ProcessPoolExecutor
+
+        from loadpath.procs import stop_pool, worker_init
+
+        _LINK_WORK = tasks
+        try:
+            ctx = multiprocessing.get_context("fork")
+            pool = ProcessPoolExecutor(
+                max_workers=min(workers, len(todo)), mp_context=ctx, initializer=worker_init,
+                initargs=(os.getpid(),),
+            )
+            try:
+                for i, got in zip(todo, pool.map(_link_one, todo), strict=True):
+                    out[i] = got
+            except BaseException:  # an interrupt or a failed linking: stop the others
+                stop_pool(pool)
+                raise
+            pool.shutdown(wait=True)
+        finally:
+            _LINK_WORK = []
+    else:
+        for i in todo:
+            out[i] = link_paths(*tasks[i])
+    for i in todo:
+        if keys[i] is not None:
+            kept[0] += cache.put("links", keys[i], out[i], evict=False)
+    # a repeated key takes its first task's runs
+    return [o if o is not None else out[first[k]] for o, k in zip(out, keys, strict=True)]  # type: ignore
+
+
 def _fills(
     units: list[Unit],
     jobs: list[Job],
@@ -570,54 +638,71 @@ def _fills(
     ``shifted_paths`` (job index -> paths): the engine's own staggered copy of a job; other jobs'
     staggered copies (engines that cannot lay one) are their paths shifted by half a pitch
     (:func:`stagger`).  With a ``cache`` the linked runs are kept under :func:`_link_key` (a
-    re-export links the same paths in the same region again).
+    re-export links the same paths in the same region again).  What is linked is gathered first
+    and linked by :func:`_link_all` (in ``options.workers`` processes when there are several).
     """
     shifted_paths = shifted_paths or {}
     kept = [0]
-    per_block: dict[int, dict[str, Any]] = {}
-    job_results = []
+    tasks: list[tuple[tuple[Path, ...], Any, float]] = []
+
+    def task(ps: tuple[Path, ...], u: Unit) -> int | None:
+        """Index of the linking of ``ps`` in ``u``'s region (None: left as they are)."""
+        if not options.link or len(ps) < 2:
+            return None
+        tasks.append((ps, u.fill_region, u.pitch))
+        return len(tasks) - 1
+
+    # first pass: every job's paths, their staggered copy and the clipped variants, and what to link
+    planned = []
     for ji, (job, (tp, secs)) in enumerate(zip(jobs, results, strict=True)):
-        members = [units[i] for i in job.units]
+        members = sorted((units[i] for i in job.units), key=lambda m: m.layer)
         by_engine = ji in shifted_paths and bool(shifted_paths[ji].paths)
-        link_stats: dict = {}
-
-        def linked(ps: tuple[Path, ...], u: Unit, count: bool = True) -> tuple[Path, ...]:
-            if not options.link or len(ps) < 2:
-                return ps
-            key = _link_key(ps, u.fill_region, u.pitch) if cache is not None else None
-            hit = cache.get("links", key) if key is not None else None
-            if isinstance(hit, tuple) and len(hit) == 2:
-                runs, st = hit
-            else:
-                runs, st = link_paths(ps, u.fill_region, u.pitch)
-                if key is not None:
-                    kept[0] += cache.put("links", key, (runs, st), evict=False)
-            if count:
-                for k, v in st.items():
-                    if isinstance(v, (int, float)):
-                        link_stats[k] = link_stats.get(k, 0) + v
-            return runs
-
         base_raw = _simplified(tp.paths, plan, cache)
-        base = linked(base_raw, job.unit)
-        shifted = shifted_raw = None
-        flags = []
-        for k, u in enumerate(sorted(members, key=lambda m: m.layer)):
+        base_t = task(base_raw, job.unit)
+        shifted_raw, shifted_t = None, None
+        rows = []
+        for k, u in enumerate(members):
             use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
-            if use_shift and shifted is None:
+            if use_shift and shifted_raw is None:
                 u0 = job.unit
                 if by_engine:
                     shifted_raw = _simplified(shifted_paths[ji].paths, plan, cache)
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
                     shifted_raw = _simplified(moved, plan, cache)
-                shifted = linked(shifted_raw, u0)
-            paths = shifted if use_shift else base
+                shifted_t = task(shifted_raw, u0)
+            clipped = clipped_t = None
             if not u.fill_region.equals(job.unit.fill_region):
                 # a region that differs a little: the paths clipped to it, linked in it (links along
                 # the representative's edge would be cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
-                paths = linked(clip_to(raw, u.fill_region, 2.0 * u.pitch), u, count=False)
+                clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
+                clipped_t = task(clipped, u)
+            rows.append((u, use_shift, clipped, clipped_t))
+        planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
+
+    linked = _link_all(tasks, cache, options.workers, kept)
+
+    def runs_of(ps: tuple[Path, ...], t: int | None) -> tuple[Path, ...]:
+        return ps if t is None else linked[t][0]
+
+    # second pass: the runs onto the blocks
+    per_block: dict[int, dict[str, Any]] = {}
+    job_results = []
+    for job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows in planned:
+        link_stats: dict = {}
+        for t in (base_t, shifted_t):  # the representative's runs and their copy's are counted
+            if t is not None:
+                for k, v in linked[t][1].items():
+                    if isinstance(v, (int, float)):
+                        link_stats[k] = link_stats.get(k, 0) + v
+        base = runs_of(base_raw, base_t)
+        shifted = runs_of(shifted_raw, shifted_t) if shifted_raw is not None else None
+        flags = []
+        for u, use_shift, clipped, clipped_t in rows:
+            paths = shifted if use_shift else base
+            if clipped is not None:
+                paths = runs_of(clipped, clipped_t)
             flags.append(use_shift)
             for block, ps in assign(paths, u).items():
                 entry = per_block.setdefault(
@@ -628,7 +713,7 @@ def _fills(
         job_results.append(
             EngineRun(
                 job,
-                sorted(members, key=lambda m: m.layer),
+                members,
                 tp,
                 secs,
                 flags,

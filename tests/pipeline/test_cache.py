@@ -42,6 +42,8 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     # every simplification of the engine's paths and every linking are kept too
     assert cache.stats.misses.pop("links") >= 1 and cache.stats.misses.pop("beads") >= 1
     assert cache.stats.misses.pop("simplified") >= 1
+    # and every layer's islands (one object: one entry per layer)
+    assert cache.stats.misses.pop("islands") == len(r1.pipeline.geometry.objects[0].layers)
     assert cache.stats.misses == {"fea": 1, "paths": n_paths, "prediction": 2}
     assert cache.stats.hits == {}
 
@@ -50,7 +52,10 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     # PrusaSlicer moved two vertices of a perimeter at the other speeds: the slicer's beads differ, so
     # both predictions are made again (from the other layers' kept neighbours), and that layer's links;
     # the analysis and the paths are reused
-    assert set(cache2.stats.misses) <= {"links", "prediction", "beads"} and cache2.stats.hits["fea"] == 1
+    assert set(cache2.stats.misses) <= {"links", "prediction", "beads", "islands"}
+    assert cache2.stats.hits["fea"] == 1
+    # ... and the islands of the layers it extrudes as before
+    assert cache2.stats.hits["islands"] > cache2.stats.misses.get("islands", 0)
     assert cache2.stats.hits["simplified"] >= 1  # the same engine paths
     assert cache2.stats.hits["paths"] == n_paths
     assert cache2.stats.hits.get("prediction", 0) + cache2.stats.misses.get("prediction", 0) == 2

@@ -1,0 +1,82 @@
+"""Path linking (``loadpath.engines.linking``): the fragments dropped and the two ways of linking.
+
+The linking of whole engine layers is checked on real slices in ``tests/pipeline/test_printable.py``;
+these tests pin what the speed-ups of issue 17 must keep: the fragment test's definition (a short
+bead is dropped when less than ``share`` of it lies outside the union of the other beads) and
+that both ways of linking, made from one shared preparation, give what each gives alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from loadpath.engines.linking import LinkOptions, drop_fragments, link_paths
+from loadpath.toolpath import Path
+from shapely.geometry import box
+
+
+def _plate(seed: int) -> list[Path]:
+    """Long straight paths a pitch apart across a 20 x 10 mm plate, and short pieces scattered
+    over them (some on a bead, some between two, some in a gap left by a missing long path)."""
+    rng = np.random.default_rng(seed)
+    w = 0.45
+    paths = [
+        Path(np.array([[x, 0.2], [x, 5.0], [x, 9.8]]), np.full(3, w), "fill")
+        for k, x in enumerate(0.225 + w * np.arange(44))
+        if k not in (10, 11, 30)
+    ]
+    for _ in range(60):
+        x, y = rng.uniform(0.5, 19.5), rng.uniform(0.5, 8.5)
+        a = rng.uniform(0, np.pi)
+        n = rng.uniform(0.2, 1.3)
+        pts = np.array([[x, y], [x + n * np.cos(a), y + n * np.sin(a)]])
+        paths.append(Path(pts, np.full(2, w * rng.uniform(0.8, 1.2)), "fill"))
+    return paths
+
+
+def _dropped_by_definition(paths: list[Path], min_length: float, share: float) -> list[bool]:
+    """The fragment test as its docstring states it, with each whole neighbouring bead."""
+    beads = [
+        shapely.buffer(shapely.LineString(p.points), 0.5 * float(np.median(p.pitch)), quad_segs=4) for p in paths
+    ]
+    tree = shapely.STRtree(beads)
+    drop = [False] * len(paths)
+    for i, p in enumerate(paths):
+        if p.length >= min_length:
+            continue
+        near = [j for j in tree.query(beads[i]) if j != i and not drop[j]]
+        if near:
+            rest = beads[i].difference(shapely.union_all([beads[j] for j in near]))
+            drop[i] = rest.area < share * beads[i].area
+    return drop
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("share", [0.3, 0.5, 0.8])
+def test_fragments_dropped_as_the_definition_says(seed, share):
+    paths = _plate(seed)
+    kept, n = drop_fragments(paths, 3 * 0.45, share)
+    expect = _dropped_by_definition(paths, 3 * 0.45, share)
+    assert n == sum(expect) > 0
+    assert n < sum(p.length < 3 * 0.45 for p in paths)  # some short pieces cover a gap: kept
+    assert [id(p) for p in kept] == [id(p) for p, d in zip(paths, expect, strict=True) if not d]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_both_ways_give_what_each_way_gives_alone(seed):
+    """``grow_chains = None`` prepares the layer once and tries every candidate's geometry once for
+    both ways: its runs and counts are those of the way it keeps, linked on its own."""
+    paths = _plate(seed)
+    region = box(0, 0, 20, 10)
+    both = link_paths(paths, region, 0.45)
+    grown = link_paths(paths, region, 0.45, LinkOptions(grow_chains=True))
+    first = link_paths(paths, region, 0.45, LinkOptions(grow_chains=False))
+    assert len(grown[0]) != len(first[0])  # the two ways differ here: the choice is tested
+    best = grown if len(grown[0]) <= len(first[0]) else first
+    assert both[1] == best[1]
+    assert len(both[0]) == len(best[0])
+    for r, s in zip(both[0], best[0], strict=True):
+        assert r.kind == s.kind
+        np.testing.assert_array_equal(r.points, s.points)
+        np.testing.assert_array_equal(r.pitch, s.pitch)

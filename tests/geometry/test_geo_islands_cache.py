@@ -1,0 +1,88 @@
+"""Each layer's islands kept in the persistent cache (``layer_geometry(..., cache=)``, issue 17).
+
+On real PrusaSlicer 2.5 slices of the specimen: what the cache gives is what a derivation without it
+gives, field by field; a layer is found again exactly when what it is derived from is unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from loadpath import gcode, geometry
+from loadpath.cache import Cache
+
+
+def _differences(a, b, path="geometry") -> list[str]:
+    """Where two geometries differ: every field, every shapely geometry by its WKB, arrays exactly."""
+    if dataclasses.is_dataclass(a):
+        return [
+            d
+            for f in dataclasses.fields(a)
+            for d in _differences(getattr(a, f.name), getattr(b, f.name), f"{path}.{f.name}")
+        ]
+    if isinstance(a, tuple):
+        if len(a) != len(b):
+            return [f"{path}: {len(a)} != {len(b)} items"]
+        pairs = enumerate(zip(a, b, strict=True))
+        return [d for k, (x, y) in pairs for d in _differences(x, y, f"{path}[{k}]")]
+    if hasattr(a, "wkb"):
+        return [] if a.wkb == b.wkb else [path]
+    if isinstance(a, np.ndarray):
+        return [] if np.array_equal(a, b, equal_nan=True) else [path]
+    if isinstance(a, float) and np.isnan(a):
+        return [] if isinstance(b, float) and np.isnan(b) else [path]
+    return [] if a == b else [f"{path}: {a!r} != {b!r}"]
+
+
+def test_a_re_export_finds_its_unchanged_layers(sliced, tmp_path):
+    first = gcode.read(sliced("prusa", "ohs", "example"))
+    again = gcode.read(sliced("prusa", "ohs", "example", perimeter_speed=30, temperature=210))
+    n = len(geometry.layer_geometry(first, check=False).objects[0].layers)
+    cold = Cache(tmp_path / "cache")
+    kept = geometry.layer_geometry(first, check=False, cache=cold)
+    assert cold.stats.misses == {"islands": n} and cold.stats.hits == {}
+    assert cold.count("islands") == n
+    warm = Cache(tmp_path / "cache")
+    got = geometry.layer_geometry(again, check=False, cache=warm)
+    assert warm.stats.hits["islands"] >= n // 2  # most layers are extruded as before
+    assert _differences(got, geometry.layer_geometry(again, check=False)) == []
+    same = Cache(tmp_path / "cache")  # the very same file: every layer found
+    assert _differences(geometry.layer_geometry(first, check=False, cache=same), kept) == []
+    assert same.stats.hits == {"islands": n} and same.stats.misses == {}
+
+
+def test_a_moved_vertex_is_derived_again_on_its_layer_only(sliced, tmp_path):
+    program = gcode.read(sliced("prusa", "ohs", "example"))
+    cache = Cache(tmp_path / "cache")
+    geometry.layer_geometry(program, check=False, cache=cache)
+    m = program.moves.copy()
+    row = np.flatnonzero(m["extrude"] & (m["layer"] == 4) & (m["role"] == gcode.Role.PERIMETER))[3]
+    m["x1"][row] += 0.01  # a perimeter's vertex 10 um on
+    m["x0"][row + 1] += 0.01
+    moved = dataclasses.replace(program, moves=m)
+    again = Cache(tmp_path / "cache")
+    got = geometry.layer_geometry(moved, check=False, cache=again)
+    assert again.stats.misses == {"islands": 1}
+    assert again.stats.hits["islands"] == len(got.objects[0].layers) - 1
+    assert _differences(got, geometry.layer_geometry(moved, check=False)) == []
+
+
+def test_blocks_numbered_from_elsewhere_keep_their_islands(sliced, tmp_path):
+    """A block more early in the file (here an empty one before all others) renumbers every later
+    block: the islands are found again, each block with its new number."""
+    program = gcode.read(sliced("prusa", "ohs", "example"))
+    cache = Cache(tmp_path / "cache")
+    geometry.layer_geometry(program, check=False, cache=cache)
+    shifted = dataclasses.replace(program, blocks=np.concatenate([program.blocks[:1].copy(), program.blocks]))
+    shifted.blocks[0]["move_start"] = shifted.blocks[0]["move_stop"] = 0
+    shifted.blocks[0]["length"] = 0.0
+    again = Cache(tmp_path / "cache")
+    got = geometry.layer_geometry(shifted, check=False, cache=again)
+    assert again.stats.misses == {} and again.stats.hits["islands"] == len(got.objects[0].layers)
+    expect = geometry.layer_geometry(shifted, check=False)
+    assert _differences(got, expect) == []
+    before = geometry.layer_geometry(program, check=False)
+    numbers = [b.block_index for layer in got.objects[0].layers for isl in layer.islands for b in isl.blocks]
+    old = [b.block_index for layer in before.objects[0].layers for isl in layer.islands for b in isl.blocks]
+    assert numbers == [k + 1 for k in old]
