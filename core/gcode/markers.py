@@ -86,7 +86,8 @@ _RE_BZ = re.compile(rb"; Z_HEIGHT:" + _FLOAT)
 _RE_BHEIGHT = re.compile(rb"; LAYER_HEIGHT:" + _FLOAT)
 _RE_BWIDTH = re.compile(rb"; LINE_WIDTH:" + _FLOAT)
 _RE_CURA_LAYER = re.compile(rb";LAYER:\s*(-?\d+)\s*$")
-_RE_HEADER_WIDTH = re.compile(rb"; (.+?) extrusion width = ([0-9.]+)\s*mm")
+# a number, not any run of digits and dots: a damaged "0..45mm" is no width (the fuzz found it)
+_RE_HEADER_WIDTH = re.compile(rb"; (.+?) extrusion width = ([0-9]+(?:\.[0-9]*)?|\.[0-9]+)\s*mm")
 _RE_CURA_HEADER = re.compile(
     rb";(FLAVOR|TIME|Filament used|Layer height|MINX|MINY|MINZ|MAXX|MAXY|MAXZ"
     rb"|LAYER_COUNT|TARGET_MACHINE\.NAME|PRINT\.TIME):\s*(.*?)\s*$"

@@ -211,6 +211,18 @@ def test_config_block_and_header_widths(prusa_ohs):
     assert program.header_widths["first layer"] == 0.42
 
 
+def test_a_damaged_header_width_is_no_width(prusa_ohs, tmp_path):
+    # the fuzz's one traceback: "= 0..45mm" matched the old [0-9.]+ and float() raised inside read
+    line = b"; infill extrusion width = 0.45mm"
+    text = prusa_ohs.read_bytes().replace(line, line.replace(b"0.45", b"0..45"), 1)
+    assert b"0..45mm" in text
+    damaged = tmp_path / "damaged.gcode"
+    damaged.write_bytes(text)
+    program = gcode.read(damaged)
+    assert "infill" not in program.header_widths
+    assert program.header_widths["external perimeters"] == 0.45
+
+
 def test_state_is_indexed_by_line(prusa_ohs):
     program = gcode.read(prusa_ohs)
     i = next(i for i in range(program.n_lines) if program.line(i).startswith("G1 X199.368 Y87.632 E"))
