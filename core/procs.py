@@ -15,14 +15,19 @@ starts its workers through :func:`worker_init`:
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import signal
 import sys
 import threading
 import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
-__all__ = ["Interrupted", "raise_if_stopped", "worker_init", "die_with_parent", "stop_pool", "children_of"]
+__all__ = [
+    "Interrupted", "raise_if_stopped", "worker_init", "die_with_parent", "stop_pool", "forks", "fork_map",
+    "children_of",
+]
 
 _PR_SET_PDEATHSIG = 1
 _pending = [0]  # the signal that asked this process to stop (set by loadpath.plugin.lifecycle), or 0
@@ -105,6 +110,49 @@ def stop_pool(pool: Any, grace_s: float = 2.0) -> None:
     manager = getattr(pool, "_executor_manager_thread", None)  # sees the dead workers and ends; left
     if manager is not None:  # running, it writes to their closed pipes at interpreter exit
         manager.join(5.0)
+
+
+def forks(workers: int, n: int) -> bool:
+    """Whether :func:`fork_map` runs ``n`` calls in ``workers`` forked processes (else in this one)."""
+    return workers > 1 and n > 1 and "fork" in multiprocessing.get_all_start_methods()
+
+
+def fork_map(
+    fn: Callable[[Any], Any], items: Sequence[Any], workers: int, each: Callable[[int, Any], None] | None = None
+) -> list[Any]:
+    """``fn(item)`` for every item, in item order: in forked worker processes when :func:`forks`.
+
+    The workers start through :func:`worker_init` (they die with this process); only the item and
+    the result cross between processes, so ``fn`` reads its large inputs from module state set
+    before the call (inherited by the fork).  ``each(k, result)`` is called as the result of
+    ``items[k]`` arrives (completion order in workers, item order here).  An interrupt or a failed
+    call stops the other workers (:func:`stop_pool`) instead of waiting for them, and is raised.
+    """
+    out: list[Any] = [None] * len(items)
+    if not forks(workers, len(items)):
+        for k, item in enumerate(items):
+            out[k] = fn(item)
+            if each:
+                each(k, out[k])
+        return out
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=multiprocessing.get_context("fork"),
+                               initializer=worker_init, initargs=(os.getpid(),))
+    try:
+        futures = {pool.submit(fn, item): k for k, item in enumerate(items)}
+        raise_if_stopped()
+        for fut in as_completed(futures):
+            raise_if_stopped()
+            k = futures[fut]
+            out[k] = fut.result()
+            if each:
+                each(k, out[k])
+    except BaseException:  # an interrupt or a failed call: stop the others instead of waiting
+        stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+    return out
 
 
 def _signal(p: Any, how: str) -> None:

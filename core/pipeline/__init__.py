@@ -590,33 +590,14 @@ def _link_all(
                 out[i] = hit
                 continue
         todo.append(i)
-    import multiprocessing
+    from loadpath.procs import fork_map
 
-    if workers > 1 and len(todo) > 1 and "fork" in multiprocessing.get_all_start_methods():
-        import os
-        from concurrent.futures import ProcessPoolExecutor
-
-        from loadpath.procs import stop_pool, worker_init
-
-        _LINK_WORK = tasks
-        try:
-            ctx = multiprocessing.get_context("fork")
-            pool = ProcessPoolExecutor(
-                max_workers=min(workers, len(todo)), mp_context=ctx, initializer=worker_init,
-                initargs=(os.getpid(),),
-            )
-            try:
-                for i, got in zip(todo, pool.map(_link_one, todo), strict=True):
-                    out[i] = got
-            except BaseException:  # an interrupt or a failed linking: stop the others
-                stop_pool(pool)
-                raise
-            pool.shutdown(wait=True)
-        finally:
-            _LINK_WORK = []
-    else:
-        for i in todo:
-            out[i] = link_paths(*tasks[i])
+    _LINK_WORK = tasks
+    try:
+        for i, got in zip(todo, fork_map(_link_one, todo, workers), strict=True):
+            out[i] = got
+    finally:
+        _LINK_WORK = []
     for i in todo:
         if keys[i] is not None:
             kept[0] += cache.put("links", keys[i], out[i], evict=False)

@@ -34,11 +34,9 @@ are run (and only then is an engine, with its compiled kernels, loaded at all).
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -50,7 +48,7 @@ from loadpath.engines import Machine, generate
 from loadpath.field import StressField
 from loadpath.geometry import group_regions
 from loadpath.pipeline.units import Unit
-from loadpath.procs import raise_if_stopped, stop_pool, worker_init
+from loadpath.procs import fork_map, forks
 from loadpath.toolpath import EngineInput, Path, Toolpaths
 
 __all__ = [
@@ -361,35 +359,19 @@ def run_jobs(
     if progress and len(todo) < n:
         progress(n - len(todo), n)
     try:
-        use_pool = workers > 1 and len(todo) > 1 and "fork" in multiprocessing.get_all_start_methods()
-        if not use_pool:
-            for k, i in enumerate(todo):
-                out[i] = _run_one(i)
-                if progress:
-                    progress(n - len(todo) + k + 1, n)
-        else:
+        if forks(workers, len(todo)):
             # compile (or load) an engine's compiled kernels once here: forked workers inherit
             # them, where each would otherwise compile them on its own on a cold cache
             engines.warm_up(engine)
-            ctx = multiprocessing.get_context("fork")
-            pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx,
-                                       initializer=worker_init, initargs=(os.getpid(),))
-            try:
-                futures = {pool.submit(_run_one, i): i for i in todo}
-                done = n - len(todo)
-                from concurrent.futures import as_completed
+        done = [n - len(todo)]
 
-                raise_if_stopped()
-                for fut in as_completed(futures):
-                    raise_if_stopped()
-                    out[futures[fut]] = fut.result()
-                    done += 1
-                    if progress:
-                        progress(done, n)
-            except BaseException:  # an interrupt or a failed job: stop the others instead of waiting
-                stop_pool(pool)
-                raise
-            pool.shutdown(wait=True)
+        def arrived(k: int, got: tuple[Toolpaths, float]) -> None:
+            out[todo[k]] = got
+            done[0] += 1
+            if progress:
+                progress(done[0], n)
+
+        fork_map(_run_one, todo, workers, arrived)
     finally:
         _WORK = []
     if cache is not None and keys is not None:
