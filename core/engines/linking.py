@@ -116,14 +116,22 @@ def _root(parent: list[int], i: int) -> int:
     return i
 
 
+def _segment_samples(p0: Points2, p1: Points2, step: float) -> tuple[Points2, np.ndarray]:
+    """Points from each ``p0[i]`` towards ``p1[i]`` (k, 2), at most ``step`` apart, far ends left out.
+
+    Returns the points (m, 2), segment by segment, and each segment's count (k,) int: the one
+    sampling rule of the links' clearance tests (:func:`_samples`, :meth:`_Layer._straight_links`).
+    """
+    dv = p1 - p0
+    n = np.maximum(1, np.ceil(np.hypot(dv[:, 0], dv[:, 1]) / step).astype(np.int64))
+    rep = np.repeat(np.arange(len(n)), n)
+    k = np.arange(len(rep)) - np.repeat(np.cumsum(n) - n, n)
+    return p0[rep] + (k / n[rep])[:, None] * dv[rep], n
+
+
 def _samples(points: Points2, step: float) -> Points2:
     """Points along a polyline at most ``step`` apart (vertices included)."""
-    d = np.hypot(*np.diff(points, axis=0).T)
-    n = np.maximum(1, np.ceil(d / step).astype(np.int64))
-    rep = np.repeat(np.arange(len(d)), n)
-    k = np.arange(len(rep)) - np.repeat(np.cumsum(n) - n, n)
-    t = (k / n[rep])[:, None]
-    out = points[rep] + t * (points[rep + 1] - points[rep])
+    out, _ = _segment_samples(points[:-1], points[1:], step)
     return np.vstack([out, points[-1:]])
 
 
@@ -374,11 +382,6 @@ class _Layer:
         h = np.concatenate(found)
         return not bool(np.any(~self._exempt(h, ea) & ~self._exempt(h, eb)))
 
-    def _exempt(self, h: np.ndarray, e: int) -> np.ndarray:
-        pid = e // 2
-        d = self.s_arc[h] if e % 2 == 0 else self.p_len[pid] - self.s_arc[h]
-        return (self.s_pid[h] == pid) & (d <= 2.0 * self.pitch)
-
     def _straight_links(self) -> dict[tuple[int, int], tuple]:
         """Every straight candidate link, both ways: ``(ea, eb) -> (i, lo, hi, clear, samples)``, its
         samples ``samples[lo:hi]`` and whether it is clear of the paths.
@@ -394,20 +397,19 @@ class _Layer:
         eb = np.concatenate([self.b[ks], self.a[ks]])
         if not len(ea):
             return {}
-        p0, p1 = self.e_pt[ea], self.e_pt[eb]
-        dv = p1 - p0
-        n = np.maximum(1, np.ceil(np.hypot(dv[:, 0], dv[:, 1]) / (0.25 * self.pitch)).astype(np.int64))
+        p1 = self.e_pt[eb]
+        inner, n = _segment_samples(self.e_pt[ea], p1, 0.25 * self.pitch)
         total = n + 1  # n pieces and the far end
         link_of = np.repeat(np.arange(len(ea)), total)
-        k = np.arange(int(total.sum())) - np.repeat(np.cumsum(total) - total, total)
-        pts = p0[link_of] + (k / n[link_of])[:, None] * dv[link_of]
-        last = k == n[link_of]
-        pts[last] = p1[link_of[last]]
+        last = np.cumsum(total) - 1
+        pts = np.empty((int(total.sum()), 2))
+        pts[last] = p1
+        pts[np.setdiff1d(np.arange(len(pts)), last, assume_unique=True)] = inner
         hits = self.tree.query_ball_point(pts, self.options.clearance * self.pitch - 0.125 * self.pitch)
         count = np.fromiter((len(x) for x in hits), dtype=np.int64, count=len(hits))
         h = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=int(count.sum()))
         c = np.repeat(link_of, count)
-        bad = ~self._exempt_of(h, ea[c]) & ~self._exempt_of(h, eb[c])
+        bad = ~self._exempt(h, ea[c]) & ~self._exempt(h, eb[c])
         clear = np.ones(len(ea), dtype=bool)
         clear[c[bad]] = False
         ends = np.concatenate([[0], np.cumsum(total)]).tolist()
@@ -416,8 +418,9 @@ class _Layer:
             for i, (x, y, ok) in enumerate(zip(ea.tolist(), eb.tolist(), clear.tolist(), strict=True))
         }
 
-    def _exempt_of(self, h: np.ndarray, e: np.ndarray) -> np.ndarray:
-        """:meth:`_exempt` with one end per sample hit."""
+    def _exempt(self, h: np.ndarray, e: int | np.ndarray) -> np.ndarray:
+        """Which sample hits ``h`` lie on the path of end ``e`` (one end, or one per hit) within
+        ``2 pitch`` of that end: a link may touch its own paths there."""
         pid = e // 2
         d = np.where(e % 2 == 0, self.s_arc[h], self.p_len[pid] - self.s_arc[h])
         return (self.s_pid[h] == pid) & (d <= 2.0 * self.pitch)
