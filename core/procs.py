@@ -118,7 +118,10 @@ def forks(workers: int, n: int) -> bool:
 
 
 def fork_map(
-    fn: Callable[[Any], Any], items: Sequence[Any], workers: int, each: Callable[[int, Any], None] | None = None
+    fn: Callable[[Any], Any],
+    items: Sequence[Any],
+    workers: int,
+    each: Callable[[int, Any], None] | None = None,
 ) -> list[Any]:
     """``fn(item)`` for every item, in item order: in forked worker processes when :func:`forks`.
 
@@ -137,7 +140,8 @@ def fork_map(
         return out
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=multiprocessing.get_context("fork"),
+    ctx = multiprocessing.get_context("fork")
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=ctx,
                                initializer=worker_init, initargs=(os.getpid(),))
     try:
         futures = {pool.submit(fn, item): k for k, item in enumerate(items)}

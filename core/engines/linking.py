@@ -239,6 +239,39 @@ def link_paths(
     return grown if len(grown[0]) <= len(first[0]) else first
 
 
+def _end_pairs(
+    e_pt: Points2, e_dir: Points2, ends: np.ndarray, reach: float, max_turn: float, grown: Region
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """Pairs of ``ends`` (indices into ``e_pt``) of different paths within ``reach`` mm: the
+    candidates of straight and boundary links.
+
+    Returns ``a, b`` (c,) int, ``gap`` (c,) float mm (their straight distance), ``facing`` (c,)
+    bool (the straight link leaves both ends at most ``max_turn`` degrees off their outward
+    directions ``e_dir``) and ``inside`` (c,) bool (a facing pair's straight link lies inside
+    ``grown``, a prepared region); None when no two of the ends lie within reach.
+    """
+    from scipy.spatial import cKDTree
+
+    if len(ends) < 2:
+        return None
+    fp = cKDTree(e_pt[ends]).query_pairs(reach, output_type="ndarray")
+    if not len(fp):
+        return None
+    a, b = ends[fp[:, 0]], ends[fp[:, 1]]
+    keep = (a // 2) != (b // 2)
+    a, b = a[keep], b[keep]
+    v = e_pt[b] - e_pt[a]
+    gap = np.hypot(*v.T)
+    u = v / np.maximum(gap, 1e-12)[:, None]
+    cos_t = np.cos(np.radians(max_turn))
+    facing = (np.sum(e_dir[a] * u, axis=1) >= cos_t) & (np.sum(-e_dir[b] * u, axis=1) >= cos_t)
+    inside = np.zeros(len(a), dtype=bool)
+    if facing.any():
+        k = np.flatnonzero(facing)
+        inside[k] = shapely.covers(grown, shapely.linestrings(np.stack([e_pt[a[k]], e_pt[b[k]]], axis=1)))
+    return a, b, gap, facing, inside
+
+
 @dataclass
 class _Layer:
     """One layer's paths prepared for linking: what both ways of :func:`link_paths` share.
@@ -333,19 +366,13 @@ class _Layer:
         s_pid = np.repeat(np.arange(n), [len(s) for s in samp])
         # unbalanced, not compacted: built several times faster, the same points within reach
         tree = cKDTree(np.concatenate(samp), balanced_tree=False, compact_nodes=False)
-        pairs = cKDTree(e_pt).query_pairs(edge_limit, output_type="ndarray")
-        if not len(pairs):
-            return None
-        a, b = pairs[:, 0], pairs[:, 1]
-        ok = (a // 2) != (b // 2)
-        a, b = a[ok], b[ok]
-        v = e_pt[b] - e_pt[a]
-        gap = np.hypot(*v.T)
-        u = v / np.maximum(gap, 1e-12)[:, None]
-        cos_t = np.cos(np.radians(options.max_turn))
         shapely.prepare(region)
         grown = region.buffer(1e-3)
         shapely.prepare(grown)
+        found = _end_pairs(e_pt, e_dir, np.arange(2 * n), edge_limit, options.max_turn, grown)
+        if found is None:
+            return None
+        a, b, gap, straight_dir, straight_in = found
         edge_d = shapely.distance(region.boundary, shapely.points(e_pt))
         # arc length of every sample from its path's head, and the path lengths: a link may come near
         # its own two paths only within ``own`` of the ends it joins (a link that turns back runs
@@ -354,12 +381,6 @@ class _Layer:
             [np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(x, axis=0).T))]) for x in samp]
         )
         p_len = np.array([float(np.sum(np.hypot(*np.diff(x, axis=0).T))) for x in samp])
-        straight_dir = (np.sum(e_dir[a] * u, axis=1) >= cos_t) & (np.sum(-e_dir[b] * u, axis=1) >= cos_t)
-        straight_in = np.zeros(len(a), dtype=bool)
-        if straight_dir.any():
-            k = np.flatnonzero(straight_dir)
-            segs = shapely.linestrings(np.stack([e_pt[a[k]], e_pt[b[k]]], axis=1))
-            straight_in[k] = shapely.covers(grown, segs)
         near_edge = (edge_d[a] <= options.edge_reach * pitch) & (edge_d[b] <= options.edge_reach * pitch)
         straight_dir &= gap <= limit
         candidates = np.flatnonzero((straight_dir & straight_in) | near_edge)
@@ -529,12 +550,9 @@ class _Laid:
 def _link(layer: _Layer, grow_chains: bool, stats: dict) -> tuple[tuple[Path, ...], dict]:
     """Link a prepared layer's paths one way: chains grown end by end (``grow_chains``) or all
     candidates shortest first; ``stats`` is filled in (see :func:`link_paths`)."""
-    from scipy.spatial import cKDTree
-
     ps, options, pitch = layer.ps, layer.options, layer.pitch
     n = len(ps)
     a, b, e_pt, e_dir = layer.a, layer.b, layer.e_pt, layer.e_dir
-    cos_t = np.cos(np.radians(options.max_turn))
     clear = options.clearance * pitch
     used = np.zeros(2 * n, dtype=bool)
     parent = list(range(n))
@@ -580,23 +598,13 @@ def _link(layer: _Layer, grow_chains: bool, stats: dict) -> tuple[tuple[Path, ..
     # second pass: the ends still free, by longer straight links through what is left empty
     if options.max_long_link > options.max_link:
         free = np.flatnonzero(~used)
-        if len(free) > 1:
-            fp = cKDTree(e_pt[free]).query_pairs(options.max_long_link * pitch, output_type="ndarray")
-            if len(fp):
-                fa, fb = free[fp[:, 0]], free[fp[:, 1]]
-                keep = (fa // 2) != (fb // 2)
-                fa, fb = fa[keep], fb[keep]
-                fv = e_pt[fb] - e_pt[fa]
-                fg = np.hypot(*fv.T)
-                fu = fv / np.maximum(fg, 1e-12)[:, None]
-                ok = (np.sum(e_dir[fa] * fu, axis=1) >= cos_t) & (np.sum(-e_dir[fb] * fu, axis=1) >= cos_t)
-                fa, fb, fg = fa[ok], fb[ok], fg[ok]
-                if len(fa):
-                    segs = shapely.linestrings(np.stack([e_pt[fa], e_pt[fb]], axis=1))
-                    inside = shapely.covers(layer.grown, segs)
-                    fa, fb, fg = fa[inside], fb[inside], fg[inside]
-                    for k in np.argsort(fg, kind="stable"):
-                        accept(int(fa[k]), int(fb[k]), True, False)
+        found = _end_pairs(e_pt, e_dir, free, options.max_long_link * pitch, options.max_turn, layer.grown)
+        if found is not None:
+            fa, fb, fg, facing, inside = found
+            ok = facing & inside
+            fa, fb, fg = fa[ok], fb[ok], fg[ok]
+            for k in np.argsort(fg, kind="stable"):
+                accept(int(fa[k]), int(fb[k]), True, False)
 
     runs, spans = _walk(ps, link, layer.e_w, options.link_width)
     stats["runs"] = len(runs)
