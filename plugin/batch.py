@@ -297,6 +297,7 @@ def run_local(
 
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
                                initargs=(None, True))
+    before = [_stamp(t.output) for t in tasks]
     try:
         futures = {pool.submit(process, t): i for i, t in enumerate(tasks)}
         for done, fut in enumerate(as_completed(futures), 1):
@@ -317,9 +318,23 @@ def run_local(
                 progress(res, done, n)
     except BaseException:  # Ctrl-C, SIGTERM: end the workers (they remove their temp files) and say so
         stop_pool(pool)
+        # a worker may have renamed its output into place before its result reached this process:
+        # the atomic write gives a finished file a new inode, so a changed stamp is a file written
+        for i, t in enumerate(tasks):
+            if results[i] is None and _stamp(t.output) not in (None, before[i]):
+                note_written(t.output)
         raise
     pool.shutdown(wait=True)
     return [r for r in results if r is not None]
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """``(inode, mtime in ns)`` of ``path``, or None when it does not exist."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns
 
 
 # ---------------------------------------------------------------------------------------------- output
