@@ -152,10 +152,10 @@ def fork_map(
             out[k] = fut.result()
             if each:
                 each(k, out[k])
+        pool.shutdown(wait=True)  # inside: a signal during the wait stops the pool too
     except BaseException:  # an interrupt or a failed call: stop the others instead of waiting
         stop_pool(pool)
         raise
-    pool.shutdown(wait=True)
     return out
 
 

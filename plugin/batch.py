@@ -316,6 +316,7 @@ def run_local(
                 note_written(res.output)
             if progress:
                 progress(res, done, n)
+        pool.shutdown(wait=True)  # inside: a signal during the wait stops the pool too
     except BaseException:  # Ctrl-C, SIGTERM: end the workers (they remove their temp files) and say so
         stop_pool(pool)
         # a worker may have renamed its output into place before its result reached this process:
@@ -324,7 +325,6 @@ def run_local(
             if results[i] is None and _stamp(t.output) not in (None, before[i]):
                 note_written(t.output)
         raise
-    pool.shutdown(wait=True)
     return [r for r in results if r is not None]
 
 
