@@ -211,6 +211,28 @@ def test_sigterm_during_a_job_ends_it_and_removes_its_folder(tmp_path, sliced):
     assert _group(proc.pid) == []
 
 
+def test_a_deep_cache_folder_still_serves_jobs(tmp_path, sliced):
+    """The forkserver's socket lives in the cache's temporary folder; where that path is longer than
+    AF_UNIX takes (108 bytes), jobs are spawned instead, and the service still answers (it said
+    "cannot listen on 127.0.0.1:0 (AF_UNIX path too long)" and exited)."""
+    g = sliced("prusa", "ohs", "mixed")
+    cache = tmp_path / ("deep-folder-" * 6) / "cache"
+    assert len(os.fsencode(cache / "tmp")) + len("/pymp-12345678/listener-12345678") > 107
+    cache.parent.mkdir()
+    proc = _serve(cache, {**os.environ, "HOME": str(tmp_path / "home")})
+    try:
+        url = _url(proc)
+        status, payload = _post_url(url, {"gcode": g.read_text(), "loadcase": GRIP_PULL})
+        assert status == 200 and payload["changed"], payload
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            proc.communicate(timeout=60)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert list((cache / "jobs").iterdir()) == []
+
+
 def test_stale_job_folders_are_cleared_at_start(tmp_path):
     cache = tmp_path / "cache"
     (cache / "jobs" / "deadbeef").mkdir(parents=True)
