@@ -26,7 +26,7 @@ from typing import Any
 
 __all__ = [
     "Interrupted", "raise_if_stopped", "worker_init", "die_with_parent", "stop_pool", "forks", "fork_map",
-    "children_of",
+    "children_of", "warm_start_method",
 ]
 
 _PR_SET_PDEATHSIG = 1
@@ -41,6 +41,29 @@ class Interrupted(KeyboardInterrupt):
         self.signame = "interrupted (Ctrl-C)" if signum == signal.SIGINT else "terminated (SIGTERM)"
         self.status = 128 + int(signum)
         super().__init__(self.signame)
+
+
+_SUN_PATH_MAX = 107
+"""Bytes of an AF_UNIX socket path (Linux's ``sun_path`` holds 108 with the closing NUL)."""
+_FORKSERVER_SOCKET = len("/pymp-12345678/listener-12345678")
+"""What multiprocessing adds to the temporary folder for the forkserver's socket (Python 3.11)."""
+
+
+def warm_start_method() -> str:
+    """How the workers of ``batch`` and the service's jobs start: ``forkserver`` where its socket fits.
+
+    The forkserver (warm: loadpath imported once) listens on a socket in the temporary folder, which
+    the service puts in its cache folder (:func:`loadpath.plugin.service_job.confine`); a deep folder
+    makes that path longer than AF_UNIX takes, and the forkserver cannot start.  Workers are then
+    spawned (no socket; each imports loadpath itself, about a second more per worker) rather than
+    moving the socket elsewhere.
+    """
+    import tempfile
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return "spawn"
+    fits = len(os.fsencode(tempfile.gettempdir())) + _FORKSERVER_SOCKET <= _SUN_PATH_MAX
+    return "forkserver" if fits else "spawn"
 
 
 def raise_if_stopped() -> None:

@@ -290,10 +290,9 @@ def run_local(
         return [r for r in results if r is not None]
     import multiprocessing
 
-    ctx = multiprocessing.get_context(
-        "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-    )
-    from loadpath.procs import stop_pool, worker_init
+    from loadpath.procs import stop_pool, warm_start_method, worker_init
+
+    ctx = multiprocessing.get_context(warm_start_method())
 
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
                                initargs=(None, True))

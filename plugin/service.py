@@ -46,6 +46,7 @@ from typing import Any
 
 from loadpath.plugin.localhttp import HOST, check_host_origin, read_json_body, short
 from loadpath.plugin.service_job import RequestError, check_request, child, confine
+from loadpath.procs import warm_start_method
 
 __all__ = ["ServiceConfig", "Service", "default_cache_dir", "RequestError", "confine"]
 
@@ -67,28 +68,6 @@ def _start_forkserver_quietly() -> None:
     finally:
         os.dup2(saved, 2)
         os.close(saved)
-
-
-_SUN_PATH_MAX = 107
-"""Bytes of an AF_UNIX socket path (Linux's ``sun_path`` holds 108 with the closing NUL)."""
-_FORKSERVER_SOCKET = len("/pymp-12345678/listener-12345678")
-"""What multiprocessing adds to the temporary folder for the forkserver's socket (Python 3.11)."""
-
-
-def _start_method() -> str:
-    """How job processes start: ``forkserver`` (warm, loadpath imported once) where its socket fits.
-
-    The forkserver listens on a socket in the temporary folder, which :func:`confine` puts in the
-    cache folder; a deep cache folder makes that path longer than AF_UNIX takes, and the forkserver
-    cannot start.  Jobs are then spawned (no socket; each imports loadpath itself, about a second
-    more per job) rather than moving the socket outside the cache.
-    """
-    import tempfile
-
-    if "forkserver" not in multiprocessing.get_all_start_methods():
-        return "spawn"
-    fits = len(os.fsencode(tempfile.gettempdir())) + _FORKSERVER_SOCKET <= _SUN_PATH_MAX
-    return "forkserver" if fits else "spawn"
 
 
 class _Server(ThreadingHTTPServer):
@@ -163,7 +142,7 @@ class Service:
         self._lock = threading.Lock()
         self.admitted = 0
         self.running = 0
-        self._ctx = multiprocessing.get_context(_start_method())
+        self._ctx = multiprocessing.get_context(warm_start_method())
         if self._ctx.get_start_method() == "forkserver":
             self._ctx.set_forkserver_preload(["loadpath.plugin.job", "loadpath.pipeline", "loadpath.fea"])
             _start_forkserver_quietly()
