@@ -24,8 +24,13 @@ def _run(gpath: Path, case: Path, out: Path, cache: Cache | None, **cli):
     return run_job(JobRequest(gpath, case, output=out, cli=cli, cache=cache))
 
 
-def _paths(result) -> list[np.ndarray]:
-    return [p.points for j in result.pipeline.jobs for p in j.paths.paths]
+def _job_input(run) -> tuple:
+    """What an engine run's paths are keyed on that the slicer's file sets: region and target length."""
+    from loadpath.cache import geometry_bytes
+    from loadpath.pipeline.paths import length_target
+
+    target = length_target(run.job)
+    return geometry_bytes(run.job.input.region), None if target is None else f"{target:.3f}"
 
 
 def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced, tmp_path):
@@ -52,16 +57,26 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     # PrusaSlicer moved two vertices of a perimeter at the other speeds: the slicer's beads differ, so
     # both predictions are made again (from the other layers' kept neighbours), and that layer's links;
     # the analysis and the paths are reused
-    assert set(cache2.stats.misses) <= {"links", "prediction", "beads", "islands"}
+    # PrusaSlicer 2.5 also moves a vertex of an infill region now and then between two runs of one
+    # input (seen once in a two-process suite run): that job's paths are made again, every other
+    # job's come from the cache
+    moved = [_job_input(a) != _job_input(b) for a, b in zip(r1.pipeline.jobs, r2.pipeline.jobs, strict=True)]
+    allowed = {"links", "prediction", "beads", "islands"} | ({"paths", "simplified"} if any(moved) else set())
+    assert set(cache2.stats.misses) <= allowed
     assert cache2.stats.hits["fea"] == 1
     # ... and the islands of the layers it extrudes as before
     assert cache2.stats.hits["islands"] > cache2.stats.misses.get("islands", 0)
     assert cache2.stats.hits["simplified"] >= 1  # the same engine paths
-    assert cache2.stats.hits["paths"] == n_paths
+    kept = sum(1 + (len(j.units) > 1) for j, m in zip(r1.pipeline.jobs, moved, strict=True) if not m)
+    assert kept >= 1 and cache2.stats.hits["paths"] == kept
+    assert cache2.stats.hits["paths"] + cache2.stats.misses.get("paths", 0) == n_paths
     assert cache2.stats.hits.get("prediction", 0) + cache2.stats.misses.get("prediction", 0) == 2
     if cache2.stats.misses.get("prediction"):  # predicted again: the unchanged layers' neighbours are kept
         assert cache2.stats.hits["beads"] > cache2.stats.misses.get("beads", 0)
-    assert all(np.array_equal(a, b) for a, b in zip(_paths(r1), _paths(r2), strict=True))
+    for j1, j2, m in zip(r1.pipeline.jobs, r2.pipeline.jobs, moved, strict=True):
+        if not m:
+            assert all(np.array_equal(a.points, b.points)
+                       for a, b in zip(j1.paths.paths, j2.paths.paths, strict=True))
     # what the cache gave is what a run without it makes, to the byte (the check passed on both),
     # and the same predicted figures
     cold = _run(again, case, tmp_path / "cold.gcode", None)
