@@ -78,11 +78,15 @@ def test_sparse_on_request_with_alternating_principal(sliced, case, tmp_path):
     for layer in np.unique(m["layer"][sel]):
         s = sel & (m["layer"] == layer)
         d = np.column_stack([m["x1"] - m["x0"], m["y1"] - m["y0"]])[s]
-        by_layer[int(layer)] = float(np.mean(np.abs(d[:, 0]) / np.hypot(d[:, 0], d[:, 1])))
+        # the share of the layer's filament length along x: the links between lines (a few mm each,
+        # along the edge) weigh by their length, not one move each (counted per move, the sigma2
+        # layers' share sat at 0.26 against the bound 0.3, and PrusaSlicer's run-to-run changes
+        # in the region's edge tipped it to 0.304 once)
+        by_layer[int(layer)] = float(np.abs(d[:, 0]).sum() / np.hypot(d[:, 0], d[:, 1]).sum())
     even = [v for k, v in by_layer.items() if k % 2 == 0]
     odd = [v for k, v in by_layer.items() if k % 2 == 1]
     assert even and odd
-    assert min(even) > 0.9 and max(odd) < 0.3
+    assert min(even) > 0.95 and max(odd) < 0.2, by_layer  # measured 0.997 and 0.083
 
 
 @pytest.mark.slow
