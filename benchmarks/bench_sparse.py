@@ -202,26 +202,29 @@ VARIANTS = {
     "alternate": {"density": "energy", "principal": "alternate"},
     "cross30": {"density": "energy", "principal": "cross", "cross_angle": 30.0},
     "cross45": {"density": "energy", "principal": "cross", "cross_angle": 45.0},
+    "altu": {"density": "uniform", "principal": "alternate"},
+    "cross45u": {"density": "uniform", "principal": "cross", "cross_angle": 45.0},
 }
 
 
-def slice_part(part: str, slicer: str, pattern: str, fill: int, folder: Path) -> Path:
+def slice_part(part: str, slicer: str, pattern: str, fill: int, folder: Path, skins: int = 3) -> Path:
+    """Slice ``part`` with ``skins`` top and bottom solid layers (0: walls and sparse infill only,
+    as the thesis's printed beams)."""
     stl = slicing.write_stl(PARTS[part](), folder / f"{part}.stl")
-    out = folder / f"{part}-{slicer}-{pattern.replace('/', '_')}{fill}.gcode"
+    tag = "" if skins == 3 else f"-s{skins}"
+    out = folder / f"{part}{tag}-{slicer}-{pattern.replace('/', '_')}{fill}.gcode"
     if out.exists():
         return out
     if slicer == "prusa":
-        s = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3"}
+        s = {**slicing.PRUSA_MIXED, "top_solid_layers": str(skins), "bottom_solid_layers": str(skins)}
         if pattern == "0/90":  # rectilinear along x, then y (the thesis's 0/90 reference)
             s.update(fill_angle="0")
             pattern = "rectilinear"
-            out = folder / f"{part}-{slicer}-0_90{fill}.gcode"
-            if out.exists():
-                return out
         return slicing.slice_prusa(stl, out, **{**s, "fill_pattern": pattern, "fill_density": f"{fill}%"})
     # Cura: the frontend's formula for the line distance (grid: two directions per layer)
     lines = {"grid": 2.0, "gyroid": 1.0, "lines": 1.0}[pattern]
-    s = {**slicing.CURA_MIXED, "top_layers": "3", "bottom_layers": "3", "initial_bottom_layers": "3"}
+    n = str(skins)
+    s = {**slicing.CURA_MIXED, "top_layers": n, "bottom_layers": n, "initial_bottom_layers": n}
     s.update(infill_pattern=pattern, infill_sparse_density=str(fill),
              infill_line_distance=f"{0.4 * 100.0 / fill * lines:.4f}")
     return slicing.slice_cura(stl, out, **s)
@@ -306,6 +309,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--parts", default=None, help="comma-separated subset of " + ",".join(PARTS))
     ap.add_argument("--configs", default=None, help="slicer-pattern-fill, comma-separated: prusa-gyroid-20")
     ap.add_argument("--variants", default=None, help="comma-separated subset of " + ",".join(VARIANTS))
+    ap.add_argument("--skins", type=int, default=3, help="top and bottom solid layers of the slices")
     ap.add_argument("--timing", action="store_true", help="only the time budget: 40-layer 30 %% gyroid part")
     ap.add_argument("--repeats", type=int, default=3, help="--timing: runs of each (median)")
     args, _ = ap.parse_known_args(argv)
@@ -336,7 +340,7 @@ def main(argv: list[str] | None = None) -> int:
         case = folder / f"{part}.toml"
         case.write_text(CASES[part], encoding="utf-8")
         for slicer, pattern, fill in configs:
-            src = slice_part(part, slicer, pattern, fill, folder)
+            src = slice_part(part, slicer, pattern, fill, folder, args.skins)
             base = infill_motion(src)
             outs, info = [], []
             for v in variants:
