@@ -106,9 +106,13 @@ def test_lone_stubs_under_the_area_are_dropped_linked_runs_kept():
     assert linked >= 2 * len(lines)  # every line still printed, in the zig-zag
     kept, stats0 = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=0.0))
     assert stats0["lone_dropped"] == 0 and len(kept) == len(runs) + 1
-    # a bound over the larger stub's area drops it too; the zig-zag is linked, so it stays
-    more, stats5 = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=5.5))
+    # a bound over the larger stub's area drops it too; the zig-zag is linked, so it stays; the two
+    # stubs are 1.6 % of the layer's area, the smaller 0.45 %: the default share (0.5 %) takes it only
+    wide = LinkOptions(lone_area=5.5, lone_share=0.02)
+    more, stats5 = link_paths([*lines, short, long], region, 0.45, wide)
     assert stats5["lone_dropped"] == 2 and len(more) == len(runs) - 1
+    capped, stats_c = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=5.5))
+    assert stats_c["lone_dropped"] == 1 and len(capped) == len(runs)
 
 
 def test_lone_stub_alone_in_its_layer_is_kept():
@@ -125,3 +129,5 @@ def test_lone_area_bounds(bad):
     assert LONE_AREA_RANGE[0] <= LinkOptions().lone_area <= LONE_AREA_RANGE[1]
     with pytest.raises(SettingsError, match="lone_area"):
         LinkOptions(lone_area=bad)
+    with pytest.raises(SettingsError, match="lone_share"):
+        LinkOptions(lone_share=1.5)
