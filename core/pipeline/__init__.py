@@ -719,6 +719,7 @@ def _fills(
                 nominal_pitch=u.pitch,
                 simplified=True,
                 volume_scale=e["scale"],
+                linked=options.link,
             )
         )
     return job_results, fills

@@ -109,6 +109,9 @@ class BlockFill:
         The block's new volume over the slicer's (1: the same plastic; the user's sparse fill over
         the slicer's when it was set, :mod:`loadpath.density`); volume matching and the checks aim
         at ``volume_scale`` times the slicer's volume.
+    linked : bool
+        The paths are linked runs (:mod:`loadpath.engines.linking`): simplified within
+        :attr:`RunOptions.linked_resolution` instead of ``resolution``.
     """
 
     block: int
@@ -119,6 +122,7 @@ class BlockFill:
     feedrate: float | None = None
     simplified: bool = False
     volume_scale: float = 1.0
+    linked: bool = False
 
 
 @dataclass(frozen=True)
@@ -301,7 +305,10 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
         )
         unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
         ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
-        plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, options.runs)
+        runs = options.runs
+        if fill.linked:  # linked runs: their own simplification bound (RunOptions.linked_resolution)
+            runs = replace(runs, resolution=runs.linked_resolution)
+        plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
         aim = b.e * fill.volume_scale
         whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
         if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:

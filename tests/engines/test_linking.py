@@ -80,3 +80,54 @@ def test_both_ways_give_what_each_way_gives_alone(seed):
         assert r.kind == s.kind
         np.testing.assert_array_equal(r.points, s.points)
         np.testing.assert_array_equal(r.pitch, s.pitch)
+
+
+def _zigzag_and_stubs() -> tuple[list[Path], Path, Path]:
+    """21 straight paths a pitch apart on the left of a 20 x 10 mm plate (one zig-zag when linked),
+    and two stubs on its empty right half, too far from any end to take a link: one of 2 pitches
+    (0.41 mm², under 3 square pitches) and one of 5 (1.0 mm², over)."""
+    w = 0.45
+    lines = [Path(np.array([[x, 0.2], [x, 9.8]]), np.full(2, w)) for x in 0.225 + w * np.arange(21)]
+    short = Path(np.array([[15.0, 8.0], [15.0 + 2 * w, 8.0]]), np.full(2, w), "fill")
+    long = Path(np.array([[15.0, 2.0], [15.0 + 5 * w, 2.0]]), np.full(2, w), "fill")
+    return lines, short, long
+
+
+def test_lone_stubs_under_the_area_are_dropped_linked_runs_kept():
+    lines, short, long = _zigzag_and_stubs()
+    region = box(0, 0, 20, 10)
+    runs, stats = link_paths([*lines, short, long], region, 0.45)
+    assert stats["lone_dropped"] == 1
+    ends = [tuple(r.points[0]) for r in runs] + [tuple(r.points[-1]) for r in runs]
+    assert (15.0, 8.0) not in ends and (15.0 + 0.9, 8.0) not in ends  # the short stub went
+    assert any(np.array_equal(r.points, long.points[::-1]) or np.array_equal(r.points, long.points)
+               for r in runs)  # the larger one stays
+    linked = sum(len(r.points) for r in runs) - len(long.points)
+    assert linked >= 2 * len(lines)  # every line still printed, in the zig-zag
+    kept, stats0 = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=0.0))
+    assert stats0["lone_dropped"] == 0 and len(kept) == len(runs) + 1
+    # a bound over the larger stub's area drops it too; the zig-zag is linked, so it stays; the two
+    # stubs are 1.6 % of the layer's area, the smaller 0.45 %: the default share (0.5 %) takes it only
+    wide = LinkOptions(lone_area=5.5, lone_share=0.02)
+    more, stats5 = link_paths([*lines, short, long], region, 0.45, wide)
+    assert stats5["lone_dropped"] == 2 and len(more) == len(runs) - 1
+    capped, stats_c = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=5.5))
+    assert stats_c["lone_dropped"] == 1 and len(capped) == len(runs)
+
+
+def test_lone_stub_alone_in_its_layer_is_kept():
+    _, short, _ = _zigzag_and_stubs()
+    runs, stats = link_paths([short], box(0, 0, 20, 10), 0.45)
+    assert len(runs) == 1 and stats["lone_dropped"] == 0
+
+
+@pytest.mark.parametrize("bad", [-0.5, 25.5, float("nan")])
+def test_lone_area_bounds(bad):
+    from loadpath.engines.linking import LONE_AREA_RANGE
+    from loadpath.errors import SettingsError
+
+    assert LONE_AREA_RANGE[0] <= LinkOptions().lone_area <= LONE_AREA_RANGE[1]
+    with pytest.raises(SettingsError, match="lone_area"):
+        LinkOptions(lone_area=bad)
+    with pytest.raises(SettingsError, match="lone_share"):
+        LinkOptions(lone_share=1.5)
