@@ -176,9 +176,9 @@ def stiffness_mesh(
 def material_matrices(fields: PlyFields, material: PrintedMaterial, model: FillModel, dim: int) -> np.ndarray:
     """Per-element stiffness of the stacked plies, ``(m, nv, nv)`` MPa (``sum_k w_k C_k``)."""
     if model.kind == "beads":
-        from loadpath.stiffness.beads import ply_stack
+        from loadpath.stiffness.beads import ply_sum
 
-        return np.einsum("l,lmij->mij", fields.weight, ply_stack(fields, material, dim))
+        return ply_sum(fields, material, dim)
     out = None
     fill = fields.effective_fill()
     for k in range(len(fields.layers)):
@@ -306,13 +306,13 @@ def predict(
 
 
 def _sample(mesh: MeshData, deposits: Deposits, options: StiffnessOptions) -> PlyFields:
-    """Sample the deposits; the bead model first cuts them into pieces and measures their state."""
+    """Sample the deposits; the bead model first cuts them into pieces and measures their state (a few
+    layers at a time: :func:`loadpath.stiffness.layered.sample_beads`)."""
     if options.fill_model.kind != "beads":
         return sample_deposits(mesh, deposits, options.resolution)
-    from loadpath.stiffness.beads import attributes
+    from loadpath.stiffness.layered import sample_beads
 
-    pieces, attrs = attributes(deposits, options.material.E1, options.material.G12)
-    return sample_deposits(mesh, pieces, options.resolution, attrs)
+    return sample_beads(mesh, deposits, options.resolution, options.material.E1, options.material.G12)
 
 
 def _principal_angle(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> Floats:
