@@ -304,9 +304,11 @@ def accumulate(  # type: ignore[no-untyped-def]
 
 
 def finish(  # type: ignore[no-untyped-def]
-    mesh: MeshData, layers, heights, vol: np.ndarray, mom: np.ndarray, acc: dict, lost: float, resolution: float
+    mesh: MeshData, layers, heights, vol: np.ndarray, mom: np.ndarray, acc: dict, lost: float,
+    resolution: float,
 ) -> PlyFields:
-    """The :class:`PlyFields` of the per-cell sums :func:`accumulate` made (divided in place: the sums are spent).
+    """The :class:`PlyFields` of the per-cell sums :func:`accumulate` made (divided in place: the
+    sums are spent).
 
     Raises
     ------

@@ -48,7 +48,7 @@ from loadpath.fea.stress import cell_stress
 from loadpath.loadcase.resolve import ResolvedBody
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.sizing import DEFAULT_PITCH, MeshSize, default_mesh_size
-from loadpath.stiffness.deposits import Deposits
+from loadpath.stiffness.deposits import Deposits, Stack
 from loadpath.stiffness.fields import DEFAULT_RESOLUTION, PlyFields, sample_deposits
 
 __all__ = [
@@ -249,7 +249,7 @@ def solve_printed(
 
 def predict(
     rb: ResolvedBody,
-    deposits: Deposits,
+    deposits: Deposits | Stack,
     options: StiffnessOptions | None = None,
     mesh: MeshData | None = None,
 ) -> Prediction:
@@ -259,8 +259,9 @@ def predict(
     ----------
     rb : ResolvedBody
         The load case applied to the body (2D or 3D as resolved).
-    deposits : Deposits
-        The body's beads (:func:`~loadpath.stiffness.deposits.from_program`).
+    deposits : Deposits or Stack
+        The body's beads (:func:`~loadpath.stiffness.deposits.from_program`); a
+        :class:`~loadpath.stiffness.deposits.Stack` is read part by part.
     options : StiffnessOptions
     mesh : MeshData, optional
         Default :func:`stiffness_mesh` (pass one to compare files on the very same mesh).
@@ -305,11 +306,12 @@ def predict(
     )
 
 
-def _sample(mesh: MeshData, deposits: Deposits, options: StiffnessOptions) -> PlyFields:
+def _sample(mesh: MeshData, deposits: Deposits | Stack, options: StiffnessOptions) -> PlyFields:
     """Sample the deposits; the bead model first cuts them into pieces and measures their state (a few
     layers at a time: :func:`loadpath.stiffness.layered.sample_beads`)."""
     if options.fill_model.kind != "beads":
-        return sample_deposits(mesh, deposits, options.resolution)
+        whole = deposits.concat() if isinstance(deposits, Stack) else deposits
+        return sample_deposits(mesh, whole, options.resolution)
     from loadpath.stiffness.layered import sample_beads
 
     return sample_beads(mesh, deposits, options.resolution, options.material.E1, options.material.G12)
