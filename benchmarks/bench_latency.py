@@ -111,6 +111,34 @@ repeated runs.  The linking of the example's 9 layers: 9.1 -> 2.3 s CPU (capture
 runs).  The 1000-layer file (commit 51f8c01, before the batched and parallel linking, load 8-10):
 first run 1482 s wall, 501 s CPU, peak 13.5 GB: the verdict's bead model (about 12 M one-millimetre
 pieces, several arrays each, and 1.1 GB of kept bead layers) holds the peak; not solved here.
+
+Measured 2026-12-02 (issue 17, the verdict's memory: the bead pieces cut, measured and sampled a few
+layers at a time, ``loadpath.stiffness.layered``; the engine's beads made from its paths when read).
+The specimen at 100, 200 and 1000 layers (``slicing.ohs_mesh(thickness=0.2 N)``, the example's
+settings), ``loadpath run --report`` on a cold cache under ``/usr/bin/time -v`` (its peak is the
+largest single process's), load 1-3; BEFORE = 8338cfe (1000 layers: 51f8c01, the figure above),
+AFTER = 750349d (chunks of 512 k pieces; 7dba47b's 128 k take another 110 MB off the verdict)::
+
+    layers   wall s  CPU s  peak MB  verdict s  splice s     wall s  CPU s  peak MB  verdict s  splice s
+             BEFORE                                          AFTER
+    100        49.9   45.1     1622       22.9      17.7       44.0   43.1      614       16.0      21.3
+    200       182.0  118.1     2899       86.8      76.6      113.0  101.3      781       44.0      54.1
+    1000     1482.0  501.0    13500          -         -      644.6  432.5     1980      168.5     368.7
+    1000 (7dba47b)                                           483.1  447.0     2001      169.0     230.5
+
+The run without the verdict (``predict=False``, in process): 388 MB at 100 layers, 503 MB at 200:
+the pipeline's own memory grows by about 115 MB per 100 layers, the verdict's now by about 50 (its
+per-ply, per-element fields, 10 arrays of layers x elements, and the slicer's beads before and
+kept); before, by 1.2 GB.  The verdict of the 100-layer specimen replayed in process (no cache):
+peak 1392 -> 319 MB, CPU 20.3 -> 13.4 s, the same stiffness, failure and energy-ratio figures bit
+for bit; the outputs of 100 and 200 layers byte-identical but for the verdict's minute.  Where
+the 1000 layers' memory is now (7dba47b, in process, the analyses and paths from the cache, RSS
+sampled every 50 ms): parse 456 MB, paths 783, splice 1506, verdict 1201, after it 1028: the verdict
+is no longer the peak.  The cold run's 2.0 GB is not attributed (``/usr/bin/time`` gives the largest
+process of the tree; the engine's workers hold 450 MB each at 1000 layers).  The 1 GB target is
+still missed at 1000 layers (the pipeline alone extrapolates to 1.4 GB), and so is 15 s: the splice
+(per layer Python: rewrite, bead runs, ordering) is now the largest item, then the verdict's bead
+neighbour search (one KD-tree per layer and prediction, no two layers of the specimen alike).
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
-from loadpath._typing import Floats
+from loadpath._typing import Floats, Points2
 from loadpath.gcode.flavors import Role
 from loadpath.stiffness.deposits import Deposits
 
@@ -122,7 +122,8 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     (Layer by layer, :func:`_layer_neighbours`.  A layer depends on nothing but its own beads, so a
     layer whose beads are byte for byte those of a layer of this call or of the previous one (the
     slicer's file, then loadpath's with the same layers kept; a stack of equal layers) takes that
-    layer's result: :data:`_LAYERS`; and, inside :func:`layer_store`, one kept by an earlier run.)
+    layer's result: :data:`_LAYERS` (the last few); and, inside :func:`layer_store`, one kept by an
+    earlier run or by this one.)
     """
     n = len(dep)
     left = np.zeros(n)
@@ -139,7 +140,7 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
     h = dep.height
     order = np.argsort(dep.layer, kind="stable")
     bounds = np.flatnonzero(np.diff(dep.layer[order])) + 1
-    seen: dict[bytes, tuple[np.ndarray, ...]] = {}
+    store = _STORES[-1] if _STORES else None
     for rows in np.split(order, bounds):
         if len(rows) < 2:
             continue
@@ -147,21 +148,38 @@ def _neighbours(dep: Deposits) -> tuple[Floats, Floats, Floats, np.ndarray, np.n
         for x in (a[rows], b[rows], w[rows], h[rows]):
             h_key.update(np.ascontiguousarray(x).tobytes())
         key = h_key.digest()
-        store = _STORES[-1] if _STORES else None
-        got = seen.get(key) or _LAYERS.get(key) or (store.get(key) if store is not None else None)
+        got = _LAYERS.get(key) or (store.get(key) if store is not None else None)
         if got is None:
             got = _layer_neighbours(mid[rows], a[rows], u[rows], length[rows], w[rows], h[rows])
             if store is not None:
                 store.put(key, got)
-        seen[key] = got
+        _remember(key, got)
         left[rows], right[rows], near[rows], any_l[rows], any_r[rows] = got
-    _LAYERS.clear()
-    _LAYERS.update(seen)
     return left, right, near, any_l, any_r
 
 
 _LAYERS: dict[bytes, tuple[np.ndarray, ...]] = {}
-"""The previous :func:`_neighbours` call's layers (key: SHA-256 of their beads), in this process only."""
+"""The last layers :func:`_neighbours` measured or read (key: SHA-256 of their beads), in this process
+only, at most :data:`LAYERS_BYTES` of them (oldest out first)."""
+
+LAYERS_BYTES = 64 << 20
+"""What :data:`_LAYERS` may hold: 26 bytes a bead piece, the last 180 layers of a 150 x 36 mm solid
+specimen (the whole part's, 350 MB at 1000 layers, made the memory grow with the layers)."""
+
+_HELD = [0]
+
+
+def _remember(key: bytes, got: tuple[np.ndarray, ...]) -> None:
+    """Keep ``got`` in :data:`_LAYERS` (as the newest), dropping the oldest beyond :data:`LAYERS_BYTES`."""
+    if key in _LAYERS:
+        _LAYERS[key] = _LAYERS.pop(key)
+        return
+    _LAYERS[key] = got
+    _HELD[0] += sum(x.nbytes for x in got)
+    while _HELD[0] > LAYERS_BYTES and len(_LAYERS) > 1:
+        old = _LAYERS.pop(next(iter(_LAYERS)))
+        _HELD[0] -= sum(x.nbytes for x in old)
+
 
 _STORES: list = []
 
@@ -172,13 +190,22 @@ def layer_store(store) -> Iterator[None]:  # type: ignore[no-untyped-def]
 
     ``store`` has ``get(key: bytes) -> tuple | None`` and ``put(key: bytes, value: tuple)``; the key
     names only the layer's beads, so the store must add the code (the verdict's run cache does:
-    :func:`loadpath.stiffness.change.predicted_change`).
+    :func:`loadpath.stiffness.change.predicted_change`).  The block starts and ends with
+    :data:`_LAYERS` empty.
     """
+    _forget()
     _STORES.append(store)
     try:
         yield
     finally:
         _STORES.pop()
+        _forget()
+
+
+def _forget() -> None:
+    """Empty :data:`_LAYERS` (a store's block starts and ends with none: its layers come from the store)."""
+    _LAYERS.clear()
+    _HELD[0] = 0
 
 
 def _layer_neighbours(
@@ -241,17 +268,30 @@ def _group_reduce(idx: np.ndarray, val: np.ndarray, ufunc: np.ufunc) -> tuple[np
 
 def _runs(dep: Deposits) -> tuple[Floats, Floats, Floats]:
     """Per bead: position of its start and end along its run, and the run's length (mm)."""
-    n = len(dep)
-    d = dep.end - dep.start
+    length, _, brk = run_breaks(dep.start, dep.end, dep.layer)
+    return run_positions(length, brk, np.cumsum(length))
+
+
+def run_breaks(start: Points2, end: Points2, layer: np.ndarray) -> tuple[Floats, Points2, np.ndarray]:
+    """Lengths, unit directions and where a run starts (``(n,)`` bool, the first bead always) of beads
+    in print order: a run goes on while the next bead starts where the last ended, in the same layer,
+    turning by less than 35 degrees."""
+    n = len(start)
+    d = end - start
     length = np.hypot(d[:, 0], d[:, 1])
     u = d / np.maximum(length, 1e-12)[:, None]
     brk = np.ones(n, dtype=bool)
     if n > 1:
-        joined = np.hypot(*(dep.start[1:] - dep.end[:-1]).T) < 1e-6
+        joined = np.hypot(*(start[1:] - end[:-1]).T) < 1e-6
         straight = np.einsum("ij,ij->i", u[1:], u[:-1]) >= _TURN
-        brk[1:] = ~(joined & straight & (dep.layer[1:] == dep.layer[:-1]))
+        brk[1:] = ~(joined & straight & (layer[1:] == layer[:-1]))
+    return length, u, brk
+
+
+def run_positions(length: Floats, brk: np.ndarray, cum: Floats) -> tuple[Floats, Floats, Floats]:
+    """:func:`_runs` from the lengths, the run starts and the running sum of the lengths ``cum``
+    (``np.cumsum(length)``, or what it was in a longer sequence: the positions are its differences)."""
     run = np.cumsum(brk) - 1
-    cum = np.cumsum(length)
     run_start = (cum - length)[brk]
     s0 = cum - length - run_start[run]
     s1 = s0 + length
@@ -272,7 +312,7 @@ def _mean_eta(s0: Floats, s1: Floats, total: Floats, beta: Floats) -> Floats:
     return np.clip(1.0 - (sinh_over_cosh(x0) - sinh_over_cosh(x1)) / span, 0.0, 1.0)
 
 
-def bead_state(dep: Deposits, E1: float, G12: float) -> BeadState:  # noqa: N803
+def bead_state(dep: Deposits, E1: float, G12: float, runs: tuple | None = None) -> BeadState:  # noqa: N803
     """Fusion, transfer and spacing of every bead (module docstring).
 
     Parameters
@@ -281,6 +321,8 @@ def bead_state(dep: Deposits, E1: float, G12: float) -> BeadState:  # noqa: N803
         Beads in print order (consecutive rows form runs), ideally :func:`subdivide`\\ d.
     E1, G12 : float, MPa
         The card's along-bead modulus and shear modulus (the shear-lag constant).
+    runs : (s0, s1, total), optional
+        :func:`_runs` of ``dep`` when ``dep`` is part of a longer print (:mod:`.layered`).
 
     Returns
     -------
@@ -296,7 +338,7 @@ def bead_state(dep: Deposits, E1: float, G12: float) -> BeadState:  # noqa: N803
     h = dep.height
     s = np.where(np.isfinite(near), np.maximum(near, w), 2.0 * PIECE)
     beta = np.sqrt(2.0 * G12 / E1 * (fused / w**2 + w / (h**2 * s)))
-    s0, s1, total = _runs(dep)
+    s0, s1, total = _runs(dep) if runs is None else runs
     return BeadState(fused, _mean_eta(s0, s1, total, beta), near)
 
 
@@ -408,24 +450,41 @@ def ply_stack(fields, material, dim: int) -> np.ndarray:  # type: ignore[no-unty
     material : PrintedMaterial
     dim : {2, 3}
     """
+    return np.stack(list(_plies(fields, material, dim)))
+
+
+def ply_sum(fields, material, dim: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """``sum_k weight_k C_k`` of :func:`ply_stack`'s plies, ``(m, nv, nv)`` MPa, one ply at a time.
+
+    The same numbers as ``np.einsum("l,lmij->mij", fields.weight, ply_stack(...))`` (which adds the
+    plies in order too) without the ``(L, m, nv, nv)`` stack: 190 MB at 1000 layers.
+    """
+    out = None
+    for w, C in zip(fields.weight, _plies(fields, material, dim)):
+        out = w * C if out is None else out + w * C
+    assert out is not None
+    return out
+
+
+def _plies(fields, material, dim: int) -> Iterator[np.ndarray]:  # type: ignore[no-untyped-def]
     from loadpath.fea.orthotropic import orientation_average
 
     fill = np.clip(fields.effective_fill(), 1e-3, None)
     width = np.maximum(fields.extra["width"], 1e-3)
     raw = np.minimum(fields.fill, 1.25)
     density = raw / width
+    del raw
     mom = fields.moments
     order = np.argsort(fields.layers, kind="stable")
     Lc = crossing_spacing(density, mom[..., 0], mom[..., 1], order)  # noqa: N806
+    del density
     Q = material.local(dim)  # noqa: N806
-    out = []
     for k in range(len(fields.layers)):
         gb = 0.25 * material.E1 * (width[k] / Lc[k]) ** 2
         fused = fields.extra.get("fused", np.ones_like(fill))[k]
         transfer = fields.extra.get("transfer", np.ones_like(fill))[k]
         loc = bead_ply_matrices(Q, material.E1, fill[k], fused, transfer, gb)
-        out.append(orientation_average(loc, mom[k], dim))
-    return np.stack(out)
+        yield orientation_average(loc, mom[k], dim)
 
 
 def crossings(fields) -> np.ndarray:  # type: ignore[no-untyped-def]

@@ -19,13 +19,13 @@ from __future__ import annotations
 import dataclasses
 import time
 from contextlib import nullcontext
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
-from loadpath.stiffness.deposits import Deposits, from_program, from_toolpaths
+from loadpath.stiffness.deposits import Deposits, Stack, from_program, from_toolpaths
 from loadpath.stiffness.predict import StiffnessOptions, predict
 from loadpath.stiffness.strength import first_failure
 
@@ -113,26 +113,32 @@ class _Predicted:
 
 
 def prediction_key(
-    fea_key: str, deposits: Deposits, options: StiffnessOptions, card: MaterialCard | None
+    fea_key: str, deposits: Deposits | Stack, options: StiffnessOptions, card: MaterialCard | None
 ) -> str:
     """Key of one body's prediction in the cache: everything :func:`predict` and the failure load read.
 
     ``fea_key`` (:func:`loadpath.cache.fea_key`) names the analysis whose mesh, load case and supports
-    are reused; the deposits enter by their bytes (any changed bead is another key), the options and
-    the card by their repr; :func:`loadpath.cache.code_stamp` and the stiffness model's own sources
-    (:func:`loadpath.cache.source_stamp`) name the code.
+    are reused; the deposits enter by their bytes, part by part (any changed bead is another key),
+    the options and the card by their repr; :func:`loadpath.cache.code_stamp` and the stiffness
+    model's own sources (:func:`loadpath.cache.source_stamp`) name the code.
     """
     from loadpath.cache import code_stamp, digest, source_stamp
 
-    parts: list[bytes | str] = ["prediction", code_stamp(), source_stamp("stiffness"), fea_key]
-    parts += [repr(options), repr(card)]
-    for name in ("start", "end", "z0", "height", "volume", "layer", "role"):
-        a = np.ascontiguousarray(getattr(deposits, name))
-        parts += [f"{name} {a.dtype.str} {a.shape}", a.tobytes()]
-    return digest(parts)
+    head: list[bytes | str] = ["prediction", code_stamp(), source_stamp("stiffness"), fea_key]
+    head += [repr(options), repr(card)]
+
+    def parts() -> Iterator[bytes | str]:  # a Stack's parts one at a time
+        yield from head
+        for dep in deposits if isinstance(deposits, Stack) else (deposits,):
+            for name in ("start", "end", "z0", "height", "volume", "layer", "role"):
+                a = np.ascontiguousarray(getattr(dep, name))
+                yield f"{name} {a.dtype.str} {a.shape}"
+                yield a.tobytes()
+
+    return digest(parts())
 
 
-def _predict(an, deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
+def _predict(an, deposits: Deposits | Stack, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
     """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept."""
     k = prediction_key(key, deposits, options, card) if cache is not None and key else None
     if k is not None:
@@ -174,24 +180,42 @@ class _CachedLayers:
         self.kept += self.cache.put("beads", self._key(key), value, evict=False)
 
 
-def new_deposits(jobs: Sequence, volumes: Mapping[int, float]) -> dict[str, list[Deposits]]:
+@dataclass(frozen=True)
+class _UnitBeads:
+    """The beads of one replaced unit, made when read (a :class:`~loadpath.stiffness.deposits.Stack`
+    part: the engine's paths are the pipeline's anyway, their beads would be a second copy)."""
+
+    paths: object
+    z: float
+    height: float
+    layer: int
+    volume: float
+
+    def __call__(self) -> Deposits:
+        dep = from_toolpaths(self.paths, self.z, self.height, self.layer)
+        if dep.total_volume > 0:
+            dep = dataclasses.replace(dep, volume=dep.volume * (self.volume / dep.total_volume))
+        return dep
+
+
+def new_deposits(jobs: Sequence, volumes: Mapping[int, float]) -> dict[str, list]:
     """Deposits of the engine's paths on every unit whose blocks were replaced, by object name.
 
     The beads follow the engine's paths (:func:`~loadpath.stiffness.deposits.from_toolpaths`),
     their volume scaled to what the splicer extruded into the unit's blocks (``volumes``: block row
     -> mm³; the splicer matches the slicer's volume, a sparse block's pitch is not its flow width);
     a staggered layer prints the same paths half a pitch aside, which the model cannot tell apart.
+    Each unit's are a function that makes its :class:`Deposits` (a part of a
+    :class:`~loadpath.stiffness.deposits.Stack`): 3 million one-segment beads for a 100-layer
+    specimen are made a few layers at a time.
     """
-    out: dict[str, list[Deposits]] = {}
+    out: dict[str, list] = {}
     for jr in jobs:
         for u in jr.units:
             vol = sum(volumes.get(b.block_index, 0.0) for b in u.blocks)
             if vol <= 0:
                 continue
-            dep = from_toolpaths(jr.paths, u.z, u.height, u.layer)
-            if dep.total_volume > 0:
-                dep = dataclasses.replace(dep, volume=dep.volume * (vol / dep.total_volume))
-            out.setdefault(u.object, []).append(dep)
+            out.setdefault(u.object, []).append(_UnitBeads(jr.paths, u.z, u.height, u.layer, vol))
     return out
 
 
@@ -219,8 +243,9 @@ def predicted_change(
         Object name -> index into ``program.objects``.
     replaced : set of int
         Rows of ``program.blocks`` the run replaced.
-    added : mapping of str -> sequence of Deposits
-        The new beads per object (:func:`new_deposits`).
+    added : mapping of str -> sequence of Deposits or functions making them
+        The new beads per object (:func:`new_deposits`), after the slicer's kept ones in a
+        :class:`~loadpath.stiffness.deposits.Stack`.
     filament_diameter : float, mm
     options : StiffnessOptions, optional
         Default: the bead model at :data:`VERDICT_RESOLUTION`.
@@ -264,7 +289,7 @@ def _bodies(  # type: ignore[no-untyped-def]
         code = object_codes[name]
         before = from_program(program, code, filament_diameter)
         kept = from_program(program, code, filament_diameter, exclude_blocks=replaced)
-        after = Deposits.concat([kept, *added.get(name, ())])
+        after = Stack((kept, *added.get(name, ())))
         key = (fea_keys or {}).get(name, "")
         # first-ply failure (with a card) on the same two solves
         p0 = _predict(an, before, options, card, cache, key)

@@ -23,7 +23,7 @@ from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
 from loadpath.toolpath import Path, Toolpaths
 
-__all__ = ["Deposits", "from_program", "from_toolpaths", "PART_ROLES"]
+__all__ = ["Deposits", "Stack", "from_program", "from_toolpaths", "PART_ROLES"]
 
 PART_ROLES = tuple(
     r
@@ -117,6 +117,35 @@ class Deposits:
                 for f in ("start", "end", "z0", "height", "volume", "layer", "role")
             )
         )
+
+
+@dataclass(frozen=True)
+class Stack:
+    """Deposits in print order as a sequence of parts, each a :class:`Deposits` or a function that
+    makes one when it is read: a part's beads without all of them in memory at once.
+
+    The verdict's prediction after a run is the slicer's kept beads and one part per replaced unit,
+    made from the engine's paths (:func:`loadpath.stiffness.change.new_deposits`); the bead model
+    reads it a few layers at a time (:mod:`loadpath.stiffness.layered`).  The beads are those of
+    :meth:`concat`.
+    """
+
+    parts: tuple
+
+    def __len__(self) -> int:
+        return len(self.parts)
+
+    def part(self, i: int) -> Deposits:
+        """Part ``i``, made if it is a function."""
+        p = self.parts[i]
+        return p if isinstance(p, Deposits) else p()
+
+    def __iter__(self):  # type: ignore[no-untyped-def]
+        return (self.part(i) for i in range(len(self.parts)))
+
+    def concat(self) -> Deposits:
+        """Every bead in one :class:`Deposits`."""
+        return Deposits.concat(iter(self))
 
 
 def _empty() -> Deposits:

@@ -279,24 +279,59 @@ def sample_deposits(
                     found, _ = TriangleLocator(tri).locate(pts[sel])
                     ok = found >= 0
                     elem[sel[ok]] = tet[found[ok]]
-            inside = elem >= 0
-            lost += float(np.sum(w[~inside]))
-            idx = ply_of[seg[inside]] * m + elem[inside]
-            wi = w[inside]
-            vol += np.bincount(idx, weights=wi, minlength=n_ply * m)
-            for j in range(4):
-                mom[:, j] += np.bincount(idx, weights=wi * harm[seg[inside], j], minlength=n_ply * m)
-            for k, a in attrs.items():
-                acc[k] += np.bincount(idx, weights=wi * np.asarray(a)[seg[inside]], minlength=n_ply * m)
+            lost += accumulate(vol, mom, acc, ply_of[seg] * m + elem, elem >= 0, w, harm, attrs, seg)
+    return finish(mesh, layers, heights, vol, mom, acc, lost, resolution)
+
+
+def accumulate(  # type: ignore[no-untyped-def]
+    vol: np.ndarray, mom: np.ndarray, acc: dict, idx: np.ndarray, inside: np.ndarray, w: np.ndarray,
+    harm: np.ndarray, attrs: dict, seg: np.ndarray,
+) -> float:
+    """Add one batch of sample points to the per-cell sums (in place); returns the volume outside the mesh.
+
+    ``idx`` is each point's cell (``ply * m + element``, valid where ``inside``), ``w`` its volume,
+    ``seg`` its bead (a row of the per-bead ``harm``, direction harmonics, and ``attrs`` arrays).
+    """
+    lost = float(np.sum(w[~inside]))
+    idx, wi, seg = idx[inside], w[inside], seg[inside]
+    n = len(vol)
+    vol += np.bincount(idx, weights=wi, minlength=n)
+    for j in range(4):
+        mom[:, j] += np.bincount(idx, weights=wi * harm[seg, j], minlength=n)
+    for k, a in attrs.items():
+        acc[k] += np.bincount(idx, weights=wi * np.asarray(a)[seg], minlength=n)
+    return lost
+
+
+def finish(  # type: ignore[no-untyped-def]
+    mesh: MeshData, layers, heights, vol: np.ndarray, mom: np.ndarray, acc: dict, lost: float,
+    resolution: float,
+) -> PlyFields:
+    """The :class:`PlyFields` of the per-cell sums :func:`accumulate` made (divided in place: the
+    sums are spent).
+
+    Raises
+    ------
+    GeometryError
+        No material lands inside the mesh.
+    """
     if not np.any(vol > 0):
         raise GeometryError(
             "no extruded material lies inside the part outline; the G-code and the part do not overlap"
         )
+    n_ply, m = len(layers), len(mesh.cells)
     vol = vol.reshape(n_ply, m)
-    mom = mom.reshape(n_ply, m, 4)
+    has = vol > 0
     with np.errstate(invalid="ignore", divide="ignore"):
-        moments = np.where(vol[..., None] > 0, mom / vol[..., None], 0.0)
-        extra = {k: np.where(vol > 0, a.reshape(n_ply, m) / vol, 0.0) for k, a in acc.items()}
+        moments = mom.reshape(n_ply, m, 4)
+        np.divide(moments, vol[..., None], out=moments, where=has[..., None])
+        moments[~has] = 0.0
+        extra = {}
+        for k, a in acc.items():
+            a = a.reshape(n_ply, m)
+            np.divide(a, vol, out=a, where=has)
+            a[~has] = 0.0
+            extra[k] = a
     measure = np.abs(mesh.measures)
     if mesh.dim == 2:
         fill = vol / (measure[None, :] * heights[:, None])

@@ -48,7 +48,7 @@ from loadpath.fea.stress import cell_stress
 from loadpath.loadcase.resolve import ResolvedBody
 from loadpath.mesh.data import MeshData
 from loadpath.mesh.sizing import DEFAULT_PITCH, MeshSize, default_mesh_size
-from loadpath.stiffness.deposits import Deposits
+from loadpath.stiffness.deposits import Deposits, Stack
 from loadpath.stiffness.fields import DEFAULT_RESOLUTION, PlyFields, sample_deposits
 
 __all__ = [
@@ -176,9 +176,9 @@ def stiffness_mesh(
 def material_matrices(fields: PlyFields, material: PrintedMaterial, model: FillModel, dim: int) -> np.ndarray:
     """Per-element stiffness of the stacked plies, ``(m, nv, nv)`` MPa (``sum_k w_k C_k``)."""
     if model.kind == "beads":
-        from loadpath.stiffness.beads import ply_stack
+        from loadpath.stiffness.beads import ply_sum
 
-        return np.einsum("l,lmij->mij", fields.weight, ply_stack(fields, material, dim))
+        return ply_sum(fields, material, dim)
     out = None
     fill = fields.effective_fill()
     for k in range(len(fields.layers)):
@@ -249,7 +249,7 @@ def solve_printed(
 
 def predict(
     rb: ResolvedBody,
-    deposits: Deposits,
+    deposits: Deposits | Stack,
     options: StiffnessOptions | None = None,
     mesh: MeshData | None = None,
 ) -> Prediction:
@@ -259,8 +259,9 @@ def predict(
     ----------
     rb : ResolvedBody
         The load case applied to the body (2D or 3D as resolved).
-    deposits : Deposits
-        The body's beads (:func:`~loadpath.stiffness.deposits.from_program`).
+    deposits : Deposits or Stack
+        The body's beads (:func:`~loadpath.stiffness.deposits.from_program`); a
+        :class:`~loadpath.stiffness.deposits.Stack` is read part by part.
     options : StiffnessOptions
     mesh : MeshData, optional
         Default :func:`stiffness_mesh` (pass one to compare files on the very same mesh).
@@ -305,14 +306,15 @@ def predict(
     )
 
 
-def _sample(mesh: MeshData, deposits: Deposits, options: StiffnessOptions) -> PlyFields:
-    """Sample the deposits; the bead model first cuts them into pieces and measures their state."""
+def _sample(mesh: MeshData, deposits: Deposits | Stack, options: StiffnessOptions) -> PlyFields:
+    """Sample the deposits; the bead model first cuts them into pieces and measures their state (a few
+    layers at a time: :func:`loadpath.stiffness.layered.sample_beads`)."""
     if options.fill_model.kind != "beads":
-        return sample_deposits(mesh, deposits, options.resolution)
-    from loadpath.stiffness.beads import attributes
+        whole = deposits.concat() if isinstance(deposits, Stack) else deposits
+        return sample_deposits(mesh, whole, options.resolution)
+    from loadpath.stiffness.layered import sample_beads
 
-    pieces, attrs = attributes(deposits, options.material.E1, options.material.G12)
-    return sample_deposits(mesh, pieces, options.resolution, attrs)
+    return sample_beads(mesh, deposits, options.resolution, options.material.E1, options.material.G12)
 
 
 def _principal_angle(mesh: MeshData, D: np.ndarray, u: np.ndarray) -> Floats:
