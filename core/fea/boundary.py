@@ -213,17 +213,21 @@ def check_rigid(mesh: MeshData, fixed: np.ndarray, rb: ResolvedBody) -> None:
         Naming the body, the free motion and suggesting a support.
     """
     d = mesh.dim
-    comp = mesh.components
+    pieces = mesh.pieces
+    # (piece, node) pairs, grouped by piece; a node in more than one piece is a hinge between them
+    pairs = np.unique(np.stack([np.repeat(pieces, mesh.cells.shape[1]), mesh.cells.ravel()]), axis=1)
+    starts = np.searchsorted(pairs[0], np.arange(pieces.max() + 2 if len(pieces) else 1))
+    shared = np.bincount(pairs[1], minlength=len(mesh.points)) > 1
     fixed = np.unique(fixed)
     fixed_nodes = fixed // d
-    used = np.unique(mesh.cells)
-    for k in np.unique(comp[used]):
-        nodes = used[comp[used] == k]
+    many = len(starts) > 2
+    for k in range(len(starts) - 1):
+        nodes = pairs[1, starts[k] : starts[k + 1]]
         modes, names = rigid_modes(mesh.points[nodes])
         # rows of the modes at this piece's constrained dofs
         local = np.full(len(mesh.points), -1)
         local[nodes] = np.arange(len(nodes))
-        sel = fixed[comp[fixed_nodes] == k]
+        sel = fixed[local[fixed_nodes] >= 0]
         rows = local[sel // d] * d + sel % d
         C = modes[rows]
         s = np.linalg.svd(C, compute_uv=False) if len(rows) else np.zeros(0)
@@ -234,12 +238,13 @@ def check_rigid(mesh: MeshData, fixed: np.ndarray, rb: ResolvedBody) -> None:
         null = vt[r:]
         free = _describe(null, names)
         where = ""
-        if len(np.unique(comp[used])) > 1:
+        if many:
             lo, hi = mesh.points[nodes].min(axis=0), mesh.points[nodes].max(axis=0)
+            hinge = ", which meets the rest only at a point or along an edge" if shared[nodes].any() else ""
             where = (
                 " (the piece at "
                 + ", ".join(f"{a} {lo[i]:.1f}..{hi[i]:.1f}" for i, a in enumerate("xyz"[:d]))
-                + ")"
+                + f"{hinge})"
             )
         dim_note = ""
         if d == 3 and any("z" in f for f in free):

@@ -127,15 +127,26 @@ class MeshData:
         return facets, owner
 
     @cached_property
-    def components(self) -> Ints:
-        """Connected component of each node, ``(n,)`` (cells sharing a node are connected)."""
+    def pieces(self) -> Ints:
+        """The piece of each cell, ``(m,)``: cells sharing a facet (2D: an edge, 3D: a face) are one.
+
+        Cells that meet only at a node (or, in 3D, along an edge) are different pieces: such a joint
+        is a hinge that carries no moment, so each piece must be held on its own (a node-connected
+        count let a piece hinged to the rest pass :func:`~loadpath.fea.boundary.check_rigid`, and its
+        singular stiffness stalled the iterative solver).
+        """
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
 
-        c = self.cells
-        rows = np.repeat(c[:, 0], c.shape[1])
-        cols = c.ravel()
-        n = len(self.points)
-        g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+        loc = FACETS[self.cell_type][:, : 2 if self.dim == 2 else 3]
+        m = len(self.cells)
+        key = np.sort(self.cells[:, loc].reshape(-1, loc.shape[1]), axis=1)
+        _, inv = np.unique(key, axis=0, return_inverse=True)
+        inv = inv.ravel()
+        owner = np.repeat(np.arange(m), len(loc))
+        order = np.argsort(inv, kind="stable")
+        same = inv[order][1:] == inv[order][:-1]  # a facet has at most two cells in a conforming mesh
+        a, b = owner[order][:-1][same], owner[order][1:][same]
+        g = coo_matrix((np.ones(len(a)), (a, b)), shape=(m, m))
         _, labels = connected_components(g, directed=False)
         return labels.astype(np.int64)

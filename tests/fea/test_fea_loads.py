@@ -138,6 +138,18 @@ def test_each_island_must_be_held():
         _solve(loads, body=_body(two))
 
 
+def test_a_piece_hinged_to_the_rest_along_an_edge_must_be_held_on_its_own():
+    # two slabs that meet only along the line x = 20, z = 1: the layered mesh shares that edge's nodes
+    # but no face, so the loaded slab turns about it (a node-connected count passed it, and the solve
+    # met a singular stiffness: a fuzzed Cura file stalled conjugate gradients for over 30 s this way)
+    body = lc.Body.from_layers("plate", [(0.0, 1.0, box(0, 0, 20, 10)), (1.0, 2.0, box(20, 0, 40, 10))])
+    loads = '[[loads]]\nname = "pull"\nwhere = { side = "x_max", within = 1.0 }\nforce = [10.0, 0.0, 0.0]\n'
+    hinged = (r"object 'plate' \(the piece at x 20\.0\.\.40\.0, y 0\.0\.\.10\.0, z 1\.0\.\.2\.0, "
+              r"which meets the rest only at a point or along an edge\) is free to")
+    with pytest.raises(LoadCaseError, match=hinged):
+        _solve(loads, "3d", body=body)
+
+
 def test_selection_smaller_than_an_element_still_lands_on_the_mesh():
     # the mesh follows the selector: a 0.3 mm strip of the end is picked exactly
     rb, a = _solve(

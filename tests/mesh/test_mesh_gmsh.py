@@ -58,7 +58,7 @@ def test_2d_mesh_is_deterministic_and_handles_islands():
     np.testing.assert_array_equal(a.cells, b.cells)
     np.testing.assert_array_equal(a.points, b.points)
     assert a.measures.sum() == pytest.approx(two.area, rel=1e-9)
-    assert len(np.unique(a.components)) == 2
+    assert len(np.unique(a.pieces)) == 2
 
 
 def test_2d_mesh_ignores_gcode_jitter():
