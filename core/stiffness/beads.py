@@ -440,8 +440,12 @@ def attributes(dep: Deposits, E1: float, G12: float) -> tuple[Deposits, dict[str
     return pieces, {"fused": st.fused, "transfer": st.transfer}
 
 
-def ply_stack(fields, material, dim: int) -> np.ndarray:  # type: ignore[no-untyped-def]
-    """Global (x, y) stiffness of every ply of the bead model, ``(L, m, nv, nv)`` MPa.
+def ply_sum(fields, material, dim: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """``sum_k weight_k C_k`` over the bead model's plies, ``(m, nv, nv)`` MPa, one ply at a time.
+
+    ``C_k`` is ply ``k``'s global (x, y) stiffness; the plies are added in order, as
+    ``np.einsum("l,lmij->mij", ...)`` over their ``(L, m, nv, nv)`` stack would, without the
+    stack (190 MB at 1000 layers).
 
     Parameters
     ----------
@@ -449,15 +453,6 @@ def ply_stack(fields, material, dim: int) -> np.ndarray:  # type: ignore[no-unty
         Sampled with :func:`attributes`' arrays (``extra["fused"]``, ``extra["transfer"]``).
     material : PrintedMaterial
     dim : {2, 3}
-    """
-    return np.stack(list(_plies(fields, material, dim)))
-
-
-def ply_sum(fields, material, dim: int) -> np.ndarray:  # type: ignore[no-untyped-def]
-    """``sum_k weight_k C_k`` of :func:`ply_stack`'s plies, ``(m, nv, nv)`` MPa, one ply at a time.
-
-    The same numbers as ``np.einsum("l,lmij->mij", fields.weight, ply_stack(...))`` (which adds the
-    plies in order too) without the ``(L, m, nv, nv)`` stack: 190 MB at 1000 layers.
     """
     out = None
     for w, C in zip(fields.weight, _plies(fields, material, dim)):

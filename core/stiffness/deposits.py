@@ -92,9 +92,9 @@ class Deposits:
         """Sum of the volumes, mm³."""
         return float(np.sum(self.volume))
 
-    def select(self, mask: np.ndarray) -> Deposits:
-        """Return the beads where ``mask`` is true."""
-        m = np.asarray(mask)
+    def select(self, mask: np.ndarray | slice) -> Deposits:
+        """Return the beads where ``mask`` is true (or those of a slice: views, not copies)."""
+        m = mask if isinstance(mask, slice) else np.asarray(mask)
         return Deposits(
             self.start[m],
             self.end[m],

@@ -57,11 +57,6 @@ class _Plan:
     splits: np.ndarray  # first pieces of the sample-point batches (as fields.sample_deposits cuts them)
 
 
-def _rows(dep: Deposits, rows) -> Deposits:  # type: ignore[no-untyped-def]
-    return Deposits(dep.start[rows], dep.end[rows], dep.z0[rows], dep.height[rows], dep.volume[rows],
-                    dep.layer[rows], dep.role[rows])
-
-
 def _estimate(pieces: Deposits, resolution: float) -> np.ndarray:
     """Sample points per piece as :func:`~.fields.sample_deposits` estimates them for its batches (2D)."""
     return (np.ceil(pieces.length / resolution) + 1) * (np.ceil(pieces.flow_width / resolution) + 1)
@@ -101,7 +96,7 @@ def _plan(stack: Stack, resolution: float) -> _Plan | None:
         for lo, hi in zip(np.r_[0, ends], np.r_[ends, len(dep)]):
             if hi <= lo:
                 continue
-            p = subdivide(_rows(dep, slice(lo, hi)))
+            p = subdivide(dep.select(slice(lo, hi)))
             start, end, layer = p.start, p.end, p.layer
             if carry is not None:
                 start, end, layer = (np.concatenate([c, x]) for c, x in zip(carry, (start, end, layer)))
@@ -140,7 +135,7 @@ def _chunk(stack: Stack, plan: _Plan, segs: np.ndarray) -> tuple[Deposits, tuple
         i = int(plan.part[g])
         if i not in made:
             made = {i: stack.part(i)}  # a chunk's segments come part after part
-        beads.append(_rows(made[i], slice(int(plan.lo[g]), int(plan.hi[g]))))
+        beads.append(made[i].select(slice(int(plan.lo[g]), int(plan.hi[g]))))
     del made
     pieces = subdivide(Deposits.concat(beads))
     del beads
