@@ -63,6 +63,19 @@ def without_verdict(data: bytes) -> bytes:
     return without_header(data)
 
 
+def load_script(path: Path, name: str):  # type: ignore[no-untyped-def]
+    """The file at ``path`` (a script, or a plugin file Cura or the service loads) run as module ``name``.
+
+    Not entered in ``sys.modules``: each call is a fresh module, as its host program loads it.
+    """
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 _SETTINGS = {
     "prusa": {"mixed": slicing.PRUSA_MIXED, "solid": slicing.PRUSA_SOLID, "example": slicing.PRUSA_EXAMPLE},
     "cura": {"mixed": slicing.CURA_MIXED, "solid": slicing.CURA_SOLID},

@@ -12,10 +12,10 @@ harness itself is checked on deliberately broken commands.  The long run is
 from __future__ import annotations
 
 import functools
-import importlib.util
 import random
 from pathlib import Path
 
+from fixtures import load_script
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from loadpath import gcode
@@ -27,10 +27,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 @functools.cache
 def _fuzz():
-    spec = importlib.util.spec_from_file_location("loadpath_fuzz", REPO / "scripts" / "fuzz.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(REPO / "scripts" / "fuzz.py", "loadpath_fuzz")
 
 
 @functools.cache

@@ -7,22 +7,18 @@ coordinate made ``0``) and runs the real command line under the fuzzer's fork ha
 from __future__ import annotations
 
 import functools
-import importlib.util
 import re
 from pathlib import Path
 
 import pytest
-from fixtures import made_once
+from fixtures import load_script, made_once
 
 REPO = Path(__file__).resolve().parents[2]
 
 
 @functools.cache
 def _fuzz():
-    spec = importlib.util.spec_from_file_location("loadpath_fuzz", REPO / "scripts" / "fuzz.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(REPO / "scripts" / "fuzz.py", "loadpath_fuzz")
 
 
 @pytest.fixture(scope="module")

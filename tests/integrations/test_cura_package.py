@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import ast
-import importlib.util
 import json
 import os
 import py_compile
@@ -16,6 +15,7 @@ from pathlib import Path
 
 import loadpath
 import pytest
+from fixtures import load_script
 from integration_helpers import RUNNER, VENV_BIN, write_case
 
 REPO = Path(__file__).resolve().parents[2]
@@ -25,10 +25,7 @@ import build_curapackage  # noqa: E402
 
 
 def _runner():
-    spec = importlib.util.spec_from_file_location("loadpath_runner_under_test", RUNNER)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(RUNNER, "loadpath_runner_under_test")
 
 
 runner = _runner()

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from conftest import require_tool
+from fixtures import load_script
 from integration_helpers import (
     FAST,
     VENV_BIN,
@@ -347,9 +348,4 @@ def test_a_forced_failure_at_each_stage_is_what_curas_message_says(cura_file, fa
 
 def runner_error_comment(message: str) -> str:
     """The runner's first line for a failure (loaded as the plugin loads it)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("runner_for_faults", SCRIPTS.parent / "loadpath_runner.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod.error_comment(message)
+    return load_script(SCRIPTS.parent / "loadpath_runner.py", "runner_for_faults").error_comment(message)

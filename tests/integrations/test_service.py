@@ -7,7 +7,6 @@ checked on the file system.  The limit tests run the same server class in a thre
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import subprocess
@@ -17,6 +16,7 @@ import urllib.error
 import urllib.request
 
 import pytest
+from fixtures import load_script
 from integration_helpers import (
     RUNNER,
     VENV_BIN,
@@ -142,9 +142,7 @@ def test_service_processes_and_caches_the_fea(server, sliced, tmp_path):
     assert get(url + "/v1/health")[1]["fea_cache_entries"] == 2
 
     # the Cura plugin's runner through the service: Cura's chunks back, processed
-    spec = importlib.util.spec_from_file_location("runner_for_service", RUNNER)
-    runner = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(runner)
+    runner = load_script(RUNNER, "runner_for_service")
     chunks = cura_chunks(sliced("cura", "ohs", "mixed").read_text())
     out = runner.process_chunks(
         chunks,
@@ -359,9 +357,7 @@ def test_curas_runner_through_the_service_says_when_nothing_was_replaced(faulty,
     the chunks come back as they were, unmarked, the message says nothing was replaced, and no report
     (not even an earlier one) is left as the last run's."""
     url, fault, payload, _ref, _cache = faulty
-    spec = importlib.util.spec_from_file_location("runner_for_faults", RUNNER)
-    runner = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(runner)
+    runner = load_script(RUNNER, "runner_for_faults")
     case = tmp_path / "case.toml"
     case.write_text(payload["loadcase"], encoding="utf-8")
     earlier = tmp_path / "reports" / "last-report"
