@@ -35,25 +35,7 @@ import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import slicing  # noqa: E402
-from bench_sparse import CASES, PARTS, measure  # noqa: E402
-
-
-def slice_at(part: str, pattern: str, fill: int, skins: int, folder: Path) -> Path:
-    """PrusaSlicer 2.5 slice of ``part`` (bench_sparse's presets) with ``skins`` top and bottom layers."""
-    stl = folder / f"{part}.stl"
-    if not stl.exists():
-        slicing.write_stl(PARTS[part](), stl)
-    name = "0_90" if pattern == "0/90" else pattern
-    out = folder / f"{part}-s{skins}-{name}{fill}.gcode"
-    if out.exists():
-        return out
-    s = {**slicing.PRUSA_MIXED, "top_solid_layers": str(skins), "bottom_solid_layers": str(skins),
-         "fill_pattern": "rectilinear" if pattern == "0/90" else pattern, "fill_density": f"{fill}%"}
-    if pattern == "0/90":
-        s["fill_angle"] = "0"
-    return slicing.slice_prusa(stl, out, **s)
+from bench_sparse import CASES, PARTS, measure, slice_part  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,10 +55,10 @@ def main(argv: list[str] | None = None) -> int:
         case = folder / f"{part}.toml"
         case.write_text(CASES[part], encoding="utf-8")
         for skins in (int(s) for s in args.skins.split(",")):
-            solid = slice_at(part, "rectilinear", 100, skins, folder)
+            solid = slice_part(part, "prusa", "rectilinear", 100, folder, skins)
             refs = [("gyroid", 20), ("gyroid", 40)] + ([("0/90", 20)] if part == "beam" else [])
             for pattern, fill in refs:
-                sparse = slice_at(part, pattern, fill, skins, folder)
+                sparse = slice_part(part, "prusa", pattern, fill, folder, skins)
                 r0, r1 = measure([sparse, solid], case)
                 print(f"{part:8} {skins:5d} {pattern + ' ' + str(fill) + ' %':14} "
                       f"{r1['mass'] / r0['mass']:6.2f} {r1['stiffness']:13.3f} {r1['failure']:13.3f}")
