@@ -118,13 +118,21 @@ class MeshData:
         loc = FACETS[self.cell_type]
         nf = loc.shape[0]
         all_f = self.cells[:, loc].reshape(-1, loc.shape[1])
-        nc = 2 if self.dim == 2 else 3
-        key = np.sort(all_f[:, :nc], axis=1)
-        _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-        once = counts[inv.ravel()] == 1
+        inv = self._facet_ids
+        once = np.bincount(inv)[inv] == 1
         facets = all_f[once]
         owner = np.repeat(np.arange(len(self.cells)), nf)[once]
         return facets, owner
+
+    @cached_property
+    def _facet_ids(self) -> Ints:
+        """Which facet each cell's facets are, ``(m * nf,)`` (cell by cell, in :data:`FACETS` order):
+        two cells share a facet where they share its corner nodes (what :attr:`boundary` and
+        :attr:`pieces` both read)."""
+        loc = FACETS[self.cell_type][:, : 2 if self.dim == 2 else 3]
+        key = np.sort(self.cells[:, loc].reshape(-1, loc.shape[1]), axis=1)
+        _, inv = np.unique(key, axis=0, return_inverse=True)
+        return inv.ravel()
 
     @cached_property
     def pieces(self) -> Ints:
@@ -138,12 +146,9 @@ class MeshData:
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
 
-        loc = FACETS[self.cell_type][:, : 2 if self.dim == 2 else 3]
         m = len(self.cells)
-        key = np.sort(self.cells[:, loc].reshape(-1, loc.shape[1]), axis=1)
-        _, inv = np.unique(key, axis=0, return_inverse=True)
-        inv = inv.ravel()
-        owner = np.repeat(np.arange(m), len(loc))
+        inv = self._facet_ids
+        owner = np.repeat(np.arange(m), len(FACETS[self.cell_type]))
         order = np.argsort(inv, kind="stable")
         same = inv[order][1:] == inv[order][:-1]  # a facet has at most two cells in a conforming mesh
         a, b = owner[order][:-1][same], owner[order][1:][same]
