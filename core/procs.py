@@ -104,12 +104,30 @@ def worker_init(parent_pid: int | None = None, clean_exit: bool = False) -> None
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     # a forked worker inherits the parent's handler: reset it
     signal.signal(signal.SIGTERM, _exit_cleanly if clean_exit else signal.SIG_DFL)
+    if clean_exit:
+        sys.unraisablehook = _stop_raised_in_a_callback
     die_with_parent(parent_pid)
 
 
 def _exit_cleanly(signum: int, frame: object) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     raise SystemExit(128 + signum)
+
+
+def _stop_raised_in_a_callback(unraisable: Any) -> None:
+    """``sys.unraisablehook`` of a ``clean_exit`` worker: the stop's ``SystemExit`` raised in Python
+    code that C called back (numba's compiled-code cache, through llvmlite) cannot leave the
+    callback; Python would print it as "Exception ignored ..." with a traceback and go on working.
+    The worker asks itself again a moment later instead (from a timer thread: a signal sent here
+    would be handled here, still inside the callback), until the handler runs outside one and its
+    ``SystemExit`` ends the worker.  Anything else goes to Python's own hook."""
+    if isinstance(unraisable.exc_value, SystemExit):
+        signal.signal(signal.SIGTERM, _exit_cleanly)
+        again = threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGTERM))
+        again.daemon = True
+        again.start()
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def stop_pool(pool: Any, grace_s: float = 2.0) -> None:

@@ -211,3 +211,47 @@ def test_batch_sigterm_stops_its_workers_and_says_what_was_written(tmp_path, sli
         assert last.endswith("no file was written")
     assert _wait_gone(p.pid) == []
     assert all(hashlib.sha256(f.read_bytes()).hexdigest() == d for f, d in digests.items())
+
+
+_CALLBACK_WORKER = '''
+import ctypes, time
+from loadpath.procs import worker_init
+
+worker_init(None, True)
+
+
+def compiled_code_cache_notify():  # Python code C calls back, as llvmlite does for numba's cache
+    end = time.monotonic() + 5
+    while time.monotonic() < end:
+        time.sleep(0.01)
+
+
+try:
+    print("ready", flush=True)
+    ctypes.CFUNCTYPE(None)(compiled_code_cache_notify)()
+    time.sleep(5)  # a worker goes on working after the callback
+    print("worked on", flush=True)
+finally:
+    print("cleaned", flush=True)
+'''
+
+
+def test_sigterm_inside_a_c_callback_still_stops_a_worker_cleanly(tmp_path):
+    """A clean-exit worker's SIGTERM arriving while C has called back into Python (numba loading a
+    compiled kernel, in a batch worker): the handler's SystemExit cannot leave the callback.  Before,
+    Python printed it as "Exception ignored on calling ctypes callback function" with a traceback
+    under batch's one-line stop message (a full suite run), and the worker went on working."""
+    script = tmp_path / "worker.py"
+    script.write_text(_CALLBACK_WORKER, encoding="utf-8")
+    p = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        assert p.stdout.readline() == b"ready\n"
+        time.sleep(0.5)
+        p.send_signal(signal.SIGTERM)
+        out, err = p.communicate(timeout=30)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 143, (out, err)
+    assert out == b"cleaned\n", out  # its finally ran; it did not go on working
+    assert b"Traceback" not in err and b"Exception ignored" not in err, err.decode()
