@@ -126,14 +126,33 @@ def _filament_area(config) -> float:
     return float(np.pi * d * d / 4.0) if 0.5 < d < 5.0 else float(np.pi * 1.75**2 / 4.0)
 
 
-def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray, area: float) -> tuple[np.ndarray, str]:
-    """Bead width of every move, mm: its ``;WIDTH:``, else the file's median flow width.
+def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray,
+                 area: float) -> tuple[np.ndarray, str]:
+    """Bead width of every move: its ``;WIDTH:``, else the file's median flow width.
 
     A file without width markers (CuraEngine) has no nominal bead per move; its extrusions in layers
     share one nozzle, and their median flow width (``e * area / (length * height)``) is the file's
     bead (0.400 mm on CuraEngine 4.13's small slices).  The filament diameter cancels out of the
-    share of :func:`check_bounds` in that case, so a wrong default (2.85 mm filament read as 1.75) does
-    not matter.  Returns the widths and the words the message adds for a median bead.
+    share of :func:`check_bounds` in that case, so a wrong default (2.85 mm filament read as 1.75)
+    does not matter.
+
+    Parameters
+    ----------
+    mv : (n,) structured array (MOVE_DTYPE)
+        The file's moves.
+    seg : (n,) float, mm
+        Their lengths in x-y.
+    in_layer : (n,) bool
+        Extrusions in a layer.
+    area : float, mm^2
+        Filament cross-section.
+
+    Returns
+    -------
+    widths : (n,) float, mm
+        Bead width of every move.
+    words : str
+        What the message adds after a median bead's size (empty when every move has a width).
     """
     w = mv["width"]
     missing = ~(np.isfinite(w) & (w > 0))
@@ -144,7 +163,7 @@ def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray, area: fl
         fw = mv["e"][ok] * area / (seg[ok] * mv["height"][ok])
     fw = fw[np.isfinite(fw)]
     typical = float(np.median(fw)) if len(fw) else float("nan")
-    return np.where(missing, typical, w), ": the file has no ;WIDTH:, its median flow width"
+    return np.where(missing, typical, w), ": no ;WIDTH: for it, the file's median flow width"
 
 
 def _fail(program: Program, line: int, what: str) -> None:
@@ -225,8 +244,8 @@ def check_bounds(program: Program) -> None:
     checks.append((starved, lambda i: (
         f"the extrusion runs {seg[i]:.1f} mm with {e[i]:g} mm of filament, {100 * share[i]:.2g} % of what "
         f"its bead ({w[i]:.3g} x {h[i]:.3g} mm{'' if np.isfinite(mv['width'][i]) else typical}) needs (at "
-        f"least {100 * floor[i]:g} %{' on a wall' if wall[i] else ''} over more than {MIN_LEN_STARVED_MM:g} mm); "
-        f"{fix}")))
+        f"least {100 * floor[i]:g} %{' on a wall' if wall[i] else ''} over more than "
+        f"{MIN_LEN_STARVED_MM:g} mm); {fix}")))
     for name, col in (("width", "width"), ("height", "height")):
         v = mv[col]
         low = (v <= 0) if (col == "width" or program.dialect.family != "cura") else np.zeros(len(v), bool)
