@@ -56,11 +56,12 @@ MIN_FLOW_SHARE = 0.01
 """Least filament an extrusion longer than :data:`MIN_LEN_STARVED_MM` may carry, as a share of what
 its ``;WIDTH:`` x ``;HEIGHT:`` bead needs (ironing, the thinnest real extrusion, runs at 10-15 %)."""
 MIN_WALL_FLOW_SHARE = 0.25
-"""The same floor for perimeters (walls): a wall vertex moved across the bed stretches its two
-extrusions several times over (a corner of a small part moved 100 mm: 9-20 % of the bead) into a
-wedge one layer thick that the 3D FEA solves for minutes; real walls carry at least 77 % (the
-committed files and the fuzz's slices), CuraEngine's bridge walls 50 % (its default
-``bridge_wall_material_flow``), PrusaSlicer's overhang perimeters their bridge bead."""
+"""The floor for perimeters (walls) instead: a wall vertex moved across the bed stretches its two
+extrusions several times over (a corner of a small part moved 100-130 mm: 2-18 % of the bead) into
+a spike or wedge one layer thick that the 3D FEA solves for minutes.  Real walls over 5 mm carry at
+least 85 % (107 real slices: the committed files, the test suite's and the benchmarks' PrusaSlicer
+and CuraEngine slices); CuraEngine's bridge walls 50 % (its default ``bridge_wall_material_flow``,
+the lowest seen), PrusaSlicer's overhang perimeters their own bridge bead."""
 MIN_LEN_STARVED_MM = 5.0
 """Shorter extrusions are not checked for :data:`MIN_FLOW_SHARE` (rounding of E on short moves)."""
 _WALLS = np.array([Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER])
