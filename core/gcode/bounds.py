@@ -18,8 +18,8 @@ Limits (:class:`Bounds`):
 - Filament per line: ``|dE| <=`` :data:`MAX_DE_MM`; along an extrusion in a layer at most
   :data:`MAX_DE_PER_MM` mm of filament per mm of path (a 10 mm x 5 mm bead of 1.75 mm filament), and
   over more than :data:`MIN_LEN_STARVED_MM` at least :data:`MIN_FLOW_SHARE` of what its
-  ``;WIDTH:`` x ``;HEIGHT:`` bead needs (a file without ``;WIDTH:``, CuraEngine's: its median flow
-  width); a perimeter at least :data:`MIN_WALL_FLOW_SHARE`.
+  ``;WIDTH:`` x ``;HEIGHT:`` bead needs (a file without ``;WIDTH:``, CuraEngine's: the median flow
+  width of the move's feature); a perimeter at least :data:`MIN_WALL_FLOW_SHARE`.
 - Every value finite (overflowing numbers are refused when the words are read, :mod:`.words`).
 
 Each failure is one :class:`~loadpath.errors.GCodeParseError` naming the line, the value, the limit
@@ -129,13 +129,14 @@ def _filament_area(config) -> float:
 
 def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray,
                  area: float) -> tuple[np.ndarray, str]:
-    """Bead width of every move: its ``;WIDTH:``, else the file's median flow width.
+    """Bead width of every move: its ``;WIDTH:``, else the median flow width of its feature.
 
-    A file without width markers (CuraEngine) has no nominal bead per move; its extrusions in layers
-    share one nozzle, and their median flow width (``e * area / (length * height)``) is the file's
-    bead (0.400 mm on CuraEngine 4.13's small slices).  The filament diameter cancels out of the
-    share of :func:`check_bounds` in that case, so a wrong default (2.85 mm filament read as 1.75)
-    does not matter.
+    A file without width markers (CuraEngine) has no nominal bead per move; the extrusions of one
+    feature (outer wall, inner wall, skin, ...) share one line width, and their median flow width
+    (``e * area / (length * height)``) is that feature's bead (0.400 mm on CuraEngine 4.13's small
+    slices).  Per feature, not per file: Cura's infill lines may be set several times as wide as its
+    walls.  The filament diameter cancels out of the share of :func:`check_bounds` in that case, so a
+    wrong default (2.85 mm filament read as 1.75) does not matter.
 
     Parameters
     ----------
@@ -151,7 +152,7 @@ def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray,
     Returns
     -------
     widths : (n,) float, mm
-        Bead width of every move.
+        Bead width of every move (NaN for a feature with no measurable extrusion).
     words : str
         What the message adds after a median bead's size (empty when every move has a width).
     """
@@ -160,11 +161,16 @@ def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray,
     if not missing.any():
         return w, ""
     ok = in_layer & (seg >= _MIN_LEN_FOR_RATIO) & (mv["height"] > 0) & (mv["e"] > 0)
+    fw = np.full(len(mv), np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
-        fw = mv["e"][ok] * area / (seg[ok] * mv["height"][ok])
-    fw = fw[np.isfinite(fw)]
-    typical = float(np.median(fw)) if len(fw) else float("nan")
-    return np.where(missing, typical, w), ": no ;WIDTH: for it, the file's median flow width"
+        fw[ok] = mv["e"][ok] * area / (seg[ok] * mv["height"][ok])
+    ok &= np.isfinite(fw)
+    typical = np.full(len(mv), np.nan)
+    role = mv["role"]
+    for r in np.unique(role[ok]):
+        same = role == r
+        typical[same] = np.median(fw[ok & same])
+    return np.where(missing, typical, w), ": no ;WIDTH: for it, the median flow width of its feature"
 
 
 def _fail(program: Program, line: int, what: str) -> None:

@@ -60,12 +60,12 @@ def test_a_hole_wall_vertex_moved_to_x0_is_refused_at_its_line(small_cura_ohs, t
     # only the spike's short pieces, 224 CG iterations and a direct solve (20 s) ended 'did not
     # converge', and check_rigid learned to refuse pieces that meet the rest along an edge
     # (tests/fea/test_fea_loads.py tests that on its own); the file has no ;WIDTH:, so the 1 % flow
-    # floor did not see the 0.37 % bead until it took the file's median flow width as the bead
+    # floor did not see the 0.37 % bead until it took its feature's median flow width as the bead
     case = tmp_path / "case.gcode"
     data, line = _wall_vertex(small_cura_ohs.read_bytes(), 0, 2, b"0")
     case.write_bytes(data)
     _refused_at(case, line, tmp_path,
-                r"0\.37 % of what its bead \(0\.4 x 0\.2 mm: no ;WIDTH: for it, the file's median")
+                r"0\.37 % of what its bead \(0\.4 x 0\.2 mm: no ;WIDTH: for it, the median flow width")
 
 
 def test_a_hole_wall_vertex_spike_is_refused_quickly_not_solved_in_3d(small_cura_ohs, tmp_path):
