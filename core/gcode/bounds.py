@@ -158,7 +158,7 @@ def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray,
     """
     w = mv["width"]
     missing = ~(np.isfinite(w) & (w > 0))
-    if not missing.any():
+    if not (missing & in_layer).any():  # PrusaSlicer & co.: travels have none, extrusions all have one
         return w, ""
     ok = in_layer & (seg >= _MIN_LEN_FOR_RATIO) & (mv["height"] > 0) & (mv["e"] > 0)
     fw = np.full(len(mv), np.nan)
