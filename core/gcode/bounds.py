@@ -18,7 +18,8 @@ Limits (:class:`Bounds`):
 - Filament per line: ``|dE| <=`` :data:`MAX_DE_MM`; along an extrusion in a layer at most
   :data:`MAX_DE_PER_MM` mm of filament per mm of path (a 10 mm x 5 mm bead of 1.75 mm filament), and
   over more than :data:`MIN_LEN_STARVED_MM` at least :data:`MIN_FLOW_SHARE` of what its
-  ``;WIDTH:`` x ``;HEIGHT:`` bead needs.
+  ``;WIDTH:`` x ``;HEIGHT:`` bead needs (a file without ``;WIDTH:``, CuraEngine's: the median flow
+  width of the move's feature); a perimeter at least :data:`MIN_WALL_FLOW_SHARE`.
 - Every value finite (overflowing numbers are refused when the words are read, :mod:`.words`).
 
 Each failure is one :class:`~loadpath.errors.GCodeParseError` naming the line, the value, the limit
@@ -31,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from loadpath.errors import GCodeParseError
+from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
 from loadpath.gcode.words import G, M
 
@@ -53,8 +55,16 @@ MAX_DE_PER_MM = 25.0
 MIN_FLOW_SHARE = 0.01
 """Least filament an extrusion longer than :data:`MIN_LEN_STARVED_MM` may carry, as a share of what
 its ``;WIDTH:`` x ``;HEIGHT:`` bead needs (ironing, the thinnest real extrusion, runs at 10-15 %)."""
+MIN_WALL_FLOW_SHARE = 0.25
+"""The floor for perimeters (walls) instead: a wall vertex moved across the bed stretches its two
+extrusions several times over (a corner of a small part moved 100-130 mm: 2-18 % of the bead) into
+a spike or wedge one layer thick that the 3D FEA solves for minutes.  Real walls over 5 mm carry at
+least 85 % (107 real slices: the committed files, the test suite's and the benchmarks' PrusaSlicer
+and CuraEngine slices); CuraEngine's bridge walls 50 % (its default ``bridge_wall_material_flow``,
+the lowest seen), PrusaSlicer's overhang perimeters their own bridge bead."""
 MIN_LEN_STARVED_MM = 5.0
 """Shorter extrusions are not checked for :data:`MIN_FLOW_SHARE` (rounding of E on short moves)."""
+_WALLS = np.array([Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER])
 _MIN_LEN_FOR_RATIO = 0.1  # mm: shorter moves carry rounding of their 3-decimal coordinates
 
 
@@ -115,6 +125,52 @@ def _filament_area(config) -> float:
     """Cross-section of the file's filament, mm^2 (1.75 mm when the file does not say)."""
     d = _number(str(config.get("filament_diameter", "")).split(",")[0]) or 1.75
     return float(np.pi * d * d / 4.0) if 0.5 < d < 5.0 else float(np.pi * 1.75**2 / 4.0)
+
+
+def _bead_widths(mv: np.ndarray, seg: np.ndarray, in_layer: np.ndarray,
+                 area: float) -> tuple[np.ndarray, str]:
+    """Bead width of every move: its ``;WIDTH:``, else the median flow width of its feature.
+
+    A file without width markers (CuraEngine) has no nominal bead per move; the extrusions of one
+    feature (outer wall, inner wall, skin, ...) share one line width, and their median flow width
+    (``e * area / (length * height)``) is that feature's bead (0.400 mm on CuraEngine 4.13's small
+    slices).  Per feature, not per file: Cura's infill lines may be set several times as wide as its
+    walls.  The filament diameter cancels out of the share of :func:`check_bounds` in that case, so a
+    wrong default (2.85 mm filament read as 1.75) does not matter.
+
+    Parameters
+    ----------
+    mv : (n,) structured array (MOVE_DTYPE)
+        The file's moves.
+    seg : (n,) float, mm
+        Their lengths in x-y.
+    in_layer : (n,) bool
+        Extrusions in a layer.
+    area : float, mm^2
+        Filament cross-section.
+
+    Returns
+    -------
+    widths : (n,) float, mm
+        Bead width of every move (NaN for a feature with no measurable extrusion).
+    words : str
+        What the message adds after a median bead's size (empty when every move has a width).
+    """
+    w = mv["width"]
+    missing = ~(np.isfinite(w) & (w > 0))
+    if not (missing & in_layer).any():  # PrusaSlicer & co.: travels have none, extrusions all have one
+        return w, ""
+    ok = in_layer & (seg >= _MIN_LEN_FOR_RATIO) & (mv["height"] > 0) & (mv["e"] > 0)
+    fw = np.full(len(mv), np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fw[ok] = mv["e"][ok] * area / (seg[ok] * mv["height"][ok])
+    ok &= np.isfinite(fw)
+    typical = np.full(len(mv), np.nan)
+    role = mv["role"]
+    for r in np.unique(role[ok]):
+        same = role == r
+        typical[same] = np.median(fw[ok & same])
+    return np.where(missing, typical, w), ": no ;WIDTH: for it, the median flow width of its feature"
 
 
 def _fail(program: Program, line: int, what: str) -> None:
@@ -182,15 +238,20 @@ def check_bounds(program: Program) -> None:
         ratio = np.where(seg >= _MIN_LEN_FOR_RATIO, e / np.maximum(seg, 1e-300), 0.0)
     checks.append((in_layer & (ratio > MAX_DE_PER_MM), lambda i: (
         f"the extrusion pushes {ratio[i]:.3g} mm of filament per mm of path (at most {MAX_DE_PER_MM:g}); {fix}")))
-    # a long extrusion with almost no filament for its ;WIDTH: x ;HEIGHT: is a damaged coordinate (a
-    # perimeter point moved across the bed turns one bead into a spike the FEA meshes into slivers)
-    w, h = mv["width"], mv["height"]
+    # a long extrusion with almost no filament for its bead is a damaged coordinate (a perimeter point
+    # moved across the bed turns one bead into a spike the FEA meshes into slivers)
+    area = _filament_area(program.config)
+    w, typical = _bead_widths(mv, seg, in_layer, area)
+    h = mv["height"]
     with np.errstate(divide="ignore", invalid="ignore"):
-        share = e * _filament_area(program.config) / (seg * w * h)
-    starved = in_layer & (seg > MIN_LEN_STARVED_MM) & (w > 0) & (h > 0) & (share < MIN_FLOW_SHARE)
+        share = e * area / (seg * w * h)
+    wall = np.isin(mv["role"], _WALLS)
+    floor = np.where(wall, MIN_WALL_FLOW_SHARE, MIN_FLOW_SHARE)
+    starved = in_layer & (seg > MIN_LEN_STARVED_MM) & (w > 0) & (h > 0) & (share < floor)
     checks.append((starved, lambda i: (
-        f"the extrusion runs {seg[i]:.1f} mm with {e[i]:g} mm of filament, {100 * share[i]:.2g} % of what its "
-        f"bead ({w[i]:g} x {h[i]:g} mm) needs (at least {100 * MIN_FLOW_SHARE:g} % over more than "
+        f"the extrusion runs {seg[i]:.1f} mm with {e[i]:g} mm of filament, {100 * share[i]:.2g} % of what "
+        f"its bead ({w[i]:.3g} x {h[i]:.3g} mm{'' if np.isfinite(mv['width'][i]) else typical}) needs (at "
+        f"least {100 * floor[i]:g} %{' on a wall' if wall[i] else ''} over more than "
         f"{MIN_LEN_STARVED_MM:g} mm); {fix}")))
     for name, col in (("width", "width"), ("height", "height")):
         v = mv[col]
