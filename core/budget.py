@@ -27,6 +27,7 @@ __all__ = [
     "MESH_ELEMENTS",
     "MESH_NODES",
     "ENGINE_CELLS",
+    "DIRECT_BYTES",
     "MESH_SECONDS",
     "MESH_SECONDS_PER_ELEMENT",
     "WALL_PER_CPU",
@@ -75,6 +76,14 @@ triangles above took 12 s CPU in 55 s wall at a load of 12 on 2 cores)."""
 
 WALL_SECONDS = 60.0
 """Wall seconds added to every wall-time limit (:data:`WALL_PER_CPU`)."""
+
+DIRECT_BYTES = 2**30
+"""Expected bytes of SuperLU's factors (:func:`loadpath.fea.solver.direct_fill_bytes`) above which
+the FEA is not solved directly: AMG-CG instead, and no direct fall-back when CG misses its
+tolerance.  A process needs about twice the estimate at its peak (313,000 2D dofs: 756 MB of
+factors, 1.8 GB peak RSS), so this keeps a solve within a 4 GiB address space.  Every system
+within :data:`loadpath.fea.solver.DIRECT_LIMIT` is below it (150,000 2D dofs: 354 MB; 15,000 3D
+dofs: 135 MB); the fall-backs meet it at about 400,000 2D and 68,000 3D dofs."""
 
 ENGINE_CELLS = 500_000
 """One unit's fill region in pitch cells (area / pitch^2): the engines' path samples and QP
