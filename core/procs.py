@@ -325,8 +325,7 @@ def _child_answer(fn: Callable[[], Any], w: int, cpu_s: float) -> None:  # pragm
         null = os.open(os.devnull, os.O_WRONLY)
         os.dup2(null, 1)
         os.dup2(null, 2)
-        lim = max(1, math.ceil(cpu_s))
-        resource.setrlimit(resource.RLIMIT_CPU, (lim, lim + 2))
+        _limit_cpu(resource, max(1, math.ceil(cpu_s)))
         try:
             answer = (True, fn())
         except Exception as exc:  # noqa: BLE001 (re-raised in the parent)
@@ -342,6 +341,14 @@ def _child_answer(fn: Callable[[], Any], w: int, cpu_s: float) -> None:  # pragm
         code = 1
     finally:
         os._exit(code)
+
+
+def _limit_cpu(resource: Any, seconds: int) -> None:  # pragma: no cover (child)
+    """``RLIMIT_CPU`` of ``seconds`` (SIGXCPU), SIGKILL 2 s later; never above a limit already set
+    (a caller's own CPU limit, as the fuzzer's, is inherited and cannot be raised)."""
+    _, hard = resource.getrlimit(resource.RLIMIT_CPU)
+    cap = hard if hard != resource.RLIM_INFINITY else seconds + 2
+    resource.setrlimit(resource.RLIMIT_CPU, (min(seconds, cap), min(seconds + 2, cap)))
 
 
 def _read_until(fd: int, deadline: float) -> bytes | None:
