@@ -279,9 +279,7 @@ def in_child(fn: Callable[[], Any], cpu_s: float, wall_s: float) -> Any:
         return fn()
     import pickle
 
-    sys.stdout.flush()
-    sys.stderr.flush()
-    r, w = os.pipe()
+    r, w = os.pipe()  # no flush of sys.stdout first: the child leaves by os._exit, its buffers unwritten
     t0 = time.monotonic()
     pid = os.fork()
     if pid == 0:  # pragma: no cover (the child; covered through its answers)
