@@ -294,14 +294,17 @@ def in_child(fn: Callable[[], Any], cpu_s: float, wall_s: float) -> Any:
         raise
     finally:
         os.close(r)
-    if not data:
+    try:
+        ok, value = pickle.loads(data) if data else (None, None)
+    except Exception:  # noqa: BLE001 (an answer cut short: the child was killed while writing it)
+        ok = None
+    if ok is None:
         cpu = usage.ru_utime + usage.ru_stime
         sig = os.WTERMSIG(status) if os.WIFSIGNALED(status) else 0
         if data is None or sig == signal.SIGXCPU or (sig == signal.SIGKILL and cpu >= cpu_s):
             raise OverLimit(cpu, time.monotonic() - t0)
         how = f"signal {sig}" if sig else f"exit {os.waitstatus_to_exitcode(status)}"
-        raise ChildCrashed(f"the child process ended by {how} without an answer")
-    ok, value = pickle.loads(data)
+        raise ChildCrashed(f"the child process ended by {how} without a whole answer")
     if ok:
         return value
     raise value
