@@ -27,8 +27,15 @@ __all__ = [
     "MESH_ELEMENTS",
     "MESH_NODES",
     "ENGINE_CELLS",
+    "DIRECT_BYTES",
+    "MESH_SECONDS",
+    "MESH_SECONDS_PER_ELEMENT",
+    "WALL_PER_CPU",
+    "WALL_SECONDS",
     "check",
     "mesh_elements_estimate",
+    "mesh_seconds",
+    "tets_estimate",
 ]
 
 LAYER_SEGMENTS = 2_000_000
@@ -51,6 +58,32 @@ element sizes; real parts: below 20,000)."""
 MESH_NODES = 3_000_000
 """Nodes of the mesh gmsh returned (2D or 3D), before the stiffness matrix is assembled (real parts:
 below 100,000; the 3D default mesh is coarsened to 60,000 tetrahedra)."""
+
+MESH_SECONDS = 10.0
+"""CPU seconds gmsh's mesher may take on any mesh, before the share that grows with its elements
+(:func:`mesh_seconds`).  gmsh has no time limit of its own and loops for ever on some outlines."""
+
+MESH_SECONDS_PER_ELEMENT = 2e-4
+"""CPU seconds per estimated element on top of :data:`MESH_SECONDS`.  gmsh's Frontal-Delaunay with
+its optimisation took 22, 39 and 60 us per triangle for 12,700, 50,000 and 199,000 triangles (a
+150 x 36 mm plate with a hole, shared test machine), so this leaves a margin of three or more; the
+largest mesh the budget admits (:data:`MESH_ELEMENTS`) gets 210 s."""
+
+WALL_PER_CPU = 10.0
+"""Wall seconds allowed per CPU second of a time budget, plus :data:`WALL_SECONDS`: only for a
+child that blocks without using CPU.  A busy shared machine stretches wall time (the 199,000
+triangles above took 12 s CPU in 55 s wall at a load of 12 on 2 cores)."""
+
+WALL_SECONDS = 60.0
+"""Wall seconds added to every wall-time limit (:data:`WALL_PER_CPU`)."""
+
+DIRECT_BYTES = 2**30
+"""Expected bytes of SuperLU's factors (:func:`loadpath.fea.solver.direct_fill_bytes`) above which
+the FEA is not solved directly: AMG-CG instead, and no direct fall-back when CG misses its
+tolerance.  A process needs about twice the estimate at its peak (313,000 2D dofs: 756 MB of
+factors, 1.8 GB peak RSS), so this keeps a solve within a 4 GiB address space.  Every system
+within :data:`loadpath.fea.solver.DIRECT_LIMIT` is below it (150,000 2D dofs: 354 MB; 15,000 3D
+dofs: 135 MB); the fall-backs meet it at about 400,000 2D and 68,000 3D dofs."""
 
 ENGINE_CELLS = 500_000
 """One unit's fill region in pitch cells (area / pitch^2): the engines' path samples and QP
@@ -115,3 +148,20 @@ def mesh_elements_estimate(area: float, h: float, h_min: float, grading: float,
     band = k * refined_length / grading * (1.0 / h_min - 1.0 / h)
     disc = 2 * math.pi * k / grading**2 * (math.log(h / h_min) + h_min / h - 1.0)
     return bulk + band + corners * disc
+
+
+def mesh_seconds(elements: float) -> float:
+    """CPU seconds gmsh may spend on a mesh of about ``elements`` elements.
+
+    ``MESH_SECONDS + MESH_SECONDS_PER_ELEMENT * elements``; NaN counts as the budget's limit.
+    """
+    if not elements >= 0:
+        elements = MESH_ELEMENTS
+    return MESH_SECONDS + MESH_SECONDS_PER_ELEMENT * min(float(elements), 10.0 * MESH_ELEMENTS)
+
+
+def tets_estimate(volume: float, h: float) -> float:
+    """Tetrahedra of edge ``h`` (mm) filling ``volume`` (mm^3): a regular one holds ``h^3 / (6 sqrt 2)``."""
+    import math
+
+    return 6.0 * math.sqrt(2.0) * max(volume, 0.0) / max(h, 1e-9) ** 3

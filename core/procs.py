@@ -15,6 +15,7 @@ starts its workers through :func:`worker_init`:
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 import os
 import signal
@@ -26,7 +27,7 @@ from typing import Any
 
 __all__ = [
     "Interrupted", "raise_if_stopped", "worker_init", "die_with_parent", "stop_pool", "forks", "fork_map",
-    "children_of", "warm_start_method",
+    "children_of", "warm_start_method", "in_child", "OverLimit", "ChildCrashed",
 ]
 
 _PR_SET_PDEATHSIG = 1
@@ -239,3 +240,145 @@ def children_of(pid: int) -> list[int]:
         if int(fields[1]) == pid:
             out.append(int(name))
     return out
+
+
+class OverLimit(Exception):
+    """:func:`in_child`: the child used up its CPU time (``RLIMIT_CPU``) or its wall time and was killed."""
+
+    def __init__(self, cpu_s: float, wall_s: float) -> None:
+        self.cpu_s, self.wall_s = cpu_s, wall_s
+        super().__init__(f"stopped after {cpu_s:.1f} s CPU, {wall_s:.1f} s wall")
+
+
+class ChildCrashed(Exception):
+    """:func:`in_child`: the child died without an answer (a signal such as SIGSEGV, or out of memory)."""
+
+
+def in_child(fn: Callable[[], Any], cpu_s: float, wall_s: float) -> Any:
+    """``fn()`` in a forked child that is killed after ``cpu_s`` s of CPU time or ``wall_s`` s of wall time.
+
+    For C code that can run for ever and that no signal interrupts (gmsh's mesher): the caller
+    gets control back at the limit, and a stop signal (:mod:`loadpath.plugin.lifecycle`) ends the
+    wait at once.  The child inherits everything (nothing is pickled on the way in), ignores SIGINT
+    (its parent answers Ctrl-C), dies with its parent (``PR_SET_PDEATHSIG``) and has its stdout and
+    stderr on ``/dev/null``; only its result (or the exception ``fn`` raised) comes back, pickled
+    through a pipe.  The child calls no code but ``fn``'s and leaves by ``os._exit``, so locks other
+    threads held at the fork do not matter unless ``fn`` takes them.  Where there is no ``fork``
+    (Windows), ``fn()`` runs here, without limits.
+
+    Raises
+    ------
+    OverLimit
+        A limit was reached (the child is dead).
+    ChildCrashed
+        The child died by a signal or gave no answer.
+    Exception
+        Whatever ``fn`` raised, re-raised here.
+    """
+    if not hasattr(os, "fork"):  # pragma: no cover (Windows)
+        return fn()
+    import pickle
+
+    r, w = os.pipe()  # no flush of sys.stdout first: the child leaves by os._exit, its buffers unwritten
+    t0 = time.monotonic()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover (the child; covered through its answers)
+        os.close(r)
+        _child_answer(fn, w, cpu_s)
+    os.close(w)
+    try:
+        data = _read_until(r, t0 + wall_s)
+        status, usage = _wait_child(pid, data is None)
+    except BaseException:
+        _kill_child(pid)
+        raise
+    finally:
+        os.close(r)
+    try:
+        ok, value = pickle.loads(data) if data else (None, None)
+    except Exception:  # noqa: BLE001 (an answer cut short: the child was killed while writing it)
+        ok = None
+    if ok is None:
+        cpu = usage.ru_utime + usage.ru_stime
+        sig = os.WTERMSIG(status) if os.WIFSIGNALED(status) else 0
+        if data is None or sig == signal.SIGXCPU or (sig == signal.SIGKILL and cpu >= cpu_s):
+            raise OverLimit(cpu, time.monotonic() - t0)
+        how = f"signal {sig}" if sig else f"exit {os.waitstatus_to_exitcode(status)}"
+        raise ChildCrashed(f"the child process ended by {how} without a whole answer")
+    if ok:
+        return value
+    raise value
+
+
+def _child_answer(fn: Callable[[], Any], w: int, cpu_s: float) -> None:  # pragma: no cover (child)
+    """In the forked child of :func:`in_child`: limits, run ``fn``, write the pickled answer, exit."""
+    import pickle
+    import resource
+
+    code = 0
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        if sys.platform.startswith("linux"):
+            import ctypes
+
+            ctypes.CDLL(None).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        _limit_cpu(resource, max(1, math.ceil(cpu_s)))
+        try:
+            answer = (True, fn())
+        except Exception as exc:  # noqa: BLE001 (re-raised in the parent)
+            answer = (False, exc)
+        try:
+            data = pickle.dumps(answer, protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception as exc:  # noqa: BLE001
+            data = pickle.dumps((False, RuntimeError(f"{type(exc).__name__}: {exc}")))
+        view = memoryview(data)
+        while view:
+            view = view[os.write(w, view):]
+    except BaseException:  # noqa: BLE001
+        code = 1
+    finally:
+        os._exit(code)
+
+
+def _limit_cpu(resource: Any, seconds: int) -> None:  # pragma: no cover (child)
+    """``RLIMIT_CPU`` of ``seconds`` (SIGXCPU), SIGKILL 2 s later; never above a limit already set
+    (a caller's own CPU limit, as the fuzzer's, is inherited and cannot be raised)."""
+    _, hard = resource.getrlimit(resource.RLIMIT_CPU)
+    cap = hard if hard != resource.RLIM_INFINITY else seconds + 2
+    resource.setrlimit(resource.RLIMIT_CPU, (min(seconds, cap), min(seconds + 2, cap)))
+
+
+def _read_until(fd: int, deadline: float) -> bytes | None:
+    """Everything written to pipe ``fd`` until its writer closes it; None at ``deadline``."""
+    import select
+
+    chunks = []
+    while True:
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([fd], [], [], left)[0]:
+            return None
+        chunk = os.read(fd, 1 << 20)
+        if not chunk:
+            return b"".join(chunks)
+        chunks.append(chunk)
+
+
+def _wait_child(pid: int, kill: bool) -> tuple[int, Any]:
+    """Kill the child first if ``kill``; its wait status and resource usage."""
+    if kill:
+        _kill_child(pid, reap=False)
+    _, status, usage = os.wait4(pid, 0)
+    return status, usage
+
+
+def _kill_child(pid: int, reap: bool = True) -> None:
+    try:
+        os.kill(pid, signal.SIGKILL)
+        if reap:
+            os.waitpid(pid, 0)
+    except (ProcessLookupError, ChildProcessError):
+        pass

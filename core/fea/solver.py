@@ -24,11 +24,16 @@ restored afterwards: the same system always gives the same bytes.
 from __future__ import annotations
 
 import contextlib
+import math
+import os
+import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from loadpath import budget
 from loadpath._lazy import lazy
 from loadpath.errors import SolverError
 from loadpath.fea.assembly import constitutive, stiffness
@@ -41,7 +46,7 @@ from loadpath.tolerances import TOL
 sp = lazy("scipy.sparse")  # imported when a problem is solved, not when a cached result is loaded
 spla = lazy("scipy.sparse.linalg")
 
-__all__ = ["Problem", "FEAResult", "solve", "DIRECT_LIMIT", "FALLBACK_LIMIT"]
+__all__ = ["Problem", "FEAResult", "solve", "DIRECT_LIMIT", "FALLBACK_LIMIT", "direct_fill_bytes"]
 
 DIRECT_LIMIT = {2: 150_000, 3: 15_000}
 """Largest number of free dofs solved directly (SuperLU), per dimension; above: AMG-CG."""
@@ -182,8 +187,9 @@ def solve(
         raise SolverError(
             "the load vector is zero: no load reaches the free part of the mesh; check the load selectors"
         )
+    fits = direct_fill_bytes(len(free), d) <= budget.DIRECT_BYTES
     if method == "auto":
-        method = "direct" if len(free) <= DIRECT_LIMIT[d] else "amg-cg"
+        method = "direct" if len(free) <= DIRECT_LIMIT[d] and fits else "amg-cg"
     if method not in ("direct", "amg-cg"):
         raise ValueError(f"method must be 'auto', 'direct' or 'amg-cg', not {method!r}")
     iters = 0
@@ -199,19 +205,30 @@ def solve(
 
     with _one_blas_thread():
         if method == "direct":
-            res = residual_of(_direct(K[free][:, free], b))
+            try:
+                res = residual_of(_direct(K[free][:, free], b))
+            except _NoMemory as exc:  # no AMG-CG then: with memory this short, OpenBLAS may exit the process
+                raise SolverError(f"the direct FEA solve of {len(free):,} unknowns {exc}; {_FIX_SIZE}") \
+                    from None
         else:
             x, iters, restarts = _amg_cg(K, b, free_mask, mesh, rtol, TOL.fea_residual, maxiter)
             res = residual_of(x)
             if restarts:
                 status = f"converged after {restarts} restart{'s' if restarts > 1 else ''}"
-            if res > TOL.fea_residual and len(free) <= FALLBACK_LIMIT[d]:
+            if res > TOL.fea_residual and len(free) <= FALLBACK_LIMIT[d] and fits:
                 status = (
                     f"amg-cg stopped at relative residual {res:.1e} after {iters} iterations "
                     f"({restarts} restarts); solved directly"
                 )
                 method = "amg-cg+direct"
-                res = residual_of(_direct(K[free][:, free], b))
+                try:
+                    res = residual_of(_direct(K[free][:, free], b))
+                except _NoMemory as exc:
+                    raise SolverError(
+                        f"the FEA solve did not converge: amg-cg stopped at relative residual {res:.1e} "
+                        f"after {iters} iterations ({len(free):,} free dofs), and the direct solve {exc}; "
+                        f"{_FIX_SIZE}"
+                    ) from None
     t2 = time.perf_counter()
     if res > TOL.fea_residual:
         raise SolverError(
@@ -250,22 +267,99 @@ def _one_blas_thread() -> contextlib.AbstractContextManager[object]:
     return threadpool_limits(limits=1, user_api="blas")
 
 
+_FIX_SIZE = ("the mesh is far larger than the part needs (is a coordinate in the file far outside the "
+             "part?); check the file, or set a larger --pitch (a coarser mesh)")
+
+_FILL_PER_DOF = {2: 12.0, 3: 32.0}
+"""Factor entries per ``n log2 n`` (2D) or ``n^(4/3)`` (3D) of SuperLU with the ordering of
+:func:`_direct` (nested-dissection growth).  Measured on a 150 x 36 mm plate with a hole (quadratic
+triangles): 7.5, 8.9, 10.1, 11.0 at 13,600, 51,500, 140,000, 313,000 dofs; 3D from the 3 GB at
+150,000 dofs of quadratic tetrahedra (:data:`FALLBACK_LIMIT`)."""
+
+
+def direct_fill_bytes(n: int, dim: int) -> float:
+    """Bytes SuperLU's factors of ``n`` unknowns are expected to take (12 per entry: value and index).
+
+    ``12 * c * n log2 n`` in 2D, ``12 * c * n^(4/3)`` in 3D (:data:`_FILL_PER_DOF`).  Compared with
+    :data:`loadpath.budget.DIRECT_BYTES` before the factorisation; pivoting on badly shaped
+    elements can still need more, which :func:`_direct` catches.
+    """
+    n = max(int(n), 2)
+    growth = n * math.log2(n) if dim == 2 else n ** (4.0 / 3.0)
+    return 12.0 * _FILL_PER_DOF[dim] * growth
+
+
+class _NoMemory(Exception):
+    """SuperLU could not allocate its factors; the message says so (``"needs more memory ..."``)."""
+
+
 def _direct(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
     """Solve with SuperLU, plus one step of iterative refinement.
 
     A symmetric ordering (minimum degree on A + A^T, diagonal pivots first) gives 5-10x less fill
     and time than the default column ordering on these matrices.
+
+    SuperLU reports a failed allocation in three ways: ``MemoryError``, ``SystemError`` (an error
+    return without an exception) or a ``RuntimeError`` naming ``SUPERLU_MALLOC``; before the
+    first two it prints its own line ("Can't expand MemType 0: jcol ...") on the C stderr.  That
+    line is kept out of the user's stderr (:func:`_c_stderr_kept`) and all three become
+    :class:`_NoMemory`.
+
+    Raises
+    ------
+    SolverError
+        The matrix is singular.
+    _NoMemory
+        The factors did not fit in memory.
     """
-    with np.errstate(all="ignore"):
-        try:
+    said: list[str] = []
+    try:
+        with np.errstate(all="ignore"), _c_stderr_kept(said):
             lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
-        except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
-            raise SolverError(
-                f"the stiffness matrix is singular ({exc}); the part is not held against rigid motion"
-            ) from exc
-        x = lu.solve(b)
-        x += lu.solve(b - A @ x)
+            x = lu.solve(b)
+            x += lu.solve(b - A @ x)
+    except (MemoryError, SystemError) as exc:
+        raise _NoMemory(_no_memory(exc, said)) from None
+    except RuntimeError as exc:  # SuperLU: "Factor is exactly singular", or a failed SUPERLU_MALLOC
+        if "MALLOC" in str(exc):
+            raise _NoMemory(_no_memory(exc, said)) from None
+        raise SolverError(
+            f"the stiffness matrix is singular ({exc}); the part is not held against rigid motion"
+        ) from exc
     return np.asarray(x)
+
+
+def _no_memory(exc: BaseException, said: list[str]) -> str:
+    """``"needs more memory than this process may use (SuperLU: ...)"``: one line."""
+    text = (said[0] if said else "") or str(exc).split(" at line ")[0] or type(exc).__name__
+    return f"needs more memory than this process may use (SuperLU: {' '.join(text.split())[:80]})"
+
+
+@contextlib.contextmanager
+def _c_stderr_kept(said: list[str]) -> Iterator[None]:
+    """File descriptor 2 goes to a temporary file while inside; its lines are put in ``said`` on leaving.
+
+    SuperLU writes its memory complaints with C's ``fprintf(stderr, ...)``, which no Python
+    redirection sees.  Anything else written to fd 2 meanwhile (another thread's) is kept out too:
+    the solves run in the job's own thread of its own process.
+    """
+    import tempfile
+
+    try:
+        saved = os.dup(2)
+    except OSError:  # no fd 2
+        yield
+        return
+    with tempfile.TemporaryFile() as tmp:
+        sys.stderr.flush()
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            said.extend(ln for ln in tmp.read(4096).decode(errors="replace").splitlines() if ln.strip())
 
 
 def _p1_prolongation(mesh: MeshData) -> sp.csr_matrix:

@@ -212,7 +212,7 @@ def mesh_2d(
         ``tri6`` (or ``tri3``) cells, counter-clockwise.
     """
     sz = MeshSize.uniform(float(size)) if not isinstance(size, MeshSize) else size
-    _check_budget(outline, sz, [*refine_outlines], [*refine_at, *embed])
+    elements = _check_budget(outline, sz, [*refine_outlines], [*refine_at, *embed])
     t0 = time.perf_counter()
     polys = prepare_rings(outline, sz, split_at)
     groups = refine_groups([outline, *refine_outlines], sz, [*refine_at, *embed])
@@ -254,8 +254,7 @@ def mesh_2d(
                 gmsh.model.mesh.embed(1, tags, 2, surfaces[k])
         _size_field(gmsh, groups, sz)
         gmsh.option.setNumber("Mesh.ElementOrder", order)
-        gmsh.model.mesh.generate(2)
-        points, cells = _extract(gmsh, 2, GMSH_TRI6 if order == 2 else 2, 6 if order == 2 else 3)
+        points, cells = _generate(gmsh, 2, order, elements, _OUTLINE_FIX)
     points = points[:, :2]
     cells = _orient_tri(points, cells)
     stats = {"t_gmsh": time.perf_counter() - t0, "h": sz.h, "h_min": sz.h_min, "h_bc": sz.h_bc}
@@ -268,8 +267,13 @@ _MESH_FIX = ("the mesh is sized from the infill pitch, which is implausibly smal
              "larger --pitch, or check the file's infill (;WIDTH: lines, extrusion)")
 
 
-def _check_budget(outline: Region, sz: MeshSize, more: Sequence[Region], lines: Sequence[BaseGeometry]) -> None:
-    """Stop before gmsh when the mesh would exceed :data:`loadpath.budget.MESH_ELEMENTS` triangles."""
+def _check_budget(
+    outline: Region, sz: MeshSize, more: Sequence[Region], lines: Sequence[BaseGeometry]
+) -> float:
+    """Stop before gmsh when the mesh would exceed :data:`loadpath.budget.MESH_ELEMENTS` triangles.
+
+    Returns the estimate (triangles), which sets gmsh's time budget (:func:`_generate`).
+    """
     from loadpath.body import polygons_of
     from loadpath.mesh.sizing import reentrant_corners
 
@@ -279,6 +283,52 @@ def _check_budget(outline: Region, sz: MeshSize, more: Sequence[Region], lines: 
     est = budget.mesh_elements_estimate(outline.area, sz.h, sz.h_min, sz.grading, refined, corners)
     budget.check(est, budget.MESH_ELEMENTS, "", f"triangles estimated for the mesh ({outline.area:,.0f} mm2 "
                  f"at {sz.h:.3g} mm, {sz.h_min:.3g} mm at {refined:,.0f} mm of holes and boundary)", _MESH_FIX)
+    return est
+
+
+_OUTLINE_FIX = ("the outline has a detail far below the mesh size that gmsh cannot resolve (a notch or "
+                "gap nearly closing on itself, as a damaged or missing wall line leaves): check the "
+                "layer's walls in the file, or set another --pitch (it sets the mesh size)")
+_STL_FIX = ("the STL surface may have details far below the mesh size or self-intersections: repair it "
+            "or set another mesh size")
+
+
+def _generate(gmsh: Any, dim: int, order: int, elements: float, fix: str) -> tuple[np.ndarray, np.ndarray]:
+    """Run gmsh's mesher on the model and :func:`_extract` the elements, within a time budget.
+
+    gmsh's 2D and 3D meshers can loop for ever on some geometry (a fuzzed Cura bracket whose hole
+    wall lost one line to ``M486 S3`` ran 9.4 min of CPU in ``generate(2)``); the time is in C,
+    where neither Ctrl-C nor SIGTERM reaches.  So the mesher runs in a forked child
+    (:func:`loadpath.procs.in_child`) with :func:`loadpath.budget.mesh_seconds` of CPU time for the
+    estimated element count; only the nodes and elements come back.  The parent waits in Python,
+    so a stop signal ends the wait (and the child) at once.
+
+    Raises
+    ------
+    BudgetError
+        The mesher did not finish within its time.
+    MeshingError
+        gmsh crashed, or made no elements (:func:`_extract`).
+    """
+    from loadpath import procs
+
+    k = {2: 6 if order == 2 else 3, 3: 10 if order == 2 else 4}[dim]
+    etype = {(2, 2): GMSH_TRI6, (2, 1): 2, (3, 2): GMSH_TET10, (3, 1): 4}[dim, order]
+
+    def mesh() -> tuple[np.ndarray, np.ndarray]:
+        gmsh.model.mesh.generate(dim)
+        if dim == 3 and order == 2:
+            gmsh.model.mesh.setOrder(2)
+        return _extract(gmsh, dim, etype, k)
+
+    cpu_s = budget.mesh_seconds(elements)
+    try:
+        return procs.in_child(mesh, cpu_s, budget.WALL_PER_CPU * cpu_s + budget.WALL_SECONDS)
+    except procs.OverLimit as exc:
+        raise BudgetError(f"gmsh's mesher did not finish within its time budget of {cpu_s:.0f} s CPU "
+                          f"for about {elements:,.0f} elements ({exc}); {fix}") from None
+    except procs.ChildCrashed as exc:
+        raise MeshingError(f"gmsh crashed while meshing ({exc}); {fix}") from None
 
 
 def _check_inside(outline: Region, embed: Sequence[BaseGeometry], tol: float) -> None:
@@ -444,10 +494,9 @@ def mesh_stl(
         gmsh.model.geo.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMax", sz.h)
         gmsh.option.setNumber("Mesh.MeshSizeMin", 0.5 * sz.h_min)
-        gmsh.model.mesh.generate(3)
-        if order == 2:
-            gmsh.model.mesh.setOrder(2)
-        points, cells = _extract(gmsh, 3, GMSH_TET10 if order == 2 else 4, 10 if order == 2 else 4)
+        x0, y0, z0, x1, y1, z1 = gmsh.model.getBoundingBox(-1, -1)
+        tets = budget.tets_estimate((x1 - x0) * (y1 - y0) * (z1 - z0), sz.h)
+        points, cells = _generate(gmsh, 3, order, tets, _STL_FIX)
     if order == 2:
         cells = cells[:, _TET10_FROM_GMSH]
     if transform is not None:

@@ -114,10 +114,34 @@ def prepare_rings(
         for r in [poly.exterior, *poly.interiors]:
             c, keep = insert_points(np.asarray(r.coords)[:-1, :2], extra, 1e-3 * size.h_min)
             rings.append(decimate(c, 0.2 * size.h_min, keep=keep))
+        _check_crossing(rings, 0.2 * size.h_min)
         polys.append(rings)
     if not polys:
         raise MeshingError("the part outline is empty after cleaning; check the layer geometry")
     return polys
+
+
+def _check_crossing(rings: list[np.ndarray], merged: float) -> None:
+    """Raise :class:`MeshingError` when the cleaned rings of one polygon cross each other or themselves.
+
+    A notch or gap much narrower than the mesh (a wall line lost to a damaged or replaced G-code
+    line) can cross itself once nearby vertices are merged; gmsh's mesher then never returns on it
+    (a polygon whose edge crosses a vertex's edge ran over a minute in ``generate(2)``).  Rings that
+    only touch at a point are left to gmsh.
+    """
+    from shapely.geometry import Polygon
+    from shapely.validation import explain_validity
+
+    why = explain_validity(Polygon(rings[0], rings[1:]))
+    if not why.startswith("Self-intersection"):
+        return
+    x, y = (float(v) for v in why[why.index("[") + 1 : why.index("]")].split()[:2])
+    raise MeshingError(
+        f"the part outline crosses itself near ({x:.3f}, {y:.3f}) mm once vertices closer than "
+        f"{merged:.3g} mm are merged for the mesh: a notch or gap there is far narrower than any mesh "
+        "can follow (a wall line missing or damaged in the file?); check the walls at that place, or set "
+        "a smaller --pitch (it sets the mesh size)"
+    )
 
 
 def sample(geom: BaseGeometry, step: float) -> np.ndarray:

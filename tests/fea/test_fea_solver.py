@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from loadpath.errors import SolverError
@@ -96,3 +99,51 @@ def test_singular_system_is_an_error_naming_the_cause():
     free = Problem(problem.mesh, problem.D, problem.f, np.zeros(0, dtype=np.int64))
     with pytest.raises(SolverError, match="singular|not held|did not converge"):
         solve(free, method="amg-cg", maxiter=50)
+
+
+def test_a_system_whose_factors_exceed_the_fill_budget_is_not_solved_directly(monkeypatch):
+    from loadpath import budget
+
+    monkeypatch.setattr(budget, "DIRECT_BYTES", 1e6, raising=False)  # the cantilever's factors: ~14 MB
+    r = solve(_cantilever(), method="auto")
+    assert r.method == "amg-cg" and r.residual <= TOL.fea_residual
+
+
+_SHORT_OF_MEMORY = """
+import os, resource
+import subprocess
+import sys
+
+import numpy as np
+from shapely.geometry import Point, box
+from loadpath.errors import SolverError
+from loadpath.fea import Problem, solve
+from loadpath.fea.material import plane_stress
+from loadpath.mesh import mesh_2d
+import scipy.sparse.linalg
+
+m = mesh_2d(box(0, 0, 150, 36).difference(Point(75, 18).buffer(3)), 0.6)  # 140,000 dofs
+x = m.points[:, 0]
+f = np.zeros(m.points.size)
+f[np.flatnonzero(x > 150 - 1e-9) * 2] = 1.0
+problem = Problem(m, plane_stress(3500, 0.35), f, np.flatnonzero(np.repeat(x < 1e-9, 2)))
+vm = int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+cap = vm + 600 * 2**20  # SuperLU's factors need about 750 MB more
+resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+try:
+    solve(problem, method="direct")
+    print("solved")
+except SolverError as exc:
+    print(exc)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc and limits RLIMIT_AS")
+def test_a_direct_solve_short_of_memory_is_one_line_and_nothing_reaches_stderr():
+    # the fuzz run's seed 4042: SuperLU printed "Can't expand MemType 0: jcol ..." on the C stderr and
+    # raised (SystemError there, MemoryError here), so the refusal was two lines
+    p = subprocess.run([sys.executable, "-c", _SHORT_OF_MEMORY], capture_output=True, text=True, timeout=300)
+    assert p.stderr == "", p.stderr
+    lines = p.stdout.splitlines()
+    assert len(lines) == 1 and "needs more memory than this process may use (SuperLU: " in lines[0], p.stdout
+    assert "140,374 unknowns" in lines[0] and "set a larger --pitch" in lines[0]
