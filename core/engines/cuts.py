@@ -79,7 +79,7 @@ def cut_paths(
     hop: float = 0.0,
     field: object | None = None,
     stress_share: float = 0.5,
-) -> tuple[list[Path], int]:
+) -> tuple[list[Path], int, Points2]:
     """The paths with cuts wherever two free run ends have one to ``max_cross`` paths between them.
 
     The segment between the two ends crosses each path between them once; each is cut ``gap``
@@ -118,13 +118,17 @@ def cut_paths(
         the path's end).
     cuts : int
         How many cuts.
+    touched : (m, 2) float, mm
+        The ends the cuts are for: the paired free ends and the new ends at the cuts (the only
+        ends the relinking may join anew).
     """
     from scipy.spatial import cKDTree  # imported here: a run whose links come from the cache needs no scipy
 
     ps = list(paths)
     ends = free_ends(runs)
+    none = np.zeros((0, 2))
     if len(ps) < 2 or len(ends) < 4:
-        return ps, 0
+        return ps, 0, none
     rid = np.repeat(np.arange(len(runs)), 2)
     tree_e = cKDTree(ends)
     lonely = np.ones(len(ends), dtype=bool)
@@ -133,10 +137,10 @@ def cut_paths(
             lonely[i] = all(rid[k] == rid[i] for k in nb)
     pairs = tree_e.query_pairs(reach * pitch, output_type="ndarray")
     if not len(pairs):
-        return ps, 0
+        return ps, 0, none
     pairs = pairs[(rid[pairs[:, 0]] != rid[pairs[:, 1]]) & lonely[pairs[:, 0]] & lonely[pairs[:, 1]]]
     if not len(pairs):
-        return ps, 0
+        return ps, 0, none
     limit = np.inf
     if field is not None:
         mag = _stress(field, np.concatenate([p.points for p in ps]))
@@ -182,8 +186,9 @@ def cut_paths(
             cut_at.setdefault(int(i), []).append((float(c), half))
         used_end[a] = used_end[b] = True
     if not cut_at:
-        return ps, 0
+        return ps, 0, none
     out: list[Path] = []
+    touched = [ends[used_end]]
     for i, p in enumerate(ps):
         if i not in cut_at:
             out.append(p)
@@ -197,4 +202,8 @@ def cut_paths(
             piece = _piece(p, s0, s1)
             if piece is not None:
                 out.append(piece)
-    return out, sum(len(v) for v in cut_at.values())
+                if s0 > 0.0:
+                    touched.append(piece.points[:1])
+                if s1 < total:
+                    touched.append(piece.points[-1:])
+    return out, sum(len(v) for v in cut_at.values()), np.concatenate(touched)

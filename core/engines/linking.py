@@ -284,7 +284,7 @@ def link_paths(
         return runs, stats
     ps = stats.pop("kept_paths")
     for _ in range(options.cut_rounds):
-        cut, n = cut_paths(
+        cut, n, touched = cut_paths(
             ps,
             runs,
             pitch,
@@ -297,8 +297,9 @@ def link_paths(
         )
         if not n:
             break
+        only = set(map(tuple, np.round(touched, 9).tolist()))
         runs2, stats2 = _link_layer(
-            cut, region, pitch, replace(options, min_fragment=0.0), stats.get("link_ends", ())
+            cut, region, pitch, replace(options, min_fragment=0.0), stats.get("link_ends", ()), only
         )
         hop = options.free_hop
         if hop_groups(runs2, hop) >= hop_groups(runs, hop) or len(runs2) > len(runs):
@@ -331,9 +332,15 @@ def hop_groups(runs: Sequence[Path], hop: float) -> int:
 
 
 def _link_layer(
-    paths: Sequence[Path], region: Region, pitch: float, options: LinkOptions, prefer: Sequence[tuple] = ()
+    paths: Sequence[Path],
+    region: Region,
+    pitch: float,
+    options: LinkOptions,
+    prefer: Sequence[tuple] = (),
+    only: set | None = None,
 ) -> tuple[tuple[Path, ...], dict]:
-    """One linking of a layer's paths (:func:`link_paths` without cuts; ``prefer`` as :func:`_link`).
+    """One linking of a layer's paths (:func:`link_paths` without cuts; ``prefer``, ``only`` as
+    :func:`_link`).
 
     Both ways share the fragments dropped, the ends, the samples and their trees, the candidate
     links and each candidate's geometric test (:class:`_Layer`): only the order in which the
@@ -370,10 +377,10 @@ def _link_layer(
         runs, spans = tuple(ps), [[] for _ in ps]
     else:
         if options.grow_chains is not None:
-            runs, stats = _link(layer, options.grow_chains, dict(stats), prefer)
+            runs, stats = _link(layer, options.grow_chains, dict(stats), prefer, only)
         else:
-            grown = _link(layer, True, dict(stats), prefer)
-            first = _link(layer, False, dict(stats), prefer)
+            grown = _link(layer, True, dict(stats), prefer, only)
+            first = _link(layer, False, dict(stats), prefer, only)
             runs, stats = grown if len(grown[0]) <= len(first[0]) else first
         spans = stats["links_at"]
     keep = drop_lone(runs, spans, options.lone_area * pitch * pitch, options.lone_share)
@@ -695,14 +702,15 @@ class _Laid:
 
 
 def _link(
-    layer: _Layer, grow_chains: bool, stats: dict, prefer: Sequence[tuple] = ()
+    layer: _Layer, grow_chains: bool, stats: dict, prefer: Sequence[tuple] = (), only: set | None = None
 ) -> tuple[tuple[Path, ...], dict]:
     """Link a prepared layer's paths one way: chains grown end by end (``grow_chains``) or all
     candidates shortest first; ``stats`` is filled in (see :func:`link_paths`).
 
     ``prefer``: links of an earlier linking, ``(end point, end point, boundary)`` each, laid first
     where both ends are still there and the link still passes its tests (the relinking after
-    cuts keeps the layer's other links as they were).
+    cuts keeps the layer's other links as they were); ``only`` (rounded end points): no new link
+    but between two of these ends (the ends of the cuts), so the rest of the layer stays as it was.
     """
     ps, options, pitch = layer.ps, layer.options, layer.pitch
     n = len(ps)
@@ -714,7 +722,7 @@ def _link(
     laid = _Laid(clear - 0.125 * pitch)
 
     def accept(ea: int, eb: int, straight_ok: bool, edge_ok: bool) -> bool:
-        if used[ea] or used[eb]:
+        if used[ea] or used[eb] or (allowed is not None and not (allowed[ea] and allowed[eb])):
             return False
         pa, pb = ea // 2, eb // 2
         ra, rb = _root(parent, pa), _root(parent, pb)
@@ -742,12 +750,15 @@ def _link(
         stats["link_mm"] += float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
         return True
 
+    allowed = None
     if prefer:
         at = {q: e for e, q in enumerate(map(tuple, np.round(e_pt, 9).tolist()))}
         for p0, p1, boundary in prefer:
             ea, eb = at.get(p0), at.get(p1)
             if ea is not None and eb is not None:
                 accept(ea, eb, not boundary, boundary)
+    if only is not None:
+        allowed = np.array([q in only for q in map(tuple, np.round(e_pt, 9).tolist())], dtype=bool)
 
     if grow_chains:
 

@@ -67,7 +67,7 @@ def test_cuts_only_where_the_stress_is_low():
         return np.column_stack([sxx, np.zeros(len(p)), np.zeros(len(p))])
 
     field = AnalyticField(tension, REGION, scale=10.0)
-    cut, n = cut_paths(paths, runs, W, reach=7.0, hop=1.0, field=field, stress_share=0.1)
+    cut, n, _ = cut_paths(paths, runs, W, reach=7.0, hop=1.0, field=field, stress_share=0.1)
     assert n == 2
     gaps = [e for e in free_ends(cut) if 0.3 < e[0] < 19.7 and not np.any(np.isclose(e[0], [5, 7, 10, 12]))]
     assert gaps and all(e[0] < 8.5 for e in gaps)
