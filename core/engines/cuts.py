@@ -21,13 +21,16 @@ The cut leaves two new ends ``j0`` and ``j1`` about a pitch apart where ``e1`` a
 its own tests accept them (inside the region, clear of every other path and link, no loop).
 Parity: ``e1`` and ``e2`` lose their odd degree, ``j0`` and ``j1`` are paired, so three runs (the
 two runs of ``e1`` and ``e2`` and the one through ``A``) become two.  The gap in ``A`` is covered by
-the two links' beads, each a pitch wide.
+the two links' beads, each a pitch wide.  With two or three paths between the ends, each is cut
+where the segment between the ends crosses it: a staircase of short links.
 
 :func:`cut_paths` picks the cuts: pairs of free run ends of different runs within ``reach``
-pitches whose straight segment crosses exactly one other path, and whose projections on that
-path lie at most ``span`` pitches apart (the gap a cut leaves is that long, at least ``gap``), the
-closest pairs first, each end and each path once.  :func:`loadpath.engines.linking.link_paths`
-relinks the cut paths and keeps them only when they give fewer runs.
+pitches, neither with another run's end within ``hop`` mm (the nozzle would go there primed: no
+retraction to save), whose straight segment crosses one to ``max_cross`` other paths once each,
+where the stress is low (``field``, ``stress_share``), the closest pairs first, each end once and
+cuts on one path well apart.  :func:`loadpath.engines.linking.link_paths` relinks the cut paths,
+the earlier links first and new links only between the ends of the cuts, and keeps them only when
+fewer groups of runs are left apart (:func:`loadpath.engines.linking.hop_groups`).
 """
 
 from __future__ import annotations

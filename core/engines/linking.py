@@ -118,7 +118,11 @@ class LinkOptions:
     cut_reach : float
         Two free run ends at most this many pitches apart with one to ``cut_cross`` paths between
         them are joined through cuts in those paths (:mod:`loadpath.engines.cuts`), when the
-        layer then leaves fewer groups of runs apart (:func:`hop_groups`); 0: no cuts.
+        layer then leaves fewer groups of runs apart (:func:`hop_groups`); 0 (the default): no
+        cuts.  7 pitches reach the pairs with up to three paths between them; off by default
+        because the bead model charges every cut (``cut_stress``): at the share that keeps the
+        bench's stiffness the retractions fall by 0-3 %, the travel rises by up to 4 %, and one
+        failure load is 0.02 % lower (``benchmarks/printability_results.md``, fourth round).
     cut_rounds : int
         How many times the cuts are looked for again on the runs the last ones gave.
     free_hop : float, mm
@@ -130,10 +134,10 @@ class LinkOptions:
         percentile at the layer's path vertices (with a field given to :func:`link_paths`).
         Bench (``benchmarks/bench_printability.py``, PrusaSlicer 100 %, swarm; retractions,
         stiffness, failure load; no cuts: beam 555, 1.0305, 0.9262, bracket 488, 1.0075, 0.9543):
-        0.1: beam 534, 1.0305, 0.9268, bracket 484, 1.0076, 0.9571; 0.2: beam 474, 1.0302,
-        0.9224, bracket 467, 1.0072, 0.9534; 0.5: beam 441, 1.0303, 0.9208.  More cuts, fewer
-        retractions, and stiffness and failure load a little lower: 0.1 is the share at which
-        neither fell on the bench.
+        0.1: beam 538, 1.0306, 0.9265, bracket 484, 1.0076, 0.9571; 0.5: beam 389, 1.0290,
+        0.9193, bracket 400, 1.0064, 0.9588.  More cuts, fewer retractions, and a little less
+        stiffness (each cut is a bead broken where it carried something): 0.1 is the share at
+        which neither fell on the bench (``benchmarks/printability_results.md``, fourth round).
     cut_gap : float
         Length of a cut, in pitches (:func:`loadpath.engines.cuts.cut_paths`).
     cut_cross : int
@@ -152,7 +156,7 @@ class LinkOptions:
     lone_area: float = 3.0
     lone_share: float = 0.005
     grow_chains: bool | None = None
-    cut_reach: float = 7.0
+    cut_reach: float = 0.0
     cut_rounds: int = 2
     free_hop: float = 1.0
     cut_stress: float = 0.1

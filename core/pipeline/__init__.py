@@ -548,8 +548,8 @@ def _link_key(paths: tuple[Path, ...], region, pitch: float, field=None, link_op
 
     Exact (no snapping): the links are a function of exactly these inputs, so a hit gives the very
     runs a new linking would; with a ``field`` (the cuts read it) its stress at every path vertex
-    too.  ``link_options`` None: the defaults.  The options are the defaults (:class:`LinkOptions`), named by their
-    repr; the code by :func:`loadpath.cache.code_stamp`.
+    too.  The options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by
+    their repr; the code by :func:`loadpath.cache.code_stamp`.
     """
     from loadpath.cache import code_stamp, digest
     from loadpath.engines.linking import LinkOptions

@@ -18,6 +18,7 @@ from shapely.geometry import box
 
 W = 0.45
 REGION = box(0, 0, 20, 6 * W)
+ON = LinkOptions(cut_reach=7.0)  # cuts are off by default
 
 
 def _layer() -> list[Path]:
@@ -35,8 +36,8 @@ def _layer() -> list[Path]:
 
 def test_two_squeezed_paths_join_the_zigzag_through_cuts():
     paths = _layer()
-    old, st0 = link_paths(paths, REGION, W, LinkOptions(cut_reach=0))
-    new, st = link_paths(paths, REGION, W)
+    old, st0 = link_paths(paths, REGION, W)
+    new, st = link_paths(paths, REGION, W, ON)
     assert st0["cuts"] == 0 and len(old) == 3  # the zig-zag and the two squeezed paths alone
     assert st["cuts"] == 4 and len(new) < len(old)  # both pairs of ends, two paths cut each
     assert hop_groups(new, 1.0) < hop_groups(old, 1.0) == 3
