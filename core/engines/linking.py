@@ -30,9 +30,10 @@ two ways and the one with fewer runs is kept (:attr:`LinkOptions.grow_chains`): 
 by end from a free end, each taking its shortest acceptable link (:func:`_grow`, how a slicer
 chains its lines), and all candidates shortest first over the layer.
 Each link is printed with the pitch of its ends (interpolated along it): the flow of the local
-pitch.  Short pieces that cost a travel and add little are dropped first (:func:`drop_fragments`),
-and the runs left without a link that cover less than ``lone_area`` square pitches last
-(:func:`drop_lone`).
+pitch.  Free ends left with paths between them can then be paired through short cuts in those
+paths, where the stress is low (:mod:`loadpath.engines.cuts`, :attr:`LinkOptions.cut_reach`).
+Short pieces that cost a travel and add little are dropped first (:func:`drop_fragments`), and the
+runs left without a link that cover less than ``lone_area`` square pitches last (:func:`drop_lone`).
 
 The runs are returned in no particular order: the splicer orders them (nearest neighbour from the
 nozzle, then 2-opt; :func:`loadpath.splice.plan.order_paths`).
@@ -60,6 +61,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import shapely
 from loadpath._typing import Points2, Region
+from loadpath.engines.cuts import cut_paths
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
@@ -113,6 +115,33 @@ class LinkOptions:
         Bench (``benchmarks/bench_printability.py``, PrusaSlicer 100 %, swarm, retractions): bar
         241 / 264 / 246, bracket 527 / 539 / 524 (shortest first / grown / both), and the two-island
         part 249 -> 139 grown: neither alone is best everywhere.
+    cut_reach : float
+        Two free run ends at most this many pitches apart with one to ``cut_cross`` paths between
+        them are joined through cuts in those paths (:mod:`loadpath.engines.cuts`), when the
+        layer then leaves fewer groups of runs apart (:func:`hop_groups`); 0 (the default): no
+        cuts.  7 pitches reach the pairs with up to three paths between them; off by default
+        because the bead model charges every cut (``cut_stress``): at the share that keeps the
+        bench's stiffness the retractions fall by 0-3 %, the travel rises by up to 4 %, and one
+        failure load is 0.02 % lower (``benchmarks/printability_results.md``, fourth round).
+    cut_rounds : int
+        How many times the cuts are looked for again on the runs the last ones gave.
+    free_hop : float, mm
+        A travel this short goes without a retraction (PrusaSlicer's ``retract_before_travel``,
+        1 mm on its printer presets): cuts are made only for ends with no other run's end that
+        near, and kept only when fewer groups of runs are left that such hops do not join.
+    cut_stress : float
+        Paths are cut only where the followed stress is at most this share of its 90th
+        percentile at the layer's path vertices (with a field given to :func:`link_paths`).
+        Bench (``benchmarks/bench_printability.py``, PrusaSlicer 100 %, swarm; retractions,
+        stiffness, failure load; no cuts: beam 555, 1.0305, 0.9262, bracket 488, 1.0075, 0.9543):
+        0.1: beam 538, 1.0306, 0.9265, bracket 484, 1.0076, 0.9571; 0.5: beam 389, 1.0290,
+        0.9193, bracket 400, 1.0064, 0.9588.  More cuts, fewer retractions, and a little less
+        stiffness (each cut is a bead broken where it carried something): 0.1 is the share at
+        which neither fell on the bench (``benchmarks/printability_results.md``, fourth round).
+    cut_gap : float
+        Length of a cut, in pitches (:func:`loadpath.engines.cuts.cut_paths`).
+    cut_cross : int
+        Most paths cut to pair two ends.
     """
 
     max_link: float = 3.0
@@ -127,6 +156,12 @@ class LinkOptions:
     lone_area: float = 3.0
     lone_share: float = 0.005
     grow_chains: bool | None = None
+    cut_reach: float = 0.0
+    cut_rounds: int = 2
+    free_hop: float = 1.0
+    cut_stress: float = 0.1
+    cut_gap: float = 1.0
+    cut_cross: int = 3
 
     def __post_init__(self) -> None:
         lo, hi = LONE_AREA_RANGE
@@ -230,10 +265,86 @@ def _ring_link(
 
 
 def link_paths(
-    paths: Sequence[Path], region: Region, pitch: float, options: LinkOptions = LinkOptions()
+    paths: Sequence[Path],
+    region: Region,
+    pitch: float,
+    options: LinkOptions = LinkOptions(),
+    field: object | None = None,
 ) -> tuple[tuple[Path, ...], dict]:
     """Link paths end to end into runs (module docstring; ``options.grow_chains`` None: both ways,
-    the fewer runs kept, the grown ones on a tie).
+    the fewer runs kept, the grown ones on a tie), then through cuts (:mod:`loadpath.engines.cuts`).
+
+    ``field`` (the followed StressField, optional) keeps the cuts where the paths carry little
+    (``options.cut_stress``).  Each round of cuts relinks the cut paths, the links laid before
+    first (so the rest of the layer keeps its links), and is kept only when it leaves fewer groups
+    of runs that travels under ``free_hop`` do not join, and no more runs (``stats["cuts"]`` counts
+    the cuts kept); the rest as :func:`_link_layer`.
+    """
+    runs, stats = _link_layer(paths, region, pitch, options)
+    stats["cuts"] = 0
+    if options.cut_reach <= 0 or len(runs) < 3:
+        stats.pop("kept_paths", None)
+        stats.pop("link_ends", None)
+        return runs, stats
+    ps = stats.pop("kept_paths")
+    for _ in range(options.cut_rounds):
+        cut, n, touched = cut_paths(
+            ps,
+            runs,
+            pitch,
+            options.cut_reach,
+            options.cut_gap,
+            options.cut_cross,
+            hop=options.free_hop,
+            field=field,
+            stress_share=options.cut_stress,
+        )
+        if not n:
+            break
+        only = set(map(tuple, np.round(touched, 9).tolist()))
+        runs2, stats2 = _link_layer(
+            cut, region, pitch, replace(options, min_fragment=0.0), stats.get("link_ends", ()), only
+        )
+        hop = options.free_hop
+        if hop_groups(runs2, hop) >= hop_groups(runs, hop) or len(runs2) > len(runs):
+            break
+        ps = stats2.pop("kept_paths")
+        stats2["cuts"] = stats["cuts"] + n
+        stats2["paths_in"], stats2["dropped"] = stats["paths_in"], stats["dropped"]
+        runs, stats = runs2, stats2
+    stats.pop("kept_paths", None)
+    stats.pop("link_ends", None)
+    return runs, stats
+
+
+def hop_groups(runs: Sequence[Path], hop: float) -> int:
+    """How many groups the runs form when ends less than ``hop`` mm apart join them: the fewest
+    retracted travels (plus one) a print order can make of them."""
+    if not runs:
+        return 0
+    from scipy.spatial import cKDTree
+
+    from loadpath.engines.cuts import free_ends
+
+    ends = free_ends(runs)
+    parent = list(range(len(runs)))
+    for a, b in cKDTree(ends).query_pairs(hop, output_type="ndarray") if hop > 0 else []:
+        ra, rb = _root(parent, int(a) // 2), _root(parent, int(b) // 2)
+        if ra != rb:
+            parent[ra] = rb
+    return len({_root(parent, i) for i in range(len(runs))})
+
+
+def _link_layer(
+    paths: Sequence[Path],
+    region: Region,
+    pitch: float,
+    options: LinkOptions,
+    prefer: Sequence[tuple] = (),
+    only: set | None = None,
+) -> tuple[tuple[Path, ...], dict]:
+    """One linking of a layer's paths (:func:`link_paths` without cuts; ``prefer``, ``only`` as
+    :func:`_link`).
 
     Both ways share the fragments dropped, the ends, the samples and their trees, the candidate
     links and each candidate's geometric test (:class:`_Layer`): only the order in which the
@@ -270,10 +381,10 @@ def link_paths(
         runs, spans = tuple(ps), [[] for _ in ps]
     else:
         if options.grow_chains is not None:
-            runs, stats = _link(layer, options.grow_chains, dict(stats))
+            runs, stats = _link(layer, options.grow_chains, dict(stats), prefer, only)
         else:
-            grown = _link(layer, True, dict(stats))
-            first = _link(layer, False, dict(stats))
+            grown = _link(layer, True, dict(stats), prefer, only)
+            first = _link(layer, False, dict(stats), prefer, only)
             runs, stats = grown if len(grown[0]) <= len(first[0]) else first
         spans = stats["links_at"]
     keep = drop_lone(runs, spans, options.lone_area * pitch * pitch, options.lone_share)
@@ -282,6 +393,7 @@ def link_paths(
     if layer is not None:
         stats["links_at"] = [s for s, k in zip(spans, keep, strict=True) if k]
     stats["runs"] = len(runs)
+    stats["kept_paths"] = ps
     return runs, stats
 
 
@@ -593,9 +705,17 @@ class _Laid:
             self.recent, self.n_recent = [], 0
 
 
-def _link(layer: _Layer, grow_chains: bool, stats: dict) -> tuple[tuple[Path, ...], dict]:
+def _link(
+    layer: _Layer, grow_chains: bool, stats: dict, prefer: Sequence[tuple] = (), only: set | None = None
+) -> tuple[tuple[Path, ...], dict]:
     """Link a prepared layer's paths one way: chains grown end by end (``grow_chains``) or all
-    candidates shortest first; ``stats`` is filled in (see :func:`link_paths`)."""
+    candidates shortest first; ``stats`` is filled in (see :func:`link_paths`).
+
+    ``prefer``: links of an earlier linking, ``(end point, end point, boundary)`` each, laid first
+    where both ends are still there and the link still passes its tests (the relinking after
+    cuts keeps the layer's other links as they were); ``only`` (rounded end points): no new link
+    but between two of these ends (the ends of the cuts), so the rest of the layer stays as it was.
+    """
     ps, options, pitch = layer.ps, layer.options, layer.pitch
     n = len(ps)
     a, b, e_pt, e_dir = layer.a, layer.b, layer.e_pt, layer.e_dir
@@ -606,7 +726,7 @@ def _link(layer: _Layer, grow_chains: bool, stats: dict) -> tuple[tuple[Path, ..
     laid = _Laid(clear - 0.125 * pitch)
 
     def accept(ea: int, eb: int, straight_ok: bool, edge_ok: bool) -> bool:
-        if used[ea] or used[eb]:
+        if used[ea] or used[eb] or (allowed is not None and not (allowed[ea] and allowed[eb])):
             return False
         pa, pb = ea // 2, eb // 2
         ra, rb = _root(parent, pa), _root(parent, pb)
@@ -622,6 +742,9 @@ def _link(layer: _Layer, grow_chains: bool, stats: dict) -> tuple[tuple[Path, ..
             stats["rejected_links"] = stats.get("rejected_links", 0) + 1
             return False
         laid.add(s)
+        stats.setdefault("link_ends", []).append(
+            (tuple(np.round(e_pt[ea], 9).tolist()), tuple(np.round(e_pt[eb], 9).tolist()), bool(boundary))
+        )
         used[ea] = used[eb] = True
         parent[ra] = rb
         link[ea] = (eb, pts)
@@ -630,6 +753,16 @@ def _link(layer: _Layer, grow_chains: bool, stats: dict) -> tuple[tuple[Path, ..
         stats["boundary_links"] += int(boundary)
         stats["link_mm"] += float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
         return True
+
+    allowed = None
+    if prefer:
+        at = {q: e for e, q in enumerate(map(tuple, np.round(e_pt, 9).tolist()))}
+        for p0, p1, boundary in prefer:
+            ea, eb = at.get(p0), at.get(p1)
+            if ea is not None and eb is not None:
+                accept(ea, eb, not boundary, boundary)
+    if only is not None:
+        allowed = np.array([q in only for q in map(tuple, np.round(e_pt, 9).tolist())], dtype=bool)
 
     if grow_chains:
 

@@ -35,6 +35,7 @@ Files with nothing to replace, and vase-mode or sequential prints, come back unc
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
@@ -429,7 +430,11 @@ def run(
     results = results[: len(jobs)]
     clock.lap("paths")
 
-    job_results, fills = _fills(units, jobs, results, options, splice_options.plan, shifted, cache)
+    r = splice_options.motion.retraction  # the splicer's own rule for a travel it may leave primed
+    free_hop = float("inf") if r.only_when_crossing else float(r.before_travel)
+    job_results, fills = _fills(
+        units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop
+    )
     sres = splice(program, fills, splice_options)
     for block, why in sres.skipped:
         b = program.block(block)
@@ -538,37 +543,43 @@ def _simplify_paths(paths, plan: PlanOptions) -> tuple[Path, ...]:
     return tuple(Path(pts, w, p.kind) for (pts, w), p in zip(simple, paths, strict=True) if len(pts) >= 2)
 
 
-def _link_key(paths: tuple[Path, ...], region, pitch: float) -> str:
+def _link_key(paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None) -> str:
     """Key of one :func:`link_paths` call in the cache: the paths' and the region's exact bytes, the pitch.
 
     Exact (no snapping): the links are a function of exactly these inputs, so a hit gives the very
-    runs a new linking would.  The options are the defaults (:class:`LinkOptions`), named by their
-    repr; the code by :func:`loadpath.cache.code_stamp`.
+    runs a new linking would; with a ``field`` (the cuts read it) its stress at every path vertex
+    too.  The options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by
+    their repr; the code by :func:`loadpath.cache.code_stamp`.
     """
     from loadpath.cache import code_stamp, digest
     from loadpath.engines.linking import LinkOptions
 
-    parts: list[bytes | str] = ["links", code_stamp(), repr(LinkOptions()), repr(float(pitch))]
+    lo = link_options if link_options is not None else LinkOptions()
+    parts: list[bytes | str] = ["links", code_stamp(), repr(lo), repr(float(pitch))]
     parts.append(shapely.to_wkb(region, hex=False) if region is not None else b"none")
     for p in paths:
         parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
         parts.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
+    if field is not None and paths:  # the cuts read the field (LinkOptions.cut_stress)
+        mag = field.sample(np.concatenate([p.points for p in paths])).magnitude
+        parts.append(np.ascontiguousarray(mag, dtype=float).tobytes())
     return digest(parts)
 
 
-_LINK_WORK: list[tuple[tuple[Path, ...], Any, float]] = []
+_LINK_WORK: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
 """The linkings :func:`_link_all` hands to its worker processes (inherited by fork, not pickled)."""
 
 
 def _link_one(i: int) -> tuple[tuple[Path, ...], dict]:
-    ps, region, pitch = _LINK_WORK[i]
-    return link_paths(ps, region, pitch)
+    ps, region, pitch, fld, lo = _LINK_WORK[i]
+    return link_paths(ps, region, pitch, lo, field=fld)
 
 
 def _link_all(
-    tasks: list[tuple[tuple[Path, ...], Any, float]], cache: Any, workers: int, kept: list[int]
+    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]], cache: Any, workers: int, kept: list[int]
 ) -> list[tuple[tuple[Path, ...], dict]]:
-    """Link every ``(paths, region, pitch)`` of ``tasks``: ``(runs, stats)`` of :func:`link_paths` each.
+    """Link every ``(paths, region, pitch, field, link options)`` of ``tasks``: ``(runs, stats)`` of
+    :func:`link_paths` each.
 
     With a ``cache``: what it holds under :func:`_link_key` is loaded, the same key twice in the
     list is linked once, and what was linked is kept (``kept[0]`` counts the entries written).  The
@@ -613,6 +624,7 @@ def _fills(
     plan: PlanOptions,
     shifted_paths: dict[int, Toolpaths] | None = None,
     cache=None,
+    free_hop: float = 1.0,
 ) -> tuple[list[EngineRun], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them.
 
@@ -621,16 +633,22 @@ def _fills(
     (:func:`stagger`).  With a ``cache`` the linked runs are kept under :func:`_link_key` (a
     re-export links the same paths in the same region again).  What is linked is gathered first
     and linked by :func:`_link_all` (in ``options.workers`` processes when there are several).
+    ``free_hop`` (mm): the longest travel the file's slicer makes without retracting (infinite
+    where travels inside the region never retract, Cura's combing): the linking cuts paths to pair
+    ends only where that saves retractions (:attr:`loadpath.engines.linking.LinkOptions.free_hop`).
     """
+    from loadpath.engines.linking import LinkOptions
+
     shifted_paths = shifted_paths or {}
     kept = [0]
-    tasks: list[tuple[tuple[Path, ...], Any, float]] = []
+    link_opts = LinkOptions(free_hop=free_hop) if math.isfinite(free_hop) else LinkOptions(cut_reach=0.0)
+    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
 
-    def task(ps: tuple[Path, ...], u: Unit) -> int | None:
+    def task(ps: tuple[Path, ...], u: Unit, fld: Any = None) -> int | None:
         """Index of the linking of ``ps`` in ``u``'s region (None: left as they are)."""
         if not options.link or len(ps) < 2:
             return None
-        tasks.append((ps, u.fill_region, u.pitch))
+        tasks.append((ps, u.fill_region, u.pitch, fld, link_opts))
         return len(tasks) - 1
 
     # first pass: every job's paths, their staggered copy and the clipped variants, and what to link
@@ -639,7 +657,8 @@ def _fills(
         members = sorted((units[i] for i in job.units), key=lambda m: m.layer)
         by_engine = ji in shifted_paths and bool(shifted_paths[ji].paths)
         base_raw = _simplified(tp.paths, plan, cache)
-        base_t = task(base_raw, job.unit)
+        fld = getattr(job.input, "field", None)
+        base_t = task(base_raw, job.unit, fld)
         shifted_raw, shifted_t = None, None
         rows = []
         for k, u in enumerate(members):
@@ -651,14 +670,14 @@ def _fills(
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
                     shifted_raw = _simplified(moved, plan, cache)
-                shifted_t = task(shifted_raw, u0)
+                shifted_t = task(shifted_raw, u0, fld)
             clipped = clipped_t = None
             if not u.fill_region.equals(job.unit.fill_region):
                 # a region that differs a little: the paths clipped to it, linked in it (links along
                 # the representative's edge would be cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-                clipped_t = task(clipped, u)
+                clipped_t = task(clipped, u, fld)
             rows.append((u, use_shift, clipped, clipped_t))
         planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
 
