@@ -118,7 +118,8 @@ def judge(program: Any, loadcase: Any) -> Callable[[Any], tuple[float, float | N
             return None
         if not ref:
             ref.append(evaluate_file(program, loadcase, meshes=meshes, name="slicer"))
-        r = row(evaluate_file(parse(pres.data, strict=False), loadcase, meshes=meshes, name="candidate"), ref[0])
+        out = parse(pres.data, strict=False)
+        r = row(evaluate_file(out, loadcase, meshes=meshes, name="candidate"), ref[0])
         fail = r.relative_failure_load
         return float(r.relative_stiffness), (float(fail) if fail == fail else None)
 

@@ -383,7 +383,9 @@ def run(
     if options.density is not None and options.density.criterion != "uniform":
         nu = float(loadcase.material.poissons_ratio)
         shares = {o.name: solid_share(o) for o in geo.objects} if options.density.criterion == "stack" else {}
-        jobs = [with_density(j, _density_of(j, options, shares), nu) if j.unit.fixed_width else j for j in jobs]
+        jobs = [
+            with_density(j, _density_of(j, options, shares), nu) if j.unit.fixed_width else j for j in jobs
+        ]
     # the engine lays the staggered copy of a run of identical layers itself, from seeds half a
     # pitch on (option ``phase``): a whole layer again, where shifting the paths sideways and
     # clipping them left a poorer one (stiffness benchmark, share of the model's ceiling gain:
