@@ -74,6 +74,18 @@ the slicer's own gyroid 0.993x as stiff and 0.910x the failure load; loadpath's 
 gyroid slice 1.222x and 1.665x; of the 0/90 slice 1.232x and 1.667x.  The bracket fails first at
 its fixed wall (across the beads, in the top skin), which the energy density thins.
 
+Re-measured 2026-12-04 (branch sparse15, load 9-12, same set-up), energy / stack / auto (the new
+default: both laid, the one ``loadpath compare``'s model predicts better kept), stiffness (failure):
+bracket Prusa gyroid 20 1.155 (0.846) / 1.179 (1.017) / 1.179 (1.017); Cura grid 1.161 (0.991) /
+1.179 (1.001) / same; beam Prusa 1.230 (1.879) / 1.249 (1.310) / 1.230 (1.879); Cura 1.258 (1.446) /
+1.287 (1.337) / 1.258 (1.446); shelf Prusa 1.143 (1.389) / 1.134 (1.002) / 1.143 (1.389); Cura 1.167
+(1.601) / 1.170 (1.241) / 1.167 (1.601); islands Prusa 1.162 (1.311) / 1.166 (1.167) / 1.162 (1.311);
+Cura 1.163 (1.175) / 1.164 (1.169) / 1.163 (1.175); specimen Prusa 1.235 (1.279) / 1.231 (1.326) /
+1.231 (1.326); Cura 1.294 (1.601) / 1.285 (1.607) / 1.294 (1.601); mass 1.000, checks clean.
+Bracket Prusa also: energy05 1.148 (0.916), failure 1.158 (0.917), uniform 1.081 (0.923), stack on
+sqrt(e0) 1.166 (0.828), stack alternate 1.147 (0.955, mass 1.012).  Skinless beam (``--skins 0``):
+energy 0.485 (0.294), stack 0.784 (0.513), stacka 1.021 (0.699, mass 0.979), altu 0.990 (1.038).
+
 Issue 15's targets beside these figures:
 
 =================================================  ===========================================
@@ -199,10 +211,15 @@ VARIANTS = {
     "uniform": {"density": "uniform"},
     "failure": {"density": "failure"},
     "energy1": {"density": "energy", "density_exponent": 1.0},
+    "energy05": {"density": "energy", "density_exponent": 0.5},
+    "energy2": {"density": "energy", "density_exponent": 2.0},
     "alternate": {"density": "energy", "principal": "alternate"},
     "cross30": {"density": "energy", "principal": "cross", "cross_angle": 30.0},
     "cross45": {"density": "energy", "principal": "cross", "cross_angle": 45.0},
     "altu": {"density": "uniform", "principal": "alternate"},
+    "stack": {"density": "stack"},
+    "auto": {"density": "auto"},
+    "stacka": {"density": "stack", "principal": "alternate"},
     "cross45u": {"density": "uniform", "principal": "cross", "cross_angle": 45.0},
 }
 

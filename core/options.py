@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from loadpath import engines
-from loadpath.density import CRITERIA as DENSITY_CRITERIA
+from loadpath.density import CHOICES as DENSITY_CRITERIA
 from loadpath.errors import SettingsError
 
 __all__ = [
@@ -138,10 +138,12 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
     Field(
         "density",
         "str",
-        "energy",
+        "auto",
         "",
-        "where replaced sparse infill puts its plastic: 'energy' (dense where the strain energy is, "
-        "the stiffest at the same mass), 'failure' (fully stressed, von Mises) or 'uniform' (the slicer's)",
+        "where replaced sparse infill puts its plastic: 'auto' (lays 'energy' and 'stack', keeps the one "
+        "the mechanics model predicts stronger and stiffer), 'energy' (dense where the strain energy is), "
+        "'stack' (fully stressed with the skins: the sparse layers take the stress the solid layers leave), "
+        "'failure' (fully stressed, von Mises) or 'uniform' (the slicer's)",
         DENSITY_CRITERIA,
         toolpath=True,
     ),
@@ -150,7 +152,8 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         "optional_float",
         None,
         "",
-        "fill ~ measure ** exponent; default 1 (energy: strain energy density, failure: von Mises)",
+        "fill ~ measure ** exponent; default 1 (energy: strain energy density, failure: von Mises; "
+        "stack: 1/2, on the strain energy density, i.e. the principal stress)",
         minimum=0.0,
         maximum=4.0,
     ),

@@ -35,6 +35,7 @@ from loadpath.density import DensityOptions
 from loadpath.errors import InternalError, LoadpathError, SettingsError
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
+from loadpath.plugin.density_choice import CANDIDATES, judge, run_choosing
 from loadpath.plugin.lifecycle import note_written
 from loadpath.plugin.job_record import already_processed, fate, log, own_warnings, with_header
 
@@ -114,6 +115,9 @@ class JobResult:
         ``on_failure = "keep"``.
     cache : loadpath.cache.Cache or None
         The cache the run used (its ``stats`` count hits and misses).
+    density : Choice or None
+        With ``density = "auto"`` and sparse infill replaced: the criteria tried, their predicted
+        ratios and the one kept (:mod:`loadpath.plugin.density_choice`).
     """
 
     output: Path
@@ -127,6 +131,7 @@ class JobResult:
     report: Path | None = None
     verdict: Any = None
     cache: Any = None
+    density: Any = None
 
 
 def default_output(path: Path) -> Path:
@@ -369,7 +374,10 @@ def _run(
         workers=s.jobs or default_workers(),
         check=s.check,
         density=DensityOptions(
-            s.density, s.density_exponent, fill=s.sparse_fill, max_pitch=s.density_max_pitch
+            CANDIDATES[0] if s.density == "auto" else s.density,
+            s.density_exponent,
+            fill=s.sparse_fill,
+            max_pitch=s.density_max_pitch,
         ),
     )
     cache = None
@@ -378,10 +386,16 @@ def _run(
 
         cache = request.cache if request.cache is not None else Cache()
     result.cache = cache
-    pres = pipeline.run(
-        program, lc, opts, settings_mod.splice_options(s), progress=progress, cura_settings=cura,
-        analyze=request.analyze, cache=cache,
-    )
+    def run_with(o: pipeline.PipelineOptions) -> pipeline.PipelineResult:
+        return pipeline.run(
+            program, lc, o, settings_mod.splice_options(s), progress=progress, cura_settings=cura,
+            analyze=request.analyze, cache=cache,
+        )
+
+    if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
+        pres, result.density = run_choosing(run_with, judge(program, lc), opts)
+    else:
+        pres = run_with(opts)
     result.pipeline = pres
     times.update(pres.times)
     result.warnings.extend(pres.warnings)

@@ -264,7 +264,7 @@ class Settings:
     principal: str = "max_abs"
     replace: tuple[str, ...] = ("solid",)
     cross_angle: float = 30.0
-    density: str = "energy"
+    density: str = "auto"
     density_exponent: float | None = None
     sparse_fill: float | None = None
     density_max_pitch: float = 8.0

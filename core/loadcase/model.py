@@ -227,8 +227,8 @@ class ToolpathOptions:
     replace : tuple of str or None
         Infill kinds replaced: any of ``"solid"``, ``"sparse"``, ``"top"``, ``"bottom"``.
     density : str or None
-        Where replaced sparse infill puts its plastic: ``"energy"``, ``"failure"`` or ``"uniform"``
-        (:mod:`loadpath.density`).
+        Where replaced sparse infill puts its plastic: ``"auto"``, ``"energy"``, ``"stack"``,
+        ``"failure"`` or ``"uniform"`` (:mod:`loadpath.density`, :mod:`loadpath.plugin.density_choice`).
     sparse_fill : float or None
         Mean fill of the replaced sparse infill, 0-1 (default: the slicer's, same mass).
     """

@@ -50,7 +50,7 @@ from loadpath.engines.linking import link_paths
 from loadpath.errors import SpliceError
 from loadpath.field import RotatedField
 from loadpath.gcode import Program, parse
-from loadpath.density import DensityOptions, density_field
+from loadpath.density import DensityOptions, density_field, solid_share
 from loadpath.pipeline.paths import (
     Job,
     assign,
@@ -383,7 +383,10 @@ def run(
     jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])
     if options.density is not None and options.density.criterion != "uniform":
         nu = float(loadcase.material.poissons_ratio)
-        jobs = [with_density(j, options.density, nu) if j.unit.fixed_width else j for j in jobs]
+        shares = {o.name: solid_share(o) for o in geo.objects} if options.density.criterion == "stack" else {}
+        jobs = [
+            with_density(j, _density_of(j, options, shares), nu) if j.unit.fixed_width else j for j in jobs
+        ]
     # the engine lays the staggered copy of a run of identical layers itself, from seeds half a
     # pitch on (option ``phase``): a whole layer again, where shifting the paths sideways and
     # clipping them left a poorer one (stiffness benchmark, share of the model's ceiling gain:
@@ -487,15 +490,31 @@ def _field_id(fea_key: str, kind: str, unit: Unit, principal: str) -> str:
     """Name of the stress field a unit's paths follow (its analysis, its cut, the principal stress)."""
     cut = "2d" if kind == "2d" else f"{unit.z_mid:.6f}"
     return f"{fea_key} {cut} {principal}"
+def _density_of(job: Job, options: PipelineOptions, shares: Mapping[str, float]) -> DensityOptions:
+    """The density options of one job: ``"stack"`` takes its object's solid share (``shares``, object
+    name -> :func:`loadpath.density.solid_share`) and, with ``principal = "alternate"``, the family of
+    lines the job lays (:mod:`loadpath.density`)."""
+    d = options.density
+    assert d is not None
+    if d.criterion != "stack":
+        return d
+    family = None
+    if options.principal == "alternate":
+        family = "major" if job.principal == "max_abs" else "minor"
+    return replace(d, solid_share=shares.get(job.unit.object, 0.0), family=family)
+
+
 def with_density(job: Job, density: DensityOptions, poissons_ratio: float) -> Job:
     """The job with the density field of its region (:func:`loadpath.density.density_field`).
 
     The field is scaled to the unit's own fill (its slicer pitch), or to ``density.fill`` with the
-    job's pitch rescaled to that fill, so each layer keeps the plastic the slicer gave it.
+    job's pitch rescaled to that fill, so each layer keeps the plastic the slicer gave it; a
+    ``"stack"`` field of two alternating families moves plastic between the two (their pair keeps
+    it), and the job's pitch follows its own mean.
     """
     u, inp = job.unit, job.input
     df = density_field(inp.field, inp.region, u.flow_width, inp.pitch, density, poissons_ratio)
-    pitch = df.base_pitch if density.fill is not None else inp.pitch
+    pitch = df.base_pitch if (density.fill is not None or density.family is not None) else inp.pitch
     return replace(job, input=replace(inp, density=df, pitch=pitch))
 
 

@@ -105,3 +105,42 @@ def test_rotated_field_turns_the_directions_and_keeps_the_magnitudes():
         ang = np.arctan2(b.direction[:, 1], b.direction[:, 0])
         ang = ang - np.arctan2(a.direction[:, 1], a.direction[:, 0])
         assert np.cos(2 * (ang - turn)) == pytest.approx(1.0)
+
+
+def test_stack_leaves_to_the_skins_what_they_hold():
+    # rho = c |sigma| - a / (1 - a): with a solid share a the low-stress band stays at the minimum
+    # and the rest is affine in |y| (smoothed over a pitch), at the same mean
+    f = AnalyticField(bending, BEAM, scale=100.0)
+    bare = density_field(f, BEAM, 0.45, 2.25, DensityOptions("stack"))
+    skins = density_field(f, BEAM, 0.45, 2.25, DensityOptions("stack", solid_share=0.3))
+    for d in (bare, skins):
+        assert d.reached and d.mean == pytest.approx(0.2, abs=1e-6)
+    lo = skins.sample(np.column_stack([np.full(3, 60.0), [0.0, 2.0, 4.0]]))
+    assert lo == pytest.approx(np.full(3, skins.rho_min))
+    off = 0.3 / 0.7
+    r = skins.sample([[60.0, 6.0], [60.0, 8.0]])
+    assert (r[1] + off) / (r[0] + off) == pytest.approx(8.0 / 6.0, rel=0.08)
+    # without skins: rho ~ |sigma| (the failure criterion's law), less contrast than the energy's
+    r = bare.sample([[60.0, 4.0], [60.0, 6.0]])
+    assert r[1] / r[0] == pytest.approx(6.0 / 4.0, rel=0.08)
+    assert np.nanmax(skins.rho) > np.nanmax(bare.rho)
+
+
+def test_stack_families_share_the_plastic_as_the_principal_stresses_ask():
+    f = AnalyticField(bending, BEAM, scale=100.0)  # uniaxial: the minor family has nothing to carry
+    major = density_field(f, BEAM, 0.45, 2.25, DensityOptions("stack", family="major"))
+    minor = density_field(f, BEAM, 0.45, 2.25, DensityOptions("stack", family="minor"))
+    assert minor.mean == pytest.approx(minor.rho_min, rel=1e-6)
+    assert major.mean + minor.mean == pytest.approx(0.4, abs=1e-6)
+
+    def shear(pts):  # pure shear: sigma_major = -sigma_minor, both families alike
+        return np.column_stack([np.zeros(len(pts)), np.zeros(len(pts)), np.full(len(pts), 20.0)])
+
+    g = AnalyticField(shear, BEAM, scale=20.0)
+    a = density_field(g, BEAM, 0.45, 2.25, DensityOptions("stack", family="major", solid_share=0.3))
+    b = density_field(g, BEAM, 0.45, 2.25, DensityOptions("stack", family="minor", solid_share=0.3))
+    assert a.mean == pytest.approx(0.2, abs=1e-6) and b.mean == pytest.approx(0.2, abs=1e-6)
+    with pytest.raises(SettingsError, match="family"):
+        DensityOptions("stack", family="sigma3")
+    with pytest.raises(SettingsError, match="solid share"):
+        DensityOptions("stack", solid_share=1.0)

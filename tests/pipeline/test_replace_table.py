@@ -56,15 +56,23 @@ def test_cura_absolute_e_default(sliced, case, tmp_path):
 
 
 def test_sparse_on_request_with_alternating_principal(sliced, case, tmp_path):
-    """replace = ["sparse"] keeps the slicer's density; principal = "alternate" crosses the layers."""
+    """replace = ["sparse"] keeps the slicer's plastic; principal = "alternate" crosses the layers.
+
+    With the default ``density = "auto"`` the ``"stack"`` criterion may be kept, which shares the
+    plastic of a sigma1 layer and its sigma2 neighbour as the two principal stresses ask (in the
+    specimen's tension the sigma2 layers keep their minimum): the replaced blocks together keep the
+    slicer's volume, each block between the no-sag minimum and twice it.
+    """
     program, result, out = run(
         sliced("prusa", "ohs", "mixed"), case, tmp_path / "out.gcode", replace="sparse", principal="alternate"
     )
     kinds = _kinds(result)
     done = replaced_blocks(result)
     assert done == {i for i, k in kinds.items() if k == "sparse"}
-    for r in result.pipeline.splice.blocks:
-        assert abs(r.volume_ratio - 1) < 0.03  # the slicer's density, not solid
+    blocks = result.pipeline.splice.blocks
+    old, new = sum(r.filament_old for r in blocks), sum(r.filament_new for r in blocks)
+    assert abs(new / old - 1) < 0.03  # the slicer's plastic, not solid
+    assert all(0.2 < r.volume_ratio < 2.05 for r in blocks), [r.volume_ratio for r in blocks]
     # in the uniform part of the specimen sigma1 runs along x, sigma2 along y
     mask = new_lines(result, program)
     m = out.moves
@@ -86,7 +94,10 @@ def test_sparse_on_request_with_alternating_principal(sliced, case, tmp_path):
     even = [v for k, v in by_layer.items() if k % 2 == 0]
     odd = [v for k, v in by_layer.items() if k % 2 == 1]
     assert even and odd
-    assert min(even) > 0.95 and max(odd) < 0.2, by_layer  # measured 0.997 and 0.083
+    # measured 0.997 and 0.083 with the energy density; 0.993 and 0.220 with "stack", whose sigma2
+    # layers keep the no-sag minimum (lines 8 mm apart) in the specimen's tension, so the links
+    # along the region's edge weigh more against the short lines along y
+    assert min(even) > 0.95 and max(odd) < 0.3, by_layer
 
 
 @pytest.mark.slow

@@ -1,0 +1,126 @@
+"""``density = "auto"``: the density criterion chosen per part by the mechanics model's prediction.
+
+No single criterion of :mod:`loadpath.density` is best on every part (``benchmarks/bench_sparse.py``,
+PrusaSlicer gyroid 20 %, predicted failure load over the slicer's at the same mass): the energy
+density gives the 3-point beam 1.88x and the shelf bracket 1.39x but makes the L-bracket weaker than
+the slicer's file (0.85x, its top skin breaks at the inner corner); the ``"stack"`` criterion keeps
+the bracket (1.02x) but gives the beam 1.31x and the shelf 1.00x.  So the run lays both and keeps the
+one the model of ``loadpath compare`` (:func:`loadpath.stiffness.evaluate_file`: the beads as
+printed, first-ply failure, the file's card) predicts better against the slicer's own file: first a
+candidate that loses neither stiffness nor failure load, then the largest product of the two ratios
+(stiffness and strength weigh alike).  Not the verdict's quicker prediction
+(:func:`loadpath.stiffness.change.predicted_change`, coarser beads on the run's mesh): on the
+bracket it ranked the two the other way (energy 1.077 / 0.950, stack 1.059 / 0.890, where
+``compare`` finds 1.155 / 0.846 and 1.179 / 1.017).  Where the model is not run on every job (3D
+parts) the first candidate is kept.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+__all__ = ["CANDIDATES", "Choice", "score", "run_choosing", "judge"]
+
+CANDIDATES = ("energy", "stack")
+"""The criteria ``density = "auto"`` lays and judges, in order (the first is kept without a prediction)."""
+
+
+@dataclass(frozen=True)
+class Choice:
+    """What ``density = "auto"`` tried and kept.
+
+    Attributes
+    ----------
+    criterion : str
+        The criterion kept.
+    tried : tuple of (str, float or None, float or None)
+        Per candidate: criterion, predicted stiffness ratio and failure-load ratio over the slicer's
+        file (None: not predicted).
+    """
+
+    criterion: str
+    tried: tuple[tuple[str, float | None, float | None], ...]
+
+
+def score(stiffness: float | None, failure: float | None) -> tuple[int, float]:
+    """Rank of a candidate (larger is better): no loss first, then ``stiffness * failure``.
+
+    Parameters
+    ----------
+    stiffness, failure : float or None
+        Predicted ratios over the slicer's file (1.0: unchanged); a missing failure ratio counts as 1.
+    """
+    if stiffness is None:
+        return (-1, 0.0)
+    f = 1.0 if failure is None else failure
+    return (int(stiffness >= 1.0 and f >= 1.0), stiffness * f)
+
+
+def run_choosing(
+    run: Callable[[Any], Any],
+    predict: Callable[[Any], tuple[float, float | None] | None],
+    options: Any,
+) -> tuple[Any, Choice]:
+    """Run the pipeline once per candidate and keep the better one (module docstring).
+
+    Parameters
+    ----------
+    run : callable
+        ``run(pipeline_options) -> PipelineResult``.
+    predict : callable
+        ``predict(pipeline_result) -> (stiffness ratio, failure-load ratio) or None``: the result's
+        figures over the slicer's file (:func:`judge`), None where they cannot be predicted.
+    options : PipelineOptions
+        With ``density`` set (its criterion is replaced by each candidate's).
+
+    Returns
+    -------
+    result : PipelineResult
+    choice : Choice
+    """
+    best = None
+    tried: list[tuple[str, float | None, float | None]] = []
+    for i, crit in enumerate(CANDIDATES):
+        pres = run(replace(options, density=replace(options.density, criterion=crit)))
+        ratios = predict(pres) if pres.changed else None
+        if ratios is None:
+            tried.append((crit, None, None))
+            if best is None:
+                best = (pres, crit, (-1, 0.0))
+            if i == 0:
+                break  # nothing replaced or nothing to judge by: the first candidate stands
+            continue
+        tried.append((crit, *ratios))
+        rank = score(*ratios)
+        if best is None or rank > best[2]:
+            best = (pres, crit, rank)
+    assert best is not None
+    return best[0], Choice(best[1], tuple(tried))
+
+
+def judge(program: Any, loadcase: Any) -> Callable[[Any], tuple[float, float | None] | None]:
+    """``predict`` for :func:`run_choosing`: the model of ``loadpath compare`` on the slicer's program
+    and each candidate's output (:func:`loadpath.stiffness.evaluate_file`, one mesh for all).
+
+    Only plate (2D) analyses are judged: a 3D body's prediction samples every layer into
+    tetrahedra (minutes on a tall part), so there the first candidate stands.
+    """
+    from loadpath.gcode import parse
+    from loadpath.stiffness.compare import evaluate_file, row
+
+    meshes: dict = {}
+    ref: list = []
+
+    def predict(pres: Any) -> tuple[float, float | None] | None:
+        if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
+            return None
+        if not ref:
+            ref.append(evaluate_file(program, loadcase, meshes=meshes, name="slicer"))
+        out = parse(pres.data, strict=False)
+        r = row(evaluate_file(out, loadcase, meshes=meshes, name="candidate"), ref[0])
+        fail = r.relative_failure_load
+        return float(r.relative_stiffness), (float(fail) if fail == fail else None)
+
+    return predict
