@@ -71,6 +71,9 @@ class Verdict:
     warnings : int
     note : str
         Why nothing was replaced, or what the prediction could not do.
+    density : str
+        With ``density = "auto"``: the sparse density criterion kept and the predictions that chose
+        it (:mod:`loadpath.plugin.density_choice`); empty otherwise.
     """
 
     version: str
@@ -90,6 +93,7 @@ class Verdict:
     warnings: int = 0
     note: str = ""
     extra: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    density: str = ""
 
     def line(self) -> str:
         """The one-line summary (no newline)."""
@@ -98,6 +102,8 @@ class Verdict:
         if not self.changed:
             return head + f"nothing replaced ({self.note or 'no infill to replace'}); the G-code is the slicer's; {w}"
         parts = [f"replaced {', '.join(self.kinds)} infill on {_layers(self.layers)} with {self.engine}"]
+        if self.density:
+            parts.append(f"sparse density {self.density}")
         if self.stiffness is not None and math.isfinite(self.stiffness):
             text = (
                 f"predicted stiffness {_pct(self.stiffness)} absolute, {_pct(self.stiffness_same_mass)} at the "

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-__all__ = ["CANDIDATES", "Choice", "score", "run_choosing", "judge"]
+__all__ = ["CANDIDATES", "Choice", "score", "run_choosing", "judge", "describe"]
 
 CANDIDATES = ("energy", "stack")
 """The criteria ``density = "auto"`` lays and judges, in order (the first is kept without a prediction)."""
@@ -98,6 +98,22 @@ def run_choosing(
             best = (pres, crit, rank)
     assert best is not None
     return best[0], Choice(best[1], tuple(tried))
+
+
+def describe(choice: Choice) -> str:
+    """The verdict's words for a choice: the criterion kept and every candidate's predicted ratios.
+
+    These are the figures of ``loadpath compare``'s model that made the choice; the verdict's own
+    stiffness and failure-load change come from its quicker prediction and may differ from them.
+    """
+    figures = "; ".join(
+        f"{crit} stiffness {s:.3f}x, failure load " + ("not predicted" if f is None else f"{f:.3f}x")
+        if s is not None else f"{crit} not predicted"
+        for crit, s, f in choice.tried
+    )
+    if all(s is None for _, s, _ in choice.tried):
+        return f"'{choice.criterion}' (auto: nothing to judge by, the first candidate kept)"
+    return f"'{choice.criterion}' (auto, by loadpath compare's model over the slicer's file: {figures})"
 
 
 def judge(program: Any, loadcase: Any) -> Callable[[Any], tuple[float, float | None] | None]:

@@ -35,7 +35,7 @@ from loadpath.density import DensityOptions
 from loadpath.errors import InternalError, LoadpathError, SettingsError
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
-from loadpath.plugin.density_choice import CANDIDATES, judge, run_choosing
+from loadpath.plugin.density_choice import CANDIDATES, describe, judge, run_choosing
 from loadpath.plugin.lifecycle import note_written
 from loadpath.plugin.job_record import already_processed, fate, log, own_warnings, with_header
 
@@ -427,6 +427,8 @@ def _run(
     )
     if not request.predict and pres.changed:
         v = dataclasses.replace(v, note="not asked for")
+    if result.density is not None and pres.changed:
+        v = dataclasses.replace(v, density=describe(result.density))
     result.verdict = v
     if report is not None:
         report.finish(v)

@@ -50,6 +50,10 @@ def test_sparse_replaced_bracket_keeps_the_slicers_failure_load_and_mass(bracket
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems
     assert [t[0] for t in res.density.tried] == ["energy", "stack"]  # density = "auto" laid both
+    # the run says which it kept and with what figures: the verdict line, the file's header
+    kept = res.density.criterion
+    assert f"sparse density '{kept}' (auto, by loadpath compare's model" in res.verdict.line()
+    assert f"sparse density '{kept}'" in out.read_text(encoding="utf-8").split("\n", 2)[1]
     slicer, ours = compare_files([str(src), str(out)], loadcase.read(case))[0]
     assert ours.mass / slicer.mass == pytest.approx(1.0, abs=0.02)
     assert ours.relative_failure_load >= 1.0, (ours.failure_load, ours.failure_location, ours.failure_mode)
