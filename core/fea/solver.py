@@ -302,8 +302,8 @@ def _direct(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
     SuperLU reports a failed allocation in three ways: ``MemoryError``, ``SystemError`` (an error
     return without an exception) or a ``RuntimeError`` naming ``SUPERLU_MALLOC``; before the
     first two it prints its own line ("Can't expand MemType 0: jcol ...") on the C stderr.  That
-    line is kept out of the user's stderr (:func:`_c_stderr_kept`) and all three become
-    :class:`_NoMemory`.
+    line (and at times another on stdout) is kept out of the user's output (:func:`_c_output_kept`),
+    and all three become :class:`_NoMemory`.
 
     Raises
     ------
@@ -314,7 +314,7 @@ def _direct(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
     """
     said: list[str] = []
     try:
-        with np.errstate(all="ignore"), _c_stderr_kept(said):
+        with np.errstate(all="ignore"), _c_output_kept(said):
             lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
             x = lu.solve(b)
             x += lu.solve(b - A @ x)
@@ -336,28 +336,41 @@ def _no_memory(exc: BaseException, said: list[str]) -> str:
 
 
 @contextlib.contextmanager
-def _c_stderr_kept(said: list[str]) -> Iterator[None]:
-    """File descriptor 2 goes to a temporary file while inside; its lines are put in ``said`` on leaving.
+def _c_output_kept(said: list[str]) -> Iterator[None]:
+    """File descriptors 1 and 2 go to a temporary file while inside; its lines are put in ``said`` on leaving.
 
-    SuperLU writes its memory complaints with C's ``fprintf(stderr, ...)``, which no Python
-    redirection sees.  Anything else written to fd 2 meanwhile (another thread's) is kept out too:
-    the solves run in the job's own thread of its own process.
+    SuperLU writes its memory complaints with C's ``fprintf(stderr, ...)`` ("Can't expand MemType
+    0: jcol ...") and ``printf`` ("Not enough memory to perform factorization." on stdout, seen with
+    the address space capped 200 MB above the process's), which no Python redirection sees; C's
+    buffers are flushed before the descriptors are put back, so a buffered line cannot come out
+    later.  Anything else written to fd 1 or 2 meanwhile (another thread's) is kept out too: the
+    solves run in the job's own thread of its own process.
     """
+    import ctypes
     import tempfile
 
     try:
-        saved = os.dup(2)
-    except OSError:  # no fd 2
+        saved = [os.dup(1), os.dup(2)]
+    except OSError:  # no fd 1 or 2
         yield
         return
+    try:
+        flush_c = ctypes.CDLL(None).fflush
+    except (OSError, AttributeError):  # pragma: no cover (no C library to flush)
+        flush_c = None
     with tempfile.TemporaryFile() as tmp:
+        sys.stdout.flush()
         sys.stderr.flush()
+        os.dup2(tmp.fileno(), 1)
         os.dup2(tmp.fileno(), 2)
         try:
             yield
         finally:
-            os.dup2(saved, 2)
-            os.close(saved)
+            if flush_c is not None:
+                flush_c(None)
+            for fd, old in zip((1, 2), saved):
+                os.dup2(old, fd)
+                os.close(old)
             tmp.seek(0)
             said.extend(ln for ln in tmp.read(4096).decode(errors="replace").splitlines() if ln.strip())
 
