@@ -17,6 +17,16 @@ from pipeline_helpers import write_case
 OTHER_SPEEDS = {"perimeter_speed": 30, "solid_infill_speed": 120, "infill_speed": 150, "temperature": 210}
 
 
+def _reslice(test_stls, out: Path) -> Path:
+    """The specimen sliced by PrusaSlicer with ``OTHER_SPEEDS`` into ``out``, outside the run's slice cache."""
+    import slicing
+    from fixtures import _SETTINGS
+
+    slicing.slice_prusa(test_stls("ohs"), out, **{**_SETTINGS["prusa"]["example"],
+                                                   **{k: str(v) for k, v in OTHER_SPEEDS.items()}})
+    return out
+
+
 def _run(gpath: Path, case: Path, out: Path, cache: Cache | None, **cli):
     cli = {"engine": "streamlines", "jobs": 1, **cli}
     if cache is None:
@@ -33,7 +43,7 @@ def _job_input(run) -> tuple:
     return geometry_bytes(run.job.input.region), None if target is None else f"{target:.3f}"
 
 
-def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced, tmp_path):
+def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced, test_stls, tmp_path):
     first = sliced("prusa", "ohs", "example")
     again = sliced("prusa", "ohs", "example", **OTHER_SPEEDS)  # PrusaSlicer re-slices the same part
     assert first.read_bytes() != again.read_bytes()
@@ -52,15 +62,20 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     assert cache.stats.misses == {"fea": 1, "paths": n_paths, "prediction": 2}
     assert cache.stats.hits == {}
 
-    cache2 = Cache(tmp_path / "cache")
-    r2 = _run(again, case, tmp_path / "2.gcode", cache2)
-    # PrusaSlicer moved two vertices of a perimeter at the other speeds: the slicer's beads differ, so
-    # both predictions are made again (from the other layers' kept neighbours), and that layer's links;
-    # the analysis and the paths are reused
-    # PrusaSlicer 2.5 also moves a vertex of an infill region now and then between two runs of one
-    # input (seen once in a two-process suite run): that job's paths are made again, every other
-    # job's come from the cache
-    moved = [_job_input(a) != _job_input(b) for a, b in zip(r1.pipeline.jobs, r2.pipeline.jobs, strict=True)]
+    for attempt in range(3):
+        cache2 = Cache(tmp_path / "cache")
+        r2 = _run(again, case, tmp_path / "2.gcode", cache2)
+        # PrusaSlicer moved two vertices of a perimeter at the other speeds: the slicer's beads differ, so
+        # both predictions are made again (from the other layers' kept neighbours), and that layer's links;
+        # the analysis and the paths are reused
+        # PrusaSlicer 2.5 also moves a vertex of an infill region now and then between two runs of one
+        # input (seen in two-process suite runs): that job's paths are made again, every other job's come
+        # from the cache; where that was every job (the specimen has one), nothing would show the paths
+        # reused, so PrusaSlicer slices it once more (a new file, the same settings; at most twice)
+        moved = [_job_input(a) != _job_input(b) for a, b in zip(r1.pipeline.jobs, r2.pipeline.jobs, strict=True)]
+        if not all(moved) or attempt == 2:
+            break
+        again = _reslice(test_stls, tmp_path / f"again-{attempt}.gcode")
     allowed = {"links", "prediction", "beads", "islands"} | ({"paths", "simplified"} if any(moved) else set())
     assert set(cache2.stats.misses) <= allowed
     assert cache2.stats.hits["fea"] == 1
