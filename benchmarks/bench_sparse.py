@@ -138,23 +138,13 @@ from loadpath.plugin.job import JobRequest, run_job  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import slicing  # noqa: E402
-from cases import BEAM_3PT, side_case  # noqa: E402
+from cases import BEAM_3PT, BRACKET_PIN, side_case  # noqa: E402
 
 THICK = 4.0
 
 CASES = {
     "ohs": side_case((1000.0, 0.0, 0.0), loaded_within=0.5, part_frame=True),
-    "bracket": """version = 1
-frame = "part"
-[[supports]]
-name = "wall"
-where = { side = "y_max", within = 0.5 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pin"
-where = { hole_near = [52.5, 7.5], radius = 5.0 }
-force = [0.0, -300.0, 0.0]
-""",
+    "bracket": BRACKET_PIN,
     "beam": BEAM_3PT,
     "shelf": """version = 1
 frame = "part"

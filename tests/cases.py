@@ -7,7 +7,7 @@ Tests import this module by name (``tests/`` is on the path, as for ``slicing``)
 
 from __future__ import annotations
 
-__all__ = ["side_case", "GRIP_PULL", "END_PULL", "TOWER_PUSH", "BEAM_3PT"]
+__all__ = ["side_case", "GRIP_PULL", "END_PULL", "TOWER_PUSH", "BEAM_3PT", "BRACKET_PIN"]
 
 
 def side_case(
@@ -69,3 +69,17 @@ force = [0.0, -500.0, 0.0]
 """
 """Three-point bending of a 120 x 20 mm beam (part frame): held at its bottom corners (the left one
 pinned, the right one on a roller), 500 N pressed down over the middle 6 mm of its top."""
+
+BRACKET_PIN = """version = 1
+frame = "part"
+[[supports]]
+name = "wall"
+where = { side = "y_max", within = 0.5 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "pin"
+where = { hole_near = [52.5, 7.5], radius = 5.0 }
+force = [0.0, -300.0, 0.0]
+"""
+"""The L-bracket of ``slicing.bracket_mesh`` (part frame): fixed at the end of its y_max leg, a 300 N
+bearing load down on its bolt hole."""

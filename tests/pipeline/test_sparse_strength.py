@@ -13,21 +13,10 @@ from __future__ import annotations
 
 import pytest
 import slicing
+from cases import BRACKET_PIN
 from loadpath import loadcase
 from loadpath.plugin.job import JobRequest, run_job
 from loadpath.stiffness import compare_files
-
-BRACKET_CASE = """version = 1
-frame = "part"
-[[supports]]
-name = "wall"
-where = { side = "y_max", within = 0.5 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pin"
-where = { hole_near = [52.5, 7.5], radius = 5.0 }
-force = [0.0, -300.0, 0.0]
-"""
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +26,7 @@ def bracket(tmp_path_factory):
     conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3"}
     src = slicing.slice_prusa(stl, folder / "bracket.gcode", **{**conf, "fill_pattern": "gyroid"})
     case = folder / "case.toml"
-    case.write_text(BRACKET_CASE, encoding="utf-8")
+    case.write_text(BRACKET_PIN, encoding="utf-8")
     return src, case
 
 
