@@ -44,11 +44,12 @@ def _per_path_filament(chain, ends):
     return np.bincount(group, weights=chain.filament)
 
 
-def test_runs_keep_every_paths_material_and_stay_close():
+@pytest.mark.parametrize("corridor", [False, True])
+def test_runs_keep_every_paths_material_and_stay_close(corridor):
     paths = _paths()
     plan = _plan(paths)
     ends = np.array([p.points[i] for p in paths for i in (0, -1)])
-    opts = RunOptions()
+    opts = RunOptions(corridor=corridor)
     out = bead_runs(plan, FLOW, H, PITCH, PlanOptions().resolution, ends, opts)
     assert len(out.chains) == len(plan.chains) and plan.n_links > 0
     for c0, c1 in zip(plan.chains, out.chains, strict=True):
