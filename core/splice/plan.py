@@ -50,6 +50,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import shapely
@@ -141,9 +142,9 @@ class Chain:
     width: Floats
     feedrate: Floats
 
-    @property
+    @cached_property
     def length(self) -> float:
-        """Printed length, mm."""
+        """Printed length, mm (once: the rewrite and the block's report both ask)."""
         return float(np.sum(np.hypot(*np.diff(self.points, axis=0).T)))
 
 
@@ -400,22 +401,30 @@ def _order_by_island(
 def _two_opt(
     seq: list[tuple[int, bool]], heads: Points2, tails: Points2, start: Points2, passes: int, cost=None
 ) -> list[tuple[int, bool]]:
-    """2-opt on an open tour of oriented paths from a fixed start (see :func:`order_paths`)."""
+    """2-opt on an open tour of oriented paths from a fixed start (see :func:`order_paths`).
+
+    Each step tries every reversal ``[i, j]`` for one ``i`` at once.  Where each path starts and ends
+    (``s_pt``, ``e_pt``, ``(m, 2)`` mm) and the cost of the travel after each one (``link``, ``(m - 1,)``)
+    are kept between steps and changed only where a reversal changed them: the same figures as when
+    they were rebuilt at every step, without the ``O(m)`` rebuild (issue 17: the 2-opt was a third of
+    the plan's time on the 100-layer specimen).
+    """
     cost = cost or (lambda d: d)
     idx = np.array([k for k, _ in seq])
     rev = np.array([r for _, r in seq])
+    m = len(idx)
+    s_pt = np.where(rev[:, None], tails[idx], heads[idx])  # where each path starts
+    e_pt = np.where(rev[:, None], heads[idx], tails[idx])  # and ends
+    link = np.append(cost(np.hypot(*(s_pt[1:] - e_pt[:-1]).T)), 0.0)  # travel after each path
     for _ in range(passes):
         improved = False
-        for i in range(len(idx) - 1):
-            s_pt = np.where(rev[:, None], tails[idx], heads[idx])  # where each path starts
-            e_pt = np.where(rev[:, None], heads[idx], tails[idx])  # and ends
+        for i in range(m - 1):
             before = start if i == 0 else e_pt[i - 1]
-            j = np.arange(i + 1, len(idx))
-            old = cost(np.hypot(*(s_pt[i] - before))) + np.where(
-                j + 1 < len(idx), cost(np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - e_pt[j]).T)), 0.0
-            )
+            j = np.arange(i + 1, m)
+            nxt = s_pt[np.minimum(j + 1, m - 1)]
+            old = cost(np.hypot(*(s_pt[i] - before))) + link[i + 1 :]
             new = cost(np.hypot(*(e_pt[j] - before).T)) + np.where(
-                j + 1 < len(idx), cost(np.hypot(*(s_pt[np.minimum(j + 1, len(idx) - 1)] - s_pt[i]).T)), 0.0
+                j + 1 < m, cost(np.hypot(*(nxt - s_pt[i]).T)), 0.0
             )
             gain = old - new
             best = int(np.argmax(gain))
@@ -423,6 +432,10 @@ def _two_opt(
                 jj = int(j[best])
                 idx[i : jj + 1] = idx[i : jj + 1][::-1]
                 rev[i : jj + 1] = ~rev[i : jj + 1][::-1]
+                turned = e_pt[i : jj + 1][::-1].copy(), s_pt[i : jj + 1][::-1].copy()
+                s_pt[i : jj + 1], e_pt[i : jj + 1] = turned
+                lo, hi = max(i - 1, 0), min(jj + 1, m - 1)  # the travels that changed
+                link[lo:hi] = cost(np.hypot(*(s_pt[lo + 1 : hi + 1] - e_pt[lo:hi]).T))
                 improved = True
         if not improved:
             break
