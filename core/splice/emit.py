@@ -26,6 +26,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from loadpath.splice import numtext as nt
 
 __all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_many"]
 
@@ -252,6 +253,7 @@ class Writer:
         width_marker_step: float = 0.01,
         width_hysteresis: float = 0.0199,
         inserts: dict[int, list[str]] | None = None,
+        seg=None,
     ) -> None:
         """Extrude along a polyline in one go (the vectorized form of :meth:`extrude`).
 
@@ -272,6 +274,8 @@ class Writer:
             (viewers colour by it; the flow itself follows every segment's width exactly).
         inserts : dict of int -> list of str, optional
             Lines written after segment ``k`` (``M73`` progress lines).
+        seg : (n,) float, mm, optional
+            The segments' lengths, when the caller has them (else measured here).
         """
         pts = np.asarray(points, dtype=float)
         de = np.asarray(de, dtype=float) * self.scale
@@ -322,7 +326,8 @@ class Writer:
         lines.append(_Span(pid, prev, n))
         if inserts and n - 1 in inserts:
             lines.extend(inserts[n - 1])
-        seg = np.hypot(*np.diff(pts, axis=0).T)
+        if seg is None:
+            seg = np.hypot(*np.diff(pts, axis=0).T)
         self.seconds += float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
         self.width = cur_w
         self.f = fcur
@@ -425,7 +430,7 @@ def _move_lines(
 
     The F word of a changed feedrate goes first (``f_first``, Cura) or last in the move, unless the
     family writes it on its own line (``feed_line``: the caller's).  Numbers as :func:`fmt` writes
-    them (:mod:`loadpath.splice.numtext`; non-finite values through :func:`fmt_many`).
+    them (:mod:`loadpath.splice.numtext`; non-finite or huge values through :func:`fmt_many`).
 
     Parameters
     ----------
@@ -439,21 +444,11 @@ def _move_lines(
     change : (m,) int
         Moves whose feedrate differs from the one before.
     """
-    from loadpath.splice import numtext as nt
-
     n = len(to)
     lz = style.leading_zero
     in_line = len(change) and not style.feed_line  # F words inside the moves
-    if not (np.isfinite(to).all() and np.isfinite(e_vals).all() and np.isfinite(f[change]).all()):
-        xs, ys, es = fmt_many(to[:, 0], 3, lz), fmt_many(to[:, 1], 3, lz), fmt_many(e_vals, 5, lz)
-        head = [
-            f"G1 X{x} Y{y} E{e}" if h else f"G1 X{x} Y{y}"
-            for x, y, e, h in zip(xs, ys, es, has_e.tolist(), strict=True)
-        ]
-        for k in change.tolist() if in_line else ():
-            fw = "F" + fmt(float(f[k]), 3, True)
-            head[k] = head[k].replace("G1 ", f"G1 {fw} ", 1) if style.f_first else f"{head[k]} {fw}"
-        return head
+    if not (nt.writable(to, 3) and nt.writable(e_vals, 5) and nt.writable(f[change], 3)):
+        return _move_lines_plain(style, to, e_vals, has_e, f, change)
     f_word = None
     if in_line:
         at = np.zeros(n, dtype=bool)
@@ -476,3 +471,20 @@ def _move_lines(
     if f_word is not None and not style.f_first:
         cols += f_word
     return nt.lines(cols)
+
+
+def _move_lines_plain(
+    style: Style, to: np.ndarray, e_vals: np.ndarray, has_e: np.ndarray, f: np.ndarray, change: np.ndarray
+) -> list[str]:
+    """:func:`_move_lines` one value at a time (:func:`fmt_many`): for values numpy cannot write
+    (NaN, infinity), and the reference the tests hold the numpy pass to."""
+    lz = style.leading_zero
+    xs, ys, es = fmt_many(to[:, 0], 3, lz), fmt_many(to[:, 1], 3, lz), fmt_many(e_vals, 5, lz)
+    head = [
+        f"G1 X{x} Y{y} E{e}" if h else f"G1 X{x} Y{y}"
+        for x, y, e, h in zip(xs, ys, es, has_e.tolist(), strict=True)
+    ]
+    for k in change.tolist() if not style.feed_line else ():
+        fw = "F" + fmt(float(f[k]), 3, True)
+        head[k] = head[k].replace("G1 ", f"G1 {fw} ", 1) if style.f_first else f"{head[k]} {fw}"
+    return head

@@ -8,15 +8,16 @@ one ``bytes`` built in C.
 
 Exactness: ``"%.3f" % v`` rounds the double's exact binary value to 3 decimals.  The integer
 ``rint(v * 10**d)`` is the same number unless ``v * 10**d`` lies within its own rounding error of a
-half (or is too large or not finite); those few values are formatted by Python and read back, so
-every digit written is the one :func:`~loadpath.splice.emit.fmt` would write.
+half; those few values are formatted by Python and read back, so every digit written is the one
+:func:`~loadpath.splice.emit.fmt` would write.  Values that are not finite or not below
+``1e15 / 10**d`` are refused (:func:`writable` tells; the writer formats those one at a time).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Column", "number_column", "text_column", "lines"]
+__all__ = ["Column", "writable", "number_column", "text_column", "lines"]
 
 _HALF_MARGIN = 1e-9
 """Absolute part of the band around a half where ``rint(v * 10**d)`` is not trusted."""
@@ -35,21 +36,25 @@ class Column:
         self.keep = keep
 
 
+def writable(values, decimals: int) -> bool:
+    """Whether :func:`number_column` can write every value: finite, ``|v| * 10**decimals < 1e15``."""
+    v = np.asarray(values, dtype=float)
+    return bool(np.all(np.abs(v) * float(10**decimals) < _LIMIT))  # False for NaN and infinity too
+
+
 def _scaled(values: np.ndarray, decimals: int) -> np.ndarray:
     """``values`` rounded to ``decimals`` as ``%.{decimals}f`` rounds them, times ``10**decimals``; int64."""
     s = values * float(10**decimals)
+    if not np.all(np.abs(s) < _LIMIT):
+        raise ValueError("number_column writes finite numbers below 1e15 / 10**decimals only")
     k = np.rint(s)
     frac = np.abs(s - np.trunc(s))
-    doubt = ~np.isfinite(s) | (np.abs(s) >= _LIMIT)
-    doubt |= np.abs(frac - 0.5) <= _HALF_MARGIN + np.abs(s) * 4e-16
+    doubt = np.abs(frac - 0.5) <= _HALF_MARGIN + np.abs(s) * 4e-16
     out = np.where(doubt, 0.0, k).astype(np.int64)
     if doubt.any():
         f = f"%.{decimals}f"
         for i in np.flatnonzero(doubt).tolist():
-            text = f % float(values[i])
-            if not text.lstrip("-").replace(".", "").isdigit():
-                raise ValueError(f"cannot write {text!r} as a G-code number")
-            out[i] = int(text.replace(".", ""))
+            out[i] = int((f % float(values[i])).replace(".", ""))
     return out
 
 
@@ -59,6 +64,7 @@ def number_column(values, decimals: int, leading_zero: bool = False) -> Column:
     Parameters
     ----------
     values : (n,) float
+        :func:`writable` ones (else ValueError).
     decimals : int
         Digits after the point before trailing zeros are dropped (3 for XYZ, 5 for E).
     leading_zero : bool

@@ -344,5 +344,5 @@ def _extrude_chain(
         inserts.setdefault(min(k, len(seg) - 1), []).append(m73[mi][1])
         mi += 1
     # runs have one width each (loadpath.splice.beadruns): a marker at every change, to 0.001 mm
-    w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts)
+    w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts, seg=seg)
     return mi, float(cum[-1])
