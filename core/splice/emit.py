@@ -286,14 +286,14 @@ class Writer:
         if self.e_relative:
             c = self._carry + np.cumsum(de)
             r = np.round(c, 5)
-            written = np.diff(np.concatenate([[0.0], r]))
+            written = np.concatenate([r[:1], r[1:] - r[:-1]])  # np.diff after a 0: the same figures
             self._carry = float(c[-1] - r[-1])
             self.e += float(r[-1])
             e_vals = written
         else:
             c = self._e_exact + np.cumsum(de)
             e_vals = np.round(c, 5)
-            written = np.diff(np.concatenate([[round(self.e, 5)], e_vals]))
+            written = np.concatenate([e_vals[:1] - round(self.e, 5), e_vals[1:] - e_vals[:-1]])
             self._e_exact = float(c[-1])
             self.e = float(e_vals[-1])
         has_e = np.abs(written) > 0
@@ -305,7 +305,8 @@ class Writer:
             for k, cur_w in _width_changes(wq, cur_w, width_hysteresis):
                 events[k] = [f"{self.style.width}{fmt(cur_w, 6, True)}"]
         fcur = self.f
-        change = np.flatnonzero(np.diff(np.concatenate([[fcur if np.isfinite(fcur) else -1.0], f])) != 0)
+        steps = np.concatenate([f[:1] - (fcur if np.isfinite(fcur) else -1.0), f[1:] - f[:-1]])  # np.diff's
+        change = np.flatnonzero(steps != 0)
         self._pending.append((pts[1:], e_vals, has_e, f, change))
         pid = len(self._pending) - 1
         if self.style.feed_line:
@@ -327,7 +328,7 @@ class Writer:
         if inserts and n - 1 in inserts:
             lines.extend(inserts[n - 1])
         if seg is None:
-            seg = np.hypot(*np.diff(pts, axis=0).T)
+            seg = np.hypot(*(pts[1:] - pts[:-1]).T)
         self.seconds += float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
         self.width = cur_w
         self.f = fcur

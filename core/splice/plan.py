@@ -145,7 +145,7 @@ class Chain:
     @cached_property
     def length(self) -> float:
         """Printed length, mm (once: the rewrite and the block's report both ask)."""
-        return float(np.sum(np.hypot(*np.diff(self.points, axis=0).T)))
+        return float(np.sum(np.hypot(*(self.points[1:] - self.points[:-1]).T)))
 
 
 @dataclass(frozen=True)
@@ -419,17 +419,15 @@ def _two_opt(
     for _ in range(passes):
         improved = False
         for i in range(m - 1):
+            # reversing [i, j] for every j > i: the travel into i and the one after j change
             before = start if i == 0 else e_pt[i - 1]
-            j = np.arange(i + 1, m)
-            nxt = s_pt[np.minimum(j + 1, m - 1)]
             old = cost(np.hypot(*(s_pt[i] - before))) + link[i + 1 :]
-            new = cost(np.hypot(*(e_pt[j] - before).T)) + np.where(
-                j + 1 < m, cost(np.hypot(*(nxt - s_pt[i]).T)), 0.0
-            )
+            after = np.append(cost(np.hypot(*(s_pt[i + 2 :] - s_pt[i]).T)), 0.0)  # none after the last
+            new = cost(np.hypot(*(e_pt[i + 1 :] - before).T)) + after
             gain = old - new
             best = int(np.argmax(gain))
             if gain[best] > 1e-6:
-                jj = int(j[best])
+                jj = i + 1 + best
                 idx[i : jj + 1] = idx[i : jj + 1][::-1]
                 rev[i : jj + 1] = ~rev[i : jj + 1][::-1]
                 turned = e_pt[i : jj + 1][::-1].copy(), s_pt[i : jj + 1][::-1].copy()
@@ -508,28 +506,32 @@ def plan_block(
         inner = region.buffer(0.05 * nominal)
         shapely.prepare(inner)
 
-    # chains: consecutive paths joined by printed links
-    groups: list[list[tuple[Points2, Floats]]] = [[prepared[0]]]
-    n_links = 0
-    tree = None
-    if inner is not None and len(prepared) > 2:
-        lines = [LineString(p) for p, _ in prepared]
-        tree = shapely.STRtree(lines)
-    for k, (pts, pitch) in enumerate(prepared[1:], start=1):
-        prev_end = groups[-1][-1][0][-1]
-        gap = float(np.hypot(*(pts[0] - prev_end)))
-        ok = inner is not None and gap <= link_max
-        if ok:
-            seg = LineString([prev_end, pts[0]])
-            ok = inner.covers(seg)
-            if ok and tree is not None:  # a link never crosses another path
-                hit = tree.query(seg, predicate="intersects")
-                ok = not np.any((hit != k) & (hit != k - 1))
-        if ok:
-            groups[-1].append((pts, pitch))
-            n_links += 1
+    # chains: consecutive paths joined by printed links.  Path k's link comes from path k - 1's end
+    # whatever was linked before, so every candidate is tested at once: near enough, inside the
+    # region, crossing no path but the two it joins (one shapely call each, not one per path)
+    m = len(prepared)
+    linked = np.zeros(m, dtype=bool)
+    if inner is not None and m > 1:
+        heads = np.array([p[0] for p, _ in prepared])
+        tails = np.array([p[-1] for p, _ in prepared])
+        cand = 1 + np.flatnonzero(np.hypot(*(heads[1:] - tails[:-1]).T) <= link_max)
+        if len(cand):
+            segs = shapely.linestrings(np.stack([tails[cand - 1], heads[cand]], axis=1))
+            ok = np.asarray(shapely.covers(inner, segs), dtype=bool)
+            if m > 2 and ok.any():  # a link never crosses another path
+                tree = shapely.STRtree([LineString(p) for p, _ in prepared])
+                at = np.flatnonzero(ok)
+                seg_i, hit = tree.query(segs[at], predicate="intersects")
+                k = cand[at][seg_i]
+                ok[at[np.unique(seg_i[(hit != k) & (hit != k - 1)])]] = False
+            linked[cand[ok]] = True
+    n_links = int(linked.sum())
+    groups: list[list[tuple[Points2, Floats]]] = []
+    for k, path in enumerate(prepared):
+        if linked[k]:
+            groups[-1].append(path)
         else:
-            groups.append([(pts, pitch)])
+            groups.append([path])
     chains_pts, chains_fw, chains_link = [], [], []
     for g in groups:
         pts = np.concatenate([p for p, _ in g])
@@ -543,7 +545,7 @@ def plan_block(
         chains_pts.append(pts)
         chains_fw.append(np.concatenate(seg_fw))
         chains_link.append(np.concatenate(seg_link))
-    lengths = [np.hypot(*np.diff(p, axis=0).T) for p in chains_pts]
+    lengths = [np.hypot(*(p[1:] - p[:-1]).T) for p in chains_pts]
     fw = np.concatenate(chains_fw)
     link = np.concatenate(chains_link)
     ln = np.concatenate(lengths)

@@ -260,7 +260,9 @@ def rewrite_block(
     markers = _marker_lines(style)
     lines, frac = _core_fraction(p, b)
     m73: list[tuple[float, str]] = []
-    for i in range(b.start, b.stop):
+    # only the neutral and barrier lines are read (moves and the rest are dropped unread)
+    core = b.start + np.flatnonzero((kind[b.start : b.stop] == NEUTRAL) | (kind[b.start : b.stop] == BARRIER))
+    for i in core.tolist():
         k = kind[i]
         text = p.line(i)
         if k == NEUTRAL:
@@ -336,7 +338,7 @@ def _extrude_chain(
     total_len: float,
 ) -> tuple[int, float]:
     """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
-    seg = np.hypot(*np.diff(c.points, axis=0).T)
+    seg = np.hypot(*(c.points[1:] - c.points[:-1]).T)
     cum = done_len + np.cumsum(seg)
     inserts: dict[int, list[str]] = {}
     while mi < len(m73) and m73[mi][0] * total_len <= cum[-1] + 1e-9:
