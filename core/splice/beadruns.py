@@ -240,8 +240,8 @@ def bead_runs(
     # 1. stretches between path ends (and chain ends); extrusion per mm smoothed inside each
     cut = np.zeros(len(pts), dtype=bool)
     if path_ends is not None:
-        ends = np.unique(np.asarray(path_ends, dtype=float) @ np.array([1.0, 1j]))
-        cut = np.isin(pts @ np.array([1.0, 1j]), ends)
+        ends = np.unique(_as_complex(np.asarray(path_ends, dtype=float)))
+        cut = _among(_as_complex(pts), ends)
     cut[vstart] = cut[vlast] = True
     stretch = np.cumsum(cut[seg_v]) - 1  # stretch of each segment (a chain end always cuts)
     fil = smooth_filament(fil0, seg, options.smooth * flow_width, stretch)
@@ -328,6 +328,37 @@ def bead_runs(
         "runs": len(rfirst),
     }
     return dataclasses.replace(plan, chains=chains, stats=stats)
+
+
+def _as_complex(xy: np.ndarray) -> np.ndarray:
+    """Points ``(n, 2)`` as ``x + iy``, ``(n,) complex``: equal where the points are (finite ones).
+
+    (``xy @ [1, 1j]`` gave the same, through a mixed-type matrix product: 5 ms for a block's
+    7000 vertices.)
+    """
+    out = np.empty(len(xy), dtype=complex)
+    out.real, out.imag = xy[:, 0], xy[:, 1]
+    return out
+
+
+def _among(values: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """``np.isin(values, table)`` for a sorted, unique ``table`` (complex: one point each), by binary
+    search (isin sorted the block's ~7000 vertices with its ~90 path ends: 1.4 ms, this 0.1 ms).
+
+    Parameters
+    ----------
+    values : (n,) complex
+    table : (m,) complex
+        Sorted (``np.unique``).
+
+    Returns
+    -------
+    (n,) bool
+    """
+    if not len(table):
+        return np.zeros(len(values), dtype=bool)
+    at = np.minimum(np.searchsorted(table, values), len(table) - 1)
+    return table[at] == values
 
 
 def _width(filament: Floats, length: Floats, flow: FlowModel, height: float) -> Floats:
