@@ -367,7 +367,7 @@ def _travel_cost(free_travel: float, retract_cost: float):
     """``cost(d)`` of travels of lengths ``d`` (:func:`order_paths`), vectorized."""
     if free_travel <= 0 or retract_cost <= 0:
         return lambda d: d
-    return lambda d: d + retract_cost * (np.asarray(d) >= free_travel)
+    return lambda d: d + retract_cost * (d >= free_travel)  # d: numpy array or scalar (np.hypot's)
 
 
 def _order_by_island(
