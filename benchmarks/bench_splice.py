@@ -25,6 +25,26 @@ lines per CPU second of the splice (one process: per core), the check's CPU seco
 second, and the ``--profile`` top functions of one more splice under ``cProfile`` (own time;
 the profiler roughly doubles the time of small Python calls).  ``OUT_DIR/bench_splice.json`` keeps
 the rows.  Default ``OUT_DIR``: ``$TMPDIR/loadpath_bench_splice``.
+
+Measured 2026-12-04 (issue 17, "a splice that streams"), engine swarm, the same pickled fills,
+BEFORE = main 08f331b (its own venv) and AFTER = this branch, run alternately four times each
+(``--repeats 1``) on the 2-core machine shared with other jobs (load 4-6); medians::
+
+    part           out lines   splice s BEFORE   AFTER   lines/s BEFORE    AFTER   check s  lines/s
+    example            24499             0.381   0.122            64 k     201 k     0.035   700 k
+    specimen-100      399296             6.34    2.31             63 k     173 k     0.38    1.05 M
+
+Byte-identical outputs (sha256 of the splice's bytes).  Where the time was, and went (``--profile``,
+specimen-100): the Writer's number formatting, three ``str`` list comprehensions per chain (now one
+numpy pass per block, :mod:`loadpath.splice.numtext`); the 2-opt rebuilding where every path starts
+and ends at each step; and, largest, ``xy @ [1, 1j]`` in ``bead_runs``: a float-by-complex matrix
+product (about 10 ms of CPU per block of 7000 vertices, and OpenBLAS's threads contending with
+the rest of the splice for the 2 cores, which inflated every other item of the profile about 3x).
+Left (profile of 3.3 s, 2.0 s without it): per chain, the travel with its retraction and wipe
+(25 %: shapely's ``covers``, the wipe's moves formatted one at a time), the chain's E and markers
+in ``extrude_many`` (16 %); per block, the plan's order (greedy and 2-opt, 14 %) and the bead runs
+with their Ramer-Douglas-Peucker passes (20 %).  The 1 M lines/s target is not met: what is left is
+Python per chain (4414 chains in 98 blocks: about 0.5 ms of the splice per chain), not per vertex.
 """
 
 from __future__ import annotations
@@ -117,7 +137,8 @@ def bench(name: str, folder: Path, repeats: int, engine: str, top: int, check: b
         if check:
             regions = {f.block: f.region for f in fills if f.region is not None}
             t = time.process_time()
-            chk = check_output(program, res.data, res, regions=regions, retract_length=options.motion.retraction.length)
+            r = options.motion.retraction.length
+            chk = check_output(program, res.data, res, regions=regions, retract_length=r)
             cpu_check.append(time.process_time() - t)
             if chk.problems:
                 raise SystemExit(f"{name}: the check failed: {chk.problems[0]}")
@@ -160,16 +181,23 @@ def main(argv=None) -> int:
     if shutil.which("prusa-slicer") is None and args.only != "example":
         print("(PrusaSlicer not found: the specimen cannot be sliced unless its G-code is in the folder)")
     rows = []
-    print(f"splice alone, CPU seconds, median of {args.repeats}; engine {args.engine}; load average "
-          f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; folder {folder}", flush=True)
-    head = f"{'part':<14}{'blocks':>7}{'out lines':>11}{'new lines':>11}{'splice s':>10}{'lines/s':>11}{'check s':>9}{'lines/s':>11}"
+    print(
+        f"splice alone, CPU seconds, median of {args.repeats}; engine {args.engine}; load average "
+        f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; folder {folder}",
+        flush=True,
+    )
+    head = (
+        f"{'part':<14}{'blocks':>7}{'out lines':>11}{'new lines':>11}{'splice s':>10}{'lines/s':>11}"
+        f"{'check s':>9}{'lines/s':>11}"
+    )
     print(head)
     print("-" * len(head), flush=True)
     for name in args.only.split(","):
         r = bench(name, folder, max(1, args.repeats), args.engine, args.profile, not args.no_check)
         rows.append(r)
         print(
-            f"{r['part']:<14}{r['blocks']:>7}{r['out_lines']:>11}{r['new_lines']:>11}{r['splice_cpu_s']:>10.3f}"
+            f"{r['part']:<14}{r['blocks']:>7}{r['out_lines']:>11}{r['new_lines']:>11}"
+            f"{r['splice_cpu_s']:>10.3f}"
             f"{r['out_lines_per_s']:>11.0f}{r.get('check_cpu_s', float('nan')):>9.3f}"
             f"{r.get('check_out_lines_per_s', float('nan')):>11.0f}",
             flush=True,
