@@ -27,24 +27,29 @@ the profiler roughly doubles the time of small Python calls).  ``OUT_DIR/bench_s
 the rows.  Default ``OUT_DIR``: ``$TMPDIR/loadpath_bench_splice``.
 
 Measured 2026-12-04 (issue 17, "a splice that streams"), engine swarm, the same pickled fills,
-BEFORE = main 08f331b (its own venv) and AFTER = this branch, run alternately four times each
-(``--repeats 1``) on the 2-core machine shared with other jobs (load 4-6); medians::
+BEFORE = 08f331b (its ``core`` as ``loadpath`` on ``PYTHONPATH``) and AFTER = this branch, run
+alternately four times each (``--repeats 1``) on the 2-core machine shared with other jobs (load
+2-4); medians::
 
-    part           out lines   splice s BEFORE   AFTER   lines/s BEFORE    AFTER   check s  lines/s
-    example            24499             0.381   0.122            64 k     201 k     0.035   700 k
-    specimen-100      399296             6.34    2.31             63 k     173 k     0.38    1.05 M
+    part          out lines   splice s BEFORE  AFTER   lines/s BEFORE  AFTER   check s BEFORE  AFTER
+    example           24499            0.368   0.107             67 k  229 k            0.065  0.032
+    specimen-100     399296            6.69    2.36              60 k  169 k            0.435  0.395
 
-Byte-identical outputs (sha256 of the splice's bytes).  Where the time was, and went (``--profile``,
-specimen-100): the Writer's number formatting, three ``str`` list comprehensions per chain (now one
-numpy pass per block, :mod:`loadpath.splice.numtext`); the 2-opt rebuilding where every path starts
-and ends at each step; and, largest, ``xy @ [1, 1j]`` in ``bead_runs``: a float-by-complex matrix
-product (about 10 ms of CPU per block of 7000 vertices, and OpenBLAS's threads contending with
-the rest of the splice for the 2 cores, which inflated every other item of the profile about 3x).
-Left (profile of 3.3 s, 2.0 s without it): per chain, the travel with its retraction and wipe
-(25 %: shapely's ``covers``, the wipe's moves formatted one at a time), the chain's E and markers
-in ``extrude_many`` (16 %); per block, the plan's order (greedy and 2-opt, 14 %) and the bead runs
-with their Ramer-Douglas-Peucker passes (20 %).  The 1 M lines/s target is not met: what is left is
-Python per chain (4414 chains in 98 blocks: about 0.5 ms of the splice per chain), not per vertex.
+The check's code is the same; it most likely ran faster after because no matrix product before it
+had woken OpenBLAS's threads (below).  Byte-identical outputs (sha256 of the splice's bytes).
+
+Where the time was, and went (``--profile``, specimen-100): the Writer's number formatting, three
+``str`` list comprehensions per chain (now one numpy pass per block, :mod:`loadpath.splice.numtext`);
+the 2-opt rebuilding where every path starts and ends at each step; and, largest, ``xy @ [1, 1j]``
+in ``bead_runs``: a float-by-complex matrix product, about 10 ms of CPU per block of 7000 vertices
+(with it gone, every other item of the profile, whose clock is the wall's, took about a third of
+its time: most likely OpenBLAS's threads, woken by the product, contended for the 2 cores).
+Left (a profile of about 3 s; 2.0-2.4 s without the profiler): per chain, the travel with its
+retraction and wipe (25 %: shapely's ``covers``, the wipe's moves formatted one at a time), the
+chain's E and markers in ``extrude_many`` (16 %); per block, the plan's order (greedy and 2-opt,
+14 %) and the bead runs with their Ramer-Douglas-Peucker passes (20 %).  The 1 M lines/s target is
+not met: what is left is Python per chain (4414 chains in 98 blocks: about 0.5 ms of the splice
+per chain), not per vertex.
 """
 
 from __future__ import annotations
