@@ -26,6 +26,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from loadpath.splice import numtext as nt
 
 __all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_many"]
 
@@ -148,7 +149,8 @@ class Writer:
         volumetric_area: float | None = None,
     ) -> None:
         self.style = style
-        self.lines: list[str] = []
+        self._lines: list = []  # str, or a _Span of extrusion lines formatted on first read
+        self._pending: list[tuple] = []  # extrude_many's moves not yet formatted
         self.x, self.y, self.z = x, y, z
         self.e = e  # logical E after the last line written (rounded as written)
         self._e_exact = e  # running total as asked for (absolute mode)
@@ -195,24 +197,24 @@ class Writer:
 
     def raw(self, line: str) -> None:
         """Append a line as is (no state change)."""
-        self.lines.append(line)
+        self._lines.append(line)
 
     def marker(self, prefix: str | None, value: str) -> None:
         """Append a marker comment (nothing when the family has no such marker)."""
         if prefix is not None:
-            self.lines.append(f"{prefix}{value}")
+            self._lines.append(f"{prefix}{value}")
 
     def feed(self, f: float) -> None:
         """Set the feedrate with its own line (``G1 F4800``) when it changes."""
         w = self._f_word(f)
         if w is not None:
-            self.lines.append(f"G1 {w}")
+            self._lines.append(f"G1 {w}")
 
     def _move(self, cmd: str, words: list[str], f: float | None, dist: float = 0.0) -> None:
         fw = self._f_word(f)
         if fw is not None:
             words = [fw, *words] if self.style.f_first else [*words, fw]
-        self.lines.append(" ".join([cmd, *words]))
+        self._lines.append(" ".join([cmd, *words]))
         if dist > 0 and self.f > 0:
             self.seconds += dist / self.f * 60.0
 
@@ -251,6 +253,7 @@ class Writer:
         width_marker_step: float = 0.01,
         width_hysteresis: float = 0.0199,
         inserts: dict[int, list[str]] | None = None,
+        seg=None,
     ) -> None:
         """Extrude along a polyline in one go (the vectorized form of :meth:`extrude`).
 
@@ -271,6 +274,8 @@ class Writer:
             (viewers colour by it; the flow itself follows every segment's width exactly).
         inserts : dict of int -> list of str, optional
             Lines written after segment ``k`` (``M73`` progress lines).
+        seg : (n,) float, mm, optional
+            The segments' lengths, when the caller has them (else measured here).
         """
         pts = np.asarray(points, dtype=float)
         de = np.asarray(de, dtype=float) * self.scale
@@ -281,62 +286,49 @@ class Writer:
         if self.e_relative:
             c = self._carry + np.cumsum(de)
             r = np.round(c, 5)
-            written = np.diff(np.concatenate([[0.0], r]))
+            written = np.concatenate([r[:1], r[1:] - r[:-1]])  # np.diff after a 0: the same figures
             self._carry = float(c[-1] - r[-1])
             self.e += float(r[-1])
             e_vals = written
         else:
             c = self._e_exact + np.cumsum(de)
             e_vals = np.round(c, 5)
-            written = np.diff(np.concatenate([[round(self.e, 5)], e_vals]))
+            written = np.concatenate([e_vals[:1] - round(self.e, 5), e_vals[1:] - e_vals[:-1]])
             self._e_exact = float(c[-1])
             self.e = float(e_vals[-1])
-        lz = self.style.leading_zero
-        xs = fmt_many(pts[1:, 0], 3, lz)
-        ys = fmt_many(pts[1:, 1], 3, lz)
-        es = fmt_many(e_vals, 5, lz)
         has_e = np.abs(written) > 0
-        wq = None
-        if widths is not None and self.style.width:
-            wq = np.round(np.asarray(widths, dtype=float) / width_marker_step) * width_marker_step
-        head = [
-            f"G1 X{x} Y{y} E{e}" if h else f"G1 X{x} Y{y}"
-            for x, y, e, h in zip(xs, ys, es, has_e.tolist(), strict=True)
-        ]
         # events before a segment: a width marker (with hysteresis) and/or a feedrate change
         events: dict[int, list[str]] = {}
         cur_w = self.width
-        if wq is not None:
-            wl = wq.tolist()
-            for k in range(n):
-                if not abs(wl[k] - cur_w) < width_hysteresis:
-                    cur_w = wl[k]
-                    events[k] = [f"{self.style.width}{fmt(cur_w, 6, True)}"]
+        if widths is not None and self.style.width:
+            wq = np.round(np.asarray(widths, dtype=float) / width_marker_step) * width_marker_step
+            for k, cur_w in _width_changes(wq, cur_w, width_hysteresis):
+                events[k] = [f"{self.style.width}{fmt(cur_w, 6, True)}"]
         fcur = self.f
-        change = np.flatnonzero(np.diff(np.concatenate([[fcur if np.isfinite(fcur) else -1.0], f])) != 0)
-        for k in change.tolist():
-            fw = "F" + fmt(float(f[k]), 3, True)
-            if self.style.feed_line:
-                events.setdefault(k, []).append(f"G1 {fw}")
-            elif self.style.f_first:
-                head[k] = head[k].replace("G1 ", f"G1 {fw} ", 1)
-            else:
-                head[k] = f"{head[k]} {fw}"
+        steps = np.concatenate([f[:1] - (fcur if np.isfinite(fcur) else -1.0), f[1:] - f[:-1]])  # np.diff's
+        change = np.flatnonzero(steps != 0)
+        self._pending.append((pts[1:], e_vals, has_e, f, change))
+        pid = len(self._pending) - 1
+        if self.style.feed_line:
+            for k in change.tolist():
+                events.setdefault(k, []).append("G1 F" + fmt(float(f[k]), 3, True))
         if len(f):
             fcur = float(f[-1])
         for k, extra in (inserts or {}).items():
             if k + 1 < n:
                 events.setdefault(k + 1, []).extend(extra)
-        lines = self.lines
+        lines = self._lines
         prev = 0
         for k in sorted(events):
-            lines.extend(head[prev:k])
+            if k > prev:
+                lines.append(_Span(pid, prev, k))
             lines.extend(events[k])
             prev = k
-        lines.extend(head[prev:])
+        lines.append(_Span(pid, prev, n))
         if inserts and n - 1 in inserts:
             lines.extend(inserts[n - 1])
-        seg = np.hypot(*np.diff(pts, axis=0).T)
+        if seg is None:
+            seg = np.hypot(*(pts[1:] - pts[:-1]).T)
         self.seconds += float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
         self.width = cur_w
         self.f = fcur
@@ -369,10 +361,131 @@ class Writer:
 
     def set_e(self, e: float) -> None:
         """``G92 E<e>``: make the logical E what the following lines expect (absolute E)."""
-        self.lines.append(f"G92 E{fmt(e, 5, True)}")
+        self._lines.append(f"G92 E{fmt(e, 5, True)}")
         self.e = self._e_exact = e
         self._carry = 0.0
 
+    @property
+    def lines(self) -> list[str]:
+        """The lines written so far.
+
+        The moves of :meth:`extrude_many` are formatted here, all those of the writer in one numpy
+        pass (:func:`_move_lines`): per call, the fixed cost of the passes outweighed a chain's few
+        dozen lines.
+        """
+        if self._pending:
+            pend, self._pending = self._pending, []
+            base = np.cumsum([0] + [len(t[0]) for t in pend])
+            head = _move_lines(
+                self.style,
+                np.concatenate([t[0] for t in pend]),
+                np.concatenate([t[1] for t in pend]),
+                np.concatenate([t[2] for t in pend]),
+                np.concatenate([t[3] for t in pend]),
+                np.concatenate([t[4] + b for t, b in zip(pend, base[:-1].tolist(), strict=True)]),
+            )
+            out: list[str] = []
+            for item in self._lines:
+                if type(item) is _Span:
+                    b = int(base[item.call])
+                    out.extend(head[b + item.start : b + item.stop])
+                else:
+                    out.append(item)
+            self._lines = out
+        return self._lines
+
     def text(self, newline: str = "\n") -> str:
         """Return the lines written so far, each with ``newline``."""
-        return newline.join(self.lines) + newline if self.lines else ""
+        lines = self.lines
+        return newline.join(lines) + newline if lines else ""
+
+
+class _Span:
+    """Lines ``[start, stop)`` of the moves of the ``call``-th pending :meth:`Writer.extrude_many`."""
+
+    __slots__ = ("call", "start", "stop")
+
+    def __init__(self, call: int, start: int, stop: int) -> None:
+        self.call, self.start, self.stop = call, start, stop
+
+
+def _width_changes(wq: np.ndarray, current: float, hysteresis: float) -> list[tuple[int, float]]:
+    """Segments where a width marker goes and the width it states: ``(k, width)`` in order.
+
+    A marker is written where the quantized width ``wq`` (mm, per segment) moved ``hysteresis`` mm or
+    more from the last one stated (``current`` before the first segment, NaN: none).  Sequential by
+    nature; plain floats over a chain's few dozen segments cost less than numpy's passes would.
+    """
+    out = []
+    for k, w in enumerate(wq.tolist()):
+        if not abs(w - current) < hysteresis:
+            current = w
+            out.append((k, current))
+    return out
+
+
+def _move_lines(
+    style: Style, to: np.ndarray, e_vals: np.ndarray, has_e: np.ndarray, f: np.ndarray, change: np.ndarray
+) -> list[str]:
+    """The text of extrusion moves ``G1 X.. Y.. E..`` (E where ``has_e``), F words where ``change``.
+
+    The F word of a changed feedrate goes first (``f_first``, Cura) or last in the move, unless the
+    family writes it on its own line (``feed_line``: the caller's).  Numbers as :func:`fmt` writes
+    them (:mod:`loadpath.splice.numtext`; non-finite or huge values through :func:`fmt_many`).
+
+    Parameters
+    ----------
+    style : Style
+    to : (n, 2) float, mm
+        End point of each move.
+    e_vals : (n,) float
+        E word of each move (relative or absolute, as written).
+    has_e : (n,) bool
+    f : (n,) float, mm/min
+    change : (m,) int
+        Moves whose feedrate differs from the one before.
+    """
+    n = len(to)
+    lz = style.leading_zero
+    in_line = len(change) and not style.feed_line  # F words inside the moves
+    if not (nt.writable(to, 3) and nt.writable(e_vals, 5) and nt.writable(f[change], 3)):
+        return _move_lines_plain(style, to, e_vals, has_e, f, change)
+    f_word = None
+    if in_line:
+        at = np.zeros(n, dtype=bool)
+        at[change] = True
+        f_word = [nt.text_column(" F", n, at), nt.number_column(np.where(at, f, 0.0), 3, True)]
+        f_word[1].keep &= at[:, None]
+    e_col = nt.number_column(e_vals, 5, lz)
+    e_col.keep &= has_e[:, None]
+    cols = [nt.text_column("G1", n)]
+    if f_word is not None and style.f_first:
+        cols += f_word
+    cols += [
+        nt.text_column(" X", n),
+        nt.number_column(to[:, 0], 3, lz),
+        nt.text_column(" Y", n),
+        nt.number_column(to[:, 1], 3, lz),
+        nt.text_column(" E", n, has_e),
+        e_col,
+    ]
+    if f_word is not None and not style.f_first:
+        cols += f_word
+    return nt.lines(cols)
+
+
+def _move_lines_plain(
+    style: Style, to: np.ndarray, e_vals: np.ndarray, has_e: np.ndarray, f: np.ndarray, change: np.ndarray
+) -> list[str]:
+    """:func:`_move_lines` one value at a time (:func:`fmt_many`): for values numpy cannot write
+    (NaN, infinity), and the reference the tests hold the numpy pass to."""
+    lz = style.leading_zero
+    xs, ys, es = fmt_many(to[:, 0], 3, lz), fmt_many(to[:, 1], 3, lz), fmt_many(e_vals, 5, lz)
+    head = [
+        f"G1 X{x} Y{y} E{e}" if h else f"G1 X{x} Y{y}"
+        for x, y, e, h in zip(xs, ys, es, has_e.tolist(), strict=True)
+    ]
+    for k in change.tolist() if not style.feed_line else ():
+        fw = "F" + fmt(float(f[k]), 3, True)
+        head[k] = head[k].replace("G1 ", f"G1 {fw} ", 1) if style.f_first else f"{head[k]} {fw}"
+    return head

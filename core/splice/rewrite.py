@@ -260,7 +260,9 @@ def rewrite_block(
     markers = _marker_lines(style)
     lines, frac = _core_fraction(p, b)
     m73: list[tuple[float, str]] = []
-    for i in range(b.start, b.stop):
+    # only the neutral and barrier lines are read (moves and the rest are dropped unread)
+    core = b.start + np.flatnonzero((kind[b.start : b.stop] == NEUTRAL) | (kind[b.start : b.stop] == BARRIER))
+    for i in core.tolist():
         k = kind[i]
         text = p.line(i)
         if k == NEUTRAL:
@@ -336,7 +338,7 @@ def _extrude_chain(
     total_len: float,
 ) -> tuple[int, float]:
     """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
-    seg = np.hypot(*np.diff(c.points, axis=0).T)
+    seg = np.hypot(*(c.points[1:] - c.points[:-1]).T)
     cum = done_len + np.cumsum(seg)
     inserts: dict[int, list[str]] = {}
     while mi < len(m73) and m73[mi][0] * total_len <= cum[-1] + 1e-9:
@@ -344,5 +346,5 @@ def _extrude_chain(
         inserts.setdefault(min(k, len(seg) - 1), []).append(m73[mi][1])
         mi += 1
     # runs have one width each (loadpath.splice.beadruns): a marker at every change, to 0.001 mm
-    w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts)
+    w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts, seg=seg)
     return mi, float(cum[-1])

@@ -234,7 +234,7 @@ def _near_region(st: TravelState, reach: float):
 def wipe_points(chain_pts: Points2, distance: float) -> Points2:
     """Points of a wipe that retraces ``chain_pts`` backwards from its end for ``distance`` mm."""
     back = chain_pts[::-1]
-    seg = np.hypot(*np.diff(back, axis=0).T)
+    seg = np.hypot(*(back[1:] - back[:-1]).T)
     cum = np.concatenate([[0.0], np.cumsum(seg)])
     d = min(distance, float(cum[-1]))
     k = int(np.searchsorted(cum, d, side="left"))
@@ -254,7 +254,7 @@ def wipe_back(w: Writer, chain_pts: Points2, distance: float, total: float) -> f
     if len(pts) == 0:
         return 0.0
     path = np.vstack([[w.x, w.y], pts])
-    seg = np.hypot(*np.diff(path, axis=0).T)
+    seg = np.hypot(*(path[1:] - path[:-1]).T)
     if seg.sum() <= 0:
         return 0.0
     share = total * seg / seg.sum()
@@ -281,7 +281,7 @@ def retract(w: Writer, st: TravelState, last: Points2 | None) -> None:
             # speed, pulling 95 % of what is left; the rest is an E-only move (verified on 2.5 output).
             wipe_speed = 0.8 * st.motion.travel_speed
             dist = r.length / r.speed * wipe_speed
-            avail = float(np.sum(np.hypot(*np.diff(last, axis=0).T)))
+            avail = float(np.sum(np.hypot(*(last[1:] - last[:-1]).T)))
             want = 0.95 * (r.length - done) * min(1.0, avail / dist) if dist > 0 else 0.0
             w.marker(w.style.wipe_start, "")
             w.feed(wipe_speed * 60.0)
