@@ -32,7 +32,7 @@ from loadpath.errors import LoadpathError
 from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
 from loadpath.stiffness.deposits import Deposits, Stack, from_program
-from loadpath.stiffness.model import body_mesh, file_card, solve_body
+from loadpath.stiffness.model import body_mesh, file_card, mesh_key, solve_body
 from loadpath.stiffness.predict import StiffnessOptions
 
 __all__ = [
@@ -118,6 +118,8 @@ class _Predicted:
     energy_density: np.ndarray
     failure: float
     failure_load: float
+    mesh: object = None
+    """The mesh it was solved on (kept with it: a run whose predictions are all in the cache meshes nothing)."""
 
 
 def prediction_key(
@@ -147,15 +149,21 @@ def prediction_key(
     return digest(parts())
 
 
-def _predict(rb, mesh, deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
-    """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept."""
+def _predict(rb, meshes: dict, deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
+    """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept.
+
+    The body's mesh is made (:func:`~loadpath.stiffness.model.body_mesh`) only to solve; a cached
+    prediction brings its own, which ``meshes`` then holds for the body's other prediction.
+    """
     k = prediction_key(key, deposits, options, card) if cache is not None and key else None
     if k is not None:
         hit = cache.get("prediction", k)
-        if isinstance(hit, _Predicted):
+        if isinstance(hit, _Predicted) and hit.mesh is not None:
+            meshes.setdefault(mesh_key(rb, options), hit.mesh)
             return hit
+    mesh = body_mesh(rb, options, meshes)
     p, f = solve_body(rb, deposits, options, card, mesh)
-    out = _Predicted(p.compliance, p.mass, p.energy_density, f.load_factor, f.failure_load)
+    out = _Predicted(p.compliance, p.mass, p.energy_density, f.load_factor, f.failure_load, mesh)
     if k is not None:
         cache.put("prediction", k, out)
     return out
@@ -241,14 +249,13 @@ def predicted_change(
     with layer_store(layers) if layers is not None else nullcontext():
         for name, an in analyses.items():
             rb = an.resolved
-            mesh = body_mesh(rb, options, meshes)
             key = (fea_keys or {}).get(name, "")
             code = object_codes[name]
             before = from_program(program, code, filament_diameter)
             after = from_program(output, _same_object(program, output, code), filament_diameter)
-            p0 = _predict(rb, mesh, before, options, card, cache, key)
-            p1 = _predict(rb, mesh, after, options, card, cache, key)
-            bodies.append(_body(name, p0, p1, mesh))
+            p0 = _predict(rb, meshes, before, options, card, cache, key)
+            p1 = _predict(rb, meshes, after, options, card, cache, key)
+            bodies.append(_body(name, p0, p1, p0.mesh))
     if layers is not None and layers.kept:
         cache.evict()
     return _summary(bodies, card, t0)
@@ -277,15 +284,18 @@ def change_from_results(before, after, seconds: float = 0.0) -> StiffnessChange:
     """
     bodies = []
     for b0, b1, f0, f1 in zip(before.predictions, after.predictions, before.failures, after.failures, strict=True):
-        p0 = _Predicted(b0.compliance, b0.mass, b0.energy_density, f0.load_factor, f0.failure_load)
-        p1 = _Predicted(b1.compliance, b1.mass, b1.energy_density, f1.load_factor, f1.failure_load)
+        p0 = _Predicted(b0.compliance, b0.mass, b0.energy_density, f0.load_factor, f0.failure_load, b0.mesh)
+        p1 = _Predicted(b1.compliance, b1.mass, b1.energy_density, f1.load_factor, f1.failure_load, b1.mesh)
         bodies.append(_body(b0.name, p0, p1, b0.mesh))
     return _summary(bodies, after.card, 0.0, seconds)
 
 
 def _body(name: str, p0: _Predicted, p1: _Predicted, mesh) -> BodyChange:  # type: ignore[no-untyped-def]
+    e0, e1 = p0.energy_density, p1.energy_density
+    if e0.shape != e1.shape:  # two cached predictions of other meshes: no per-element ratio
+        e1 = np.full(e0.shape, np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(p0.energy_density > 0, p1.energy_density / p0.energy_density, np.nan)
+        ratio = np.where(e0 > 0, e1 / e0, np.nan)
     return BodyChange(
         name, p0.compliance, p1.compliance, p0.mass, p1.mass, energy_ratio=ratio, mesh=mesh,
         failure_before=p0.failure, failure_after=p1.failure,

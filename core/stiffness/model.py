@@ -28,7 +28,7 @@ from loadpath.stiffness.deposits import Deposits, Stack
 from loadpath.stiffness.predict import Prediction, StiffnessOptions, predict, stiffness_mesh
 from loadpath.stiffness.strength import Failure, first_failure
 
-__all__ = ["file_card", "body_mesh", "solve_body"]
+__all__ = ["file_card", "mesh_key", "body_mesh", "solve_body"]
 
 
 def file_card(
@@ -59,18 +59,23 @@ def file_card(
     return replace(options, material=card.elastic), card, why
 
 
-def body_mesh(rb: ResolvedBody, options: StiffnessOptions, meshes: dict[Any, MeshData] | None = None) -> MeshData:
-    """The mesh a body is predicted on: :func:`~.predict.stiffness_mesh`, kept in ``meshes`` by outline.
-
-    Two bodies with the same analysis kind, slab outlines and heights get the very same mesh.
-    """
-    key = (
+def mesh_key(rb: ResolvedBody, options: StiffnessOptions) -> tuple:
+    """What :func:`body_mesh`'s mesh depends on: analysis kind, slab outlines and heights, pitch, mesh size."""
+    return (
         rb.analysis,
         tuple(s.outline.wkb for s in rb.body.slabs),
         tuple((s.z0, s.z1) for s in rb.body.slabs),
         options.pitch,
         repr(options.mesh_size),
     )
+
+
+def body_mesh(rb: ResolvedBody, options: StiffnessOptions, meshes: dict[Any, MeshData] | None = None) -> MeshData:
+    """The mesh a body is predicted on: :func:`~.predict.stiffness_mesh`, kept in ``meshes`` by outline.
+
+    Two bodies with the same analysis kind, slab outlines and heights get the very same mesh.
+    """
+    key = mesh_key(rb, options)
     mesh = None if meshes is None else meshes.get(key)
     if mesh is None:
         mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
