@@ -288,14 +288,15 @@ def _prediction(pres, s, warnings: list[str], cache=None, loadcase=None, known=N
     run's output, so the verdict says what ``compare`` says of the same two files; ``known``: that
     change already computed (``density = "auto"`` judged the kept candidate with it), used as is.
 
-    Only 2D (plate) analyses are predicted on every run: two solves with the beads sampled every
-    0.1 mm.  A 3D body's prediction samples every layer into tetrahedra: on a 120-layer twisted tower
+    Only 2D (plate) analyses of at most :data:`~loadpath.stiffness.change.VERDICT_SAMPLES` bead
+    samples are predicted on every run: two solves with the beads sampled every 0.1 mm (the
+    100-layer specimen's 80 million took 30-60 s each; the verdict says so, no warning).  A 3D body's prediction samples every layer into tetrahedra: on a 120-layer twisted tower
     (46 000 elements) it took 520 s, longer than the run, so the verdict says so and points to
     ``loadpath compare``, which predicts the same.
     """
     from loadpath.errors import LoadpathError as _Err
     from loadpath.gcode import parse
-    from loadpath.stiffness.change import predicted_change
+    from loadpath.stiffness.change import TooCostly, predicted_change
 
     if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
         return None, "3D part, not predicted on every run: loadpath compare IN OUT --loadcase CASE predicts it"
@@ -312,6 +313,8 @@ def _prediction(pres, s, warnings: list[str], cache=None, loadcase=None, known=N
             cache=cache,
             fea_keys=pres.fea_keys,
         ), ""
+    except TooCostly as exc:
+        return None, f"{exc}: loadpath compare IN OUT --loadcase CASE predicts it"
     except (_Err, ValueError, FloatingPointError, np_error()) as exc:
         warnings.append(f"no stiffness prediction ({type(exc).__name__}: {' '.join(str(exc).split())})")
         return None, "the model failed; see the warnings"

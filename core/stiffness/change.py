@@ -32,7 +32,7 @@ from loadpath.errors import LoadpathError
 from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
 from loadpath.stiffness.deposits import Deposits, Stack, from_program
-from loadpath.stiffness.model import body_mesh, file_card, mesh_key, solve_body
+from loadpath.stiffness.model import body_mesh, file_card, mesh_key, sample_count, solve_body
 from loadpath.stiffness.predict import StiffnessOptions
 
 __all__ = [
@@ -41,7 +41,31 @@ __all__ = [
     "predicted_change",
     "change_from_results",
     "prediction_key",
+    "VERDICT_SAMPLES",
+    "TooCostly",
 ]
+
+VERDICT_SAMPLES = 25e6
+"""Most bead sample points (:func:`loadpath.stiffness.model.sample_count`) a file may take for the
+verdict to predict it on every run (a prediction the cache holds costs nothing and is always used).
+Compare's model at 0.1 mm: the shipped example 7.9 million (2 s a prediction), a 40-layer 8 mm
+L-bracket at 30 % gyroid 4.1 million (1 s); the specimen's outline 20 mm thick (100 layers) 80
+million, 30-60 s a prediction, longer than the run: the verdict says so and ``loadpath compare``
+predicts it."""
+
+
+class TooCostly(LoadpathError):
+    """The verdict's prediction would exceed :data:`VERDICT_SAMPLES` (not an error of the run).
+
+    Attributes
+    ----------
+    samples : float
+        The estimate of the costlier file.
+    """
+
+    def __init__(self, message: str, samples: float) -> None:
+        super().__init__(message)
+        self.samples = samples
 
 
 @dataclass(frozen=True)
@@ -149,6 +173,13 @@ def prediction_key(
     return digest(parts())
 
 
+def _cached(deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> bool:  # type: ignore[no-untyped-def]
+    """The cache holds this prediction."""
+    if cache is None or not key:
+        return False
+    return isinstance(cache.get("prediction", prediction_key(key, deposits, options, card)), _Predicted)
+
+
 def _predict(rb, meshes: dict, deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
     """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept.
 
@@ -206,6 +237,7 @@ def predicted_change(
     options: StiffnessOptions | None = None,
     cache=None,
     fea_keys: Mapping[str, str] | None = None,
+    budget: float | None = None,
 ) -> StiffnessChange:
     """Predict the part's stiffness and failure load before and after a run, as ``loadpath compare`` does.
 
@@ -231,6 +263,8 @@ def predicted_change(
     fea_keys : mapping of str -> str, optional
         Object name -> the key of its analysis in the cache (``PipelineResult.fea_keys``); a body
         without one is predicted, not kept.
+    budget : float, optional
+        Most bead sample points of a file not in the cache (default :data:`VERDICT_SAMPLES`).
 
     Returns
     -------
@@ -238,10 +272,13 @@ def predicted_change(
 
     Raises
     ------
+    TooCostly
+        A file over the budget, before any solve.
     LoadpathError
         A body extrudes nothing, or a solve fails its residual check.
     """
     t0 = time.perf_counter()
+    budget = VERDICT_SAMPLES if budget is None else budget
     options, card, _ = file_card(program.config, loadcase, options)
     layers = _CachedLayers(cache) if cache is not None and fea_keys else None
     meshes: dict = {}
@@ -253,6 +290,14 @@ def predicted_change(
             code = object_codes[name]
             before = from_program(program, code, filament_diameter)
             after = from_program(output, _same_object(program, output, code), filament_diameter)
+            for dep in (before, after):  # over the budget and not in the cache: stop before any solve
+                n = sample_count(dep, options)
+                if n > budget and not _cached(dep, options, card, cache, key):
+                    raise TooCostly(
+                        f"{n / 1e6:.0f} million bead samples, over the verdict's budget of {budget / 1e6:.0f} million, "
+                        "not predicted on every run",
+                        n,
+                    )
             p0 = _predict(rb, meshes, before, options, card, cache, key)
             p1 = _predict(rb, meshes, after, options, card, cache, key)
             bodies.append(_body(name, p0, p1, p0.mesh))

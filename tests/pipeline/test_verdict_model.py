@@ -72,3 +72,19 @@ def test_solid_replaced_example_verdict_is_compares(tmp_path):
     out = tmp_path / "ohs.loadpath.gcode"
     res = run_job(JobRequest(src, case, output=out, cli={"engine": "swarm", "replace": ("solid",), "cache": False}))
     _agree(res, src, out, case)
+
+
+def test_a_part_over_the_verdicts_budget_is_not_predicted_and_says_so(tmp_path, monkeypatch):
+    # the shipped example has 7.9 million bead samples; a budget of 1 million stops before any solve
+    from loadpath.stiffness import change
+
+    monkeypatch.setattr(change, "VERDICT_SAMPLES", 1e6)
+    src, case = EXAMPLES / "ohs.gcode", EXAMPLES / "ohs.toml"
+    out = tmp_path / "ohs.loadpath.gcode"
+    res = run_job(JobRequest(src, case, output=out, cli={"engine": "swarm", "replace": ("solid",), "cache": False}))
+    assert res.error is None and res.written
+    v = res.verdict
+    assert v.stiffness is None and v.failure_load is None and not res.warnings
+    assert "stiffness not predicted (8 million bead samples, over the verdict's budget of 1 million" in v.line()
+    assert "loadpath compare IN OUT --loadcase CASE predicts it" in v.line()
+    assert res.times["verdict"] < 1.0
