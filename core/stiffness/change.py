@@ -46,8 +46,8 @@ __all__ = [
 ]
 
 VERDICT_SAMPLES = 25e6
-"""Most bead sample points (:func:`loadpath.stiffness.model.sample_count`) a file may take for the
-verdict to predict it on every run (a prediction the cache holds costs nothing and is always used).
+"""Most bead sample points (:func:`loadpath.stiffness.model.sample_count`) a body's beads in either
+file may take for the verdict to predict it on every run (a prediction the cache holds costs nothing and is always used).
 Compare's model at 0.1 mm: the shipped example 7.9 million (2 s a prediction), a 40-layer 8 mm
 L-bracket at 30 % gyroid 4.1 million (1 s); the specimen's outline 20 mm thick (100 layers) 80
 million, 30-60 s a prediction, longer than the run: the verdict says so and ``loadpath compare``
@@ -253,7 +253,7 @@ def predicted_change(
     object_codes : mapping of str -> int
         Object name -> index into ``program.objects`` (the output labels its objects alike).
     filament_diameter : float, mm
-        Of the slicer's file (``LayerGeometry.filament_diameter``, what ``compare`` reads).
+        Of the slicer's file as its geometry reads it (``PipelineResult.geometry``), as ``compare`` does.
     loadcase : LoadCase, optional
         Its ``[material] printed`` names the card when the file does not.
     options : StiffnessOptions, optional
@@ -264,7 +264,8 @@ def predicted_change(
         Object name -> the key of its analysis in the cache (``PipelineResult.fea_keys``); a body
         without one is predicted, not kept.
     budget : float, optional
-        Most bead sample points of a file not in the cache (default :data:`VERDICT_SAMPLES`).
+        Most bead sample points of one body's prediction not in the cache (default
+        :data:`VERDICT_SAMPLES`).
 
     Returns
     -------

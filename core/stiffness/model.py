@@ -21,7 +21,6 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-
 from loadpath.loadcase.model import LoadCase
 from loadpath.loadcase.resolve import ResolvedBody
 from loadpath.mesh.data import MeshData
