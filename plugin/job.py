@@ -281,7 +281,7 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
         raise SettingsError(why)
 
 
-def _prediction(pres, s, warnings: list[str], cache=None, loadcase=None, known=None):
+def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None):
     """The predicted stiffness and failure-load change and, when there is none, why (a warning when the model failed).
 
     The model of ``loadpath compare`` (:mod:`loadpath.stiffness.model`) on the slicer's file and the
@@ -290,8 +290,9 @@ def _prediction(pres, s, warnings: list[str], cache=None, loadcase=None, known=N
 
     Only 2D (plate) analyses of at most :data:`~loadpath.stiffness.change.VERDICT_SAMPLES` bead
     samples are predicted on every run: two solves with the beads sampled every 0.1 mm (the
-    100-layer specimen's 80 million took 30-60 s each; the verdict says so, no warning).  A 3D body's prediction samples every layer into tetrahedra: on a 120-layer twisted tower
-    (46 000 elements) it took 520 s, longer than the run, so the verdict says so and points to
+    100-layer specimen's 80 million took 30-60 s each; the verdict says so, no warning).  A 3D
+    body's prediction samples every layer into tetrahedra: on a 120-layer twisted tower (46 000
+    elements) it took 520 s, longer than the run, so the verdict says so and points to
     ``loadpath compare``, which predicts the same.
     """
     from loadpath.errors import LoadpathError as _Err
@@ -409,7 +410,7 @@ def _run(
     t = time.perf_counter()
     asked = pres.changed and request.predict
     known = judged.change(pres) if judged is not None and asked else None
-    stiff, why = _prediction(pres, s, result.warnings, cache, lc, known) if asked else (None, "")
+    stiff, why = _prediction(pres, result.warnings, cache, lc, known) if asked else (None, "")
     times["verdict"] = time.perf_counter() - t
     report = None
     if request.report is not None:
