@@ -5,8 +5,8 @@ command line prints on stderr, the G-code carries as a ``; loadpath: ...`` heade
 file, the Cura plugin's message, the service's answer and the batch table show.  Everything here is
 arithmetic on what the run already has (splice reports, the print-time estimate of the file), except
 the predicted stiffness and failure-load change (:func:`loadpath.stiffness.change.predicted_change`:
-two solves per body on the run's own mesh, first-ply failure on the same solves), which a caller may
-leave out.
+the model of ``loadpath compare`` on the slicer's file and the output, two solves per body, first-ply
+failure on the same solves; the same figures ``compare`` prints), which a caller may leave out.
 """
 
 from __future__ import annotations
@@ -54,11 +54,13 @@ class Verdict:
         Infill kinds replaced, loadpath's words whatever the slicer (``"solid"``, ``"sparse"``, ...).
     engine : str
     stiffness : float or None
-        Predicted stiffness change, absolute (``+0.08``: 8 % stiffer); None: not predicted.
+        Predicted stiffness change, absolute (``+0.08``: 8 % stiffer): ``loadpath compare``'s
+        ``relative_stiffness - 1`` of the output against the slicer's file; None: not predicted.
     stiffness_same_mass : float or None
         The same per gram of material.
     failure_load : float or None
-        Predicted failure-load change, absolute (None: not modelled).
+        Predicted failure-load change, absolute: ``compare``'s ``relative_failure_load - 1`` (None: not
+        predicted).
     failure_load_same_mass : float or None
         The same per gram of material.
     model : str

@@ -8,9 +8,10 @@ the bracket (1.02x) but gives the beam 1.31x and the shelf 1.00x.  So the run la
 one the model of ``loadpath compare`` (:func:`loadpath.stiffness.evaluate_file`: the beads as
 printed, first-ply failure, the file's card) predicts better against the slicer's own file: first a
 candidate that loses neither stiffness nor failure load, then the largest product of the two ratios
-(stiffness and strength weigh alike).  Not the verdict's quicker prediction
-(:func:`loadpath.stiffness.change.predicted_change`, coarser beads on the run's mesh): on the
-bracket it ranked the two the other way (energy 1.077 / 0.950, stack 1.059 / 0.890, where
+(stiffness and strength weigh alike).  The verdict's figures are the kept candidate's
+(:meth:`Judge.change`): the verdict uses the same model (:mod:`loadpath.stiffness.model`).  A
+quicker prediction the verdict used to make (the engine's paths as beads every 0.5 mm on the run's
+own mesh) ranked the bracket's two the other way (energy 1.077 / 0.950, stack 1.059 / 0.890, where
 ``compare`` finds 1.155 / 0.846 and 1.179 / 1.017).  Where the model is not run on every job (3D
 parts) the first candidate is kept.
 """
@@ -21,7 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-__all__ = ["CANDIDATES", "Choice", "score", "run_choosing", "judge", "describe"]
+__all__ = ["CANDIDATES", "Choice", "Judge", "score", "run_choosing", "judge", "describe"]
 
 CANDIDATES = ("energy", "stack")
 """The criteria ``density = "auto"`` lays and judges, in order (the first is kept without a prediction)."""
@@ -103,8 +104,8 @@ def run_choosing(
 def describe(choice: Choice) -> str:
     """The verdict's words for a choice: the criterion kept and every candidate's predicted ratios.
 
-    These are the figures of ``loadpath compare``'s model that made the choice; the verdict's own
-    stiffness and failure-load change come from its quicker prediction and may differ from them.
+    These are the figures of ``loadpath compare``'s model that made the choice; the verdict's
+    stiffness and failure-load change are the kept candidate's (the same model, :meth:`Judge.change`).
     """
     figures = "; ".join(
         f"{crit} stiffness {s:.3f}x, failure load " + ("not predicted" if f is None else f"{f:.3f}x")
@@ -116,27 +117,57 @@ def describe(choice: Choice) -> str:
     return f"'{choice.criterion}' (auto, by loadpath compare's model over the slicer's file: {figures})"
 
 
-def judge(program: Any, loadcase: Any) -> Callable[[Any], tuple[float, float | None] | None]:
+class Judge:
     """``predict`` for :func:`run_choosing`: the model of ``loadpath compare`` on the slicer's program
     and each candidate's output (:func:`loadpath.stiffness.evaluate_file`, one mesh for all).
 
     Only plate (2D) analyses are judged: a 3D body's prediction samples every layer into
-    tetrahedra (minutes on a tall part), so there the first candidate stands.
+    tetrahedra (minutes on a tall part), so there the first candidate stands.  What it evaluated
+    stays for the verdict (:meth:`change`): the kept candidate's figures are the verdict's, with no
+    further solve.
     """
-    from loadpath.gcode import parse
-    from loadpath.stiffness.compare import evaluate_file, row
 
-    meshes: dict = {}
-    ref: list = []
+    def __init__(self, program: Any, loadcase: Any) -> None:
+        self.program = program
+        self.loadcase = loadcase
+        self.meshes: dict = {}
+        self.ref: Any = None
+        self._seen: dict[int, tuple[Any, Any, float]] = {}  # id(result) -> (weakref, FileResult, seconds)
 
-    def predict(pres: Any) -> tuple[float, float | None] | None:
+    def __call__(self, pres: Any) -> tuple[float, float | None] | None:
+        import time
+        import weakref
+
+        from loadpath.gcode import parse
+        from loadpath.stiffness.compare import evaluate_file, row
+
         if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
             return None
-        if not ref:
-            ref.append(evaluate_file(program, loadcase, meshes=meshes, name="slicer"))
+        t0 = time.perf_counter()
+        if self.ref is None:
+            self.ref = evaluate_file(self.program, self.loadcase, meshes=self.meshes, name="slicer")
         out = parse(pres.data, strict=False)
-        r = row(evaluate_file(out, loadcase, meshes=meshes, name="candidate"), ref[0])
+        res = evaluate_file(out, self.loadcase, meshes=self.meshes, name="candidate")
+        self._seen[id(pres)] = (weakref.ref(pres), res, time.perf_counter() - t0)
+        r = row(res, self.ref)
         fail = r.relative_failure_load
         return float(r.relative_stiffness), (float(fail) if fail == fail else None)
 
-    return predict
+    def change(self, pres: Any) -> Any:
+        """The verdict's :class:`~loadpath.stiffness.change.StiffnessChange` of a result this judged, or None.
+
+        The same figures :func:`~loadpath.stiffness.change.predicted_change` would compute for it
+        (both are ``compare``'s model on the slicer's file and the output's beads; the verdict line
+        the run inserts is a comment, no bead).
+        """
+        from loadpath.stiffness.change import change_from_results
+
+        seen = self._seen.get(id(pres))
+        if seen is None or seen[0]() is not pres or self.ref is None:
+            return None
+        return change_from_results(self.ref, seen[1], seen[2])
+
+
+def judge(program: Any, loadcase: Any) -> Judge:
+    """The :class:`Judge` of the slicer's program under a load case."""
+    return Judge(program, loadcase)

@@ -281,39 +281,41 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
         raise SettingsError(why)
 
 
-def _prediction(pres, s, warnings: list[str], cache=None):
+def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None):
     """The predicted stiffness and failure-load change and, when there is none, why (a warning when the model failed).
 
-    The failure load is first-ply failure with the file's material card, on the same two solves.
+    The model of ``loadpath compare`` (:mod:`loadpath.stiffness.model`) on the slicer's file and the
+    run's output, so the verdict says what ``compare`` says of the same two files; ``known``: that
+    change already computed (``density = "auto"`` judged the kept candidate with it), used as is.
 
-    Only 2D (plate) analyses are predicted on every run: two solves on the run's own mesh, 0.4 s on
-    the 12-layer shelf bracket.  A 3D body's prediction samples every layer into tetrahedra: on a
-    120-layer twisted tower (46 000 elements) it took 520 s, longer than the run, so the verdict
-    says so and points to ``loadpath compare``, which predicts the same on purpose.
+    Only 2D (plate) analyses of at most :data:`~loadpath.stiffness.change.VERDICT_SAMPLES` bead
+    samples are predicted on every run: two solves with the beads sampled every 0.1 mm (the
+    100-layer specimen's 80 million took 30-60 s each; the verdict says so, no warning).  A 3D
+    body's prediction samples every layer into tetrahedra: on a 120-layer twisted tower (46 000
+    elements) it took 520 s, longer than the run, so the verdict says so and points to
+    ``loadpath compare``, which predicts the same.
     """
-    import math
-
     from loadpath.errors import LoadpathError as _Err
-    from loadpath.stiffness.cards import card_for
-    from loadpath.stiffness.change import new_deposits, predicted_change
+    from loadpath.gcode import parse
+    from loadpath.stiffness.change import TooCostly, predicted_change
 
     if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
         return None, "3D part, not predicted on every run: loadpath compare IN OUT --loadcase CASE predicts it"
-    farea = math.pi * s.filament_diameter**2 / 4
-    volumes = {b.block: b.filament_new * farea for b in pres.splice.blocks}
-    codes = {o.name: o.code for o in pres.geometry.objects}
+    if known is not None:
+        return known, ""
     try:
         return predicted_change(
             pres.analyses,
             pres.program,
-            codes,
-            set(volumes),
-            new_deposits(pres.jobs, volumes),
-            s.filament_diameter,
-            card=card_for(pres.program.config)[0],
+            parse(pres.data, strict=False),
+            {o.name: o.code for o in pres.geometry.objects},
+            pres.geometry.filament_diameter,
+            loadcase=loadcase,
             cache=cache,
             fea_keys=pres.fea_keys,
         ), ""
+    except TooCostly as exc:
+        return None, f"{exc}: loadpath compare IN OUT --loadcase CASE predicts it"
     except (_Err, ValueError, FloatingPointError, np_error()) as exc:
         warnings.append(f"no stiffness prediction ({type(exc).__name__}: {' '.join(str(exc).split())})")
         return None, "the model failed; see the warnings"
@@ -392,8 +394,10 @@ def _run(
             analyze=request.analyze, cache=cache,
         )
 
+    judged = None
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
-        pres, result.density = run_choosing(run_with, judge(program, lc), opts)
+        judged = judge(program, lc)
+        pres, result.density = run_choosing(run_with, judged, opts)
     else:
         pres = run_with(opts)
     result.pipeline = pres
@@ -405,7 +409,8 @@ def _run(
     # output is written: a failure of either costs nothing on disk
     t = time.perf_counter()
     asked = pres.changed and request.predict
-    stiff, why = _prediction(pres, s, result.warnings, cache) if asked else (None, "")
+    known = judged.change(pres) if judged is not None and asked else None
+    stiff, why = _prediction(pres, result.warnings, cache, lc, known) if asked else (None, "")
     times["verdict"] = time.perf_counter() - t
     report = None
     if request.report is not None:

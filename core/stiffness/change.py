@@ -1,47 +1,71 @@
 """What a run changed in the part's predicted response: the one function a run's verdict calls.
 
-:func:`predicted_change` compares the slicer's part with loadpath's under the run's own load case,
-with the stiffness model of :func:`loadpath.stiffness.predict` on the run's own FEA mesh (no new
-mesh), so it costs two material samplings and two solves per body.  Given the file's material card
-(:func:`loadpath.stiffness.card_for`) it also predicts the failure-load change: first-ply failure
-(:func:`loadpath.stiffness.strength.first_failure`) on those same two solves, no further solve.
-Without a card it predicts **stiffness only** and says so in :attr:`StiffnessChange.label`.
+:func:`predicted_change` compares the slicer's file with the run's output under the run's load case
+with the model of ``loadpath compare`` (:mod:`loadpath.stiffness.model`: the same options, material
+card, mesh and first-ply failure as :func:`loadpath.stiffness.compare.evaluate_file`), on the beads of
+the two files as printed, so the verdict's figures are ``compare``'s.  It costs two solves per body
+(one when the slicer's prediction is in the cache).  :func:`change_from_results` makes the same
+figures from two :class:`~loadpath.stiffness.compare.FileResult` already computed (``density =
+"auto"`` evaluates every candidate against the slicer's file), with no further solve.
+
+Measured before this model was shared (the verdict on the run's own FEA mesh, beads every 0.5 mm,
+the engine's paths as beads, against ``compare``, stiffness / failure load): L-bracket PrusaSlicer
+gyroid 20 % ``replace = sparse`` +6.1 / -13.6 % against +19.7 / +8.3 %; 3-point beam +5.4 / +156 %
+against +26.3 / +66 %; the shipped example (solid) +0.1 / +12.3 % against +1.2 / +5.0 %.
 
 With a :class:`loadpath.cache.Cache` and the bodies' FEA keys, each of the two predictions (the
-slicer's deposits, loadpath's) is kept under :func:`prediction_key`: the deposits' own bytes, the
-analysis (its key names mesh, load case and supports), the options, the card and the code.  A
-re-export with other speeds or temperatures deposits the same beads, so it re-uses both; a run with
-other loadpath settings still re-uses the slicer's.
+slicer's beads, the output's) is kept under :func:`prediction_key`: the deposits' own bytes, the
+analysis (its key names the body's outlines, load case and supports, which the mesh derives from),
+the options, the card and the code.  A re-export with other speeds or temperatures deposits the same
+beads, so it re-uses both; a run with other loadpath settings still re-uses the slicer's.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from contextlib import nullcontext
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+from loadpath.errors import LoadpathError
 from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
-from loadpath.stiffness.deposits import Deposits, Stack, from_program, from_toolpaths
-from loadpath.stiffness.predict import StiffnessOptions, predict
-from loadpath.stiffness.strength import first_failure
+from loadpath.stiffness.deposits import Deposits, Stack, from_program
+from loadpath.stiffness.model import body_mesh, file_card, mesh_key, sample_count, solve_body
+from loadpath.stiffness.predict import StiffnessOptions
 
 __all__ = [
     "StiffnessChange",
     "BodyChange",
     "predicted_change",
-    "new_deposits",
+    "change_from_results",
     "prediction_key",
-    "VERDICT_RESOLUTION",
+    "VERDICT_SAMPLES",
+    "TooCostly",
 ]
 
-VERDICT_RESOLUTION = 0.5
-"""Bead sampling step for the verdict, mm: the run's FEA elements are several mm across.  On the
-12-layer shelf bracket with a 50 mm cut-out (streamlines, solid,sparse): 0.1 mm gives +1.49 % in
-5.4 s, 0.5 mm +1.51 % in 0.4 s, 1.0 mm +1.33 % in 0.4 s."""
+VERDICT_SAMPLES = 25e6
+"""Most bead sample points (:func:`loadpath.stiffness.model.sample_count`) a body's beads in either
+file may take for the verdict to predict it on every run (a prediction the cache holds costs nothing and is always used).
+Compare's model at 0.1 mm: the shipped example 7.9 million (2 s a prediction), a 40-layer 8 mm
+L-bracket at 30 % gyroid 4.1 million (1 s); the specimen's outline 20 mm thick (100 layers) 80
+million, 30-60 s a prediction, longer than the run: the verdict says so and ``loadpath compare``
+predicts it."""
+
+
+class TooCostly(LoadpathError):
+    """The verdict's prediction would exceed :data:`VERDICT_SAMPLES` (not an error of the run).
+
+    Attributes
+    ----------
+    samples : float
+        The estimate of the costlier file.
+    """
+
+    def __init__(self, message: str, samples: float) -> None:
+        super().__init__(message)
+        self.samples = samples
 
 
 @dataclass(frozen=True)
@@ -53,12 +77,15 @@ class BodyChange:
     name : str
     compliance_before, compliance_after : float, N mm
     mass_before, mass_after : float, g
-    failure_before, failure_after : float or None, N
-        First-ply failure load (None: no card given).
+    failure_before, failure_after : float or None
+        First-ply failure: the load factor (multiple of the body's applied load).
+    failure_load_before, failure_load_after : float or None, N
+        The same as a load (``load factor x applied load``).
     energy_ratio : (m,) float
         Strain energy density after over before, per element of :attr:`mesh` (below 1: the element
         works less for the same load, i.e. the part is stiffer there); NaN where nothing is strained.
     mesh : MeshData
+        The model's mesh of the body (:func:`loadpath.stiffness.model.body_mesh`).
     """
 
     name: str
@@ -68,27 +95,31 @@ class BodyChange:
     mass_after: float
     failure_before: float | None = field(default=None, kw_only=True)
     failure_after: float | None = field(default=None, kw_only=True)
+    failure_load_before: float | None = field(default=None, kw_only=True)
+    failure_load_after: float | None = field(default=None, kw_only=True)
     energy_ratio: np.ndarray = field(repr=False)
     mesh: object = field(repr=False)
 
 
 @dataclass(frozen=True)
 class StiffnessChange:
-    """The predicted change of the part.
+    """The predicted change of the part: ``loadpath compare``'s output row against the slicer's.
 
     Attributes
     ----------
     absolute : float
-        ``c_before / c_after - 1`` (compliance summed over the bodies): +0.08 is 8 % stiffer.
+        ``c_before / c_after - 1`` (compliance summed over the bodies): +0.08 is 8 % stiffer
+        (``relative_stiffness - 1``).
     same_mass : float
-        ``(c m)_before / (c m)_after - 1``: the gain per gram of material.
+        ``(c m)_before / (c m)_after - 1``: the gain per gram of material
+        (``relative_specific_stiffness - 1``).
     failure_load : float or None
-        The change of the failure load, ``F_after / F_before - 1`` with ``F`` the load at which the
-        first body fails (its first ply), the bodies' load cases scaled together (None: no card).
+        ``F_after / F_before - 1`` with ``F`` the failure load of the weakest body (the smallest load
+        factor), first ply (``relative_failure_load - 1``).
     failure_load_same_mass : float or None
-        ``(F / m)_after / (F / m)_before - 1``.
+        ``(F / m)_after / (F / m)_before - 1`` (``relative_failure_load_per_mass - 1``).
     label : str
-        What the figures cover (``"stiffness only"`` without a card, else the card's material).
+        What the figures cover (the failure model and the card's material).
     bodies : tuple of BodyChange
     seconds : float
     """
@@ -104,23 +135,27 @@ class StiffnessChange:
 
 @dataclass(frozen=True)
 class _Predicted:
-    """What the verdict keeps of one :func:`predict` (and its first-ply failure): a cache entry."""
+    """What the verdict keeps of one body's prediction and its first-ply failure: a cache entry."""
 
     compliance: float
     mass: float
     energy_density: np.ndarray
-    failure: float | None
+    failure: float
+    failure_load: float
+    mesh: object = None
+    """The mesh it was solved on (kept with it: a run whose predictions are all in the cache meshes nothing)."""
 
 
 def prediction_key(
     fea_key: str, deposits: Deposits | Stack, options: StiffnessOptions, card: MaterialCard | None
 ) -> str:
-    """Key of one body's prediction in the cache: everything :func:`predict` and the failure load read.
+    """Key of one body's prediction in the cache: everything the prediction and its failure load read.
 
-    ``fea_key`` (:func:`loadpath.cache.fea_key`) names the analysis whose mesh, load case and supports
-    are reused; the deposits enter by their bytes, part by part (any changed bead is another key),
-    the options and the card by their repr; :func:`loadpath.cache.code_stamp` and the stiffness
-    model's own sources (:func:`loadpath.cache.source_stamp`) name the code.
+    ``fea_key`` (:func:`loadpath.cache.fea_key`) names the resolved body (its slabs, analysis kind,
+    load case and supports), from which the model's mesh is made with the options' pitch and mesh
+    size; the deposits enter by their bytes, part by part (any changed bead is another key), the
+    options and the card by their repr; :func:`loadpath.cache.code_stamp` and the stiffness model's
+    own sources (:func:`loadpath.cache.source_stamp`) name the code.
     """
     from loadpath.cache import code_stamp, digest, source_stamp
 
@@ -138,16 +173,28 @@ def prediction_key(
     return digest(parts())
 
 
-def _predict(an, deposits: Deposits | Stack, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
-    """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept."""
+def _cached(deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> bool:  # type: ignore[no-untyped-def]
+    """The cache holds this prediction."""
+    if cache is None or not key:
+        return False
+    return isinstance(cache.get("prediction", prediction_key(key, deposits, options, card)), _Predicted)
+
+
+def _predict(rb, meshes: dict, deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
+    """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept.
+
+    The body's mesh is made (:func:`~loadpath.stiffness.model.body_mesh`) only to solve; a cached
+    prediction brings its own, which ``meshes`` then holds for the body's other prediction.
+    """
     k = prediction_key(key, deposits, options, card) if cache is not None and key else None
     if k is not None:
         hit = cache.get("prediction", k)
-        if isinstance(hit, _Predicted):
+        if isinstance(hit, _Predicted) and hit.mesh is not None:
+            meshes.setdefault(mesh_key(rb, options), hit.mesh)
             return hit
-    p = predict(an.resolved, deposits, options, an.mesh)
-    failure = None if card is None else first_failure(p, card).load_factor
-    out = _Predicted(p.compliance, p.mass, p.energy_density, failure)
+    mesh = body_mesh(rb, options, meshes)
+    p, f = solve_body(rb, deposits, options, card, mesh)
+    out = _Predicted(p.compliance, p.mass, p.energy_density, f.load_factor, f.failure_load, mesh)
     if k is not None:
         cache.put("prediction", k, out)
     return out
@@ -180,83 +227,45 @@ class _CachedLayers:
         self.kept += self.cache.put("beads", self._key(key), value, evict=False)
 
 
-@dataclass(frozen=True)
-class _UnitBeads:
-    """The beads of one replaced unit, made when read (a :class:`~loadpath.stiffness.deposits.Stack`
-    part: the engine's paths are the pipeline's anyway, their beads would be a second copy)."""
-
-    paths: object
-    z: float
-    height: float
-    layer: int
-    volume: float
-
-    def __call__(self) -> Deposits:
-        dep = from_toolpaths(self.paths, self.z, self.height, self.layer)
-        if dep.total_volume > 0:
-            dep = dataclasses.replace(dep, volume=dep.volume * (self.volume / dep.total_volume))
-        return dep
-
-
-def new_deposits(jobs: Sequence, volumes: Mapping[int, float]) -> dict[str, list]:
-    """Deposits of the engine's paths on every unit whose blocks were replaced, by object name.
-
-    The beads follow the engine's paths (:func:`~loadpath.stiffness.deposits.from_toolpaths`),
-    their volume scaled to what the splicer extruded into the unit's blocks (``volumes``: block row
-    -> mm³; the splicer matches the slicer's volume, a sparse block's pitch is not its flow width);
-    a staggered layer prints the same paths half a pitch aside, which the model cannot tell apart.
-    Each unit's are a function that makes its :class:`Deposits` (a part of a
-    :class:`~loadpath.stiffness.deposits.Stack`): 3 million one-segment beads for a 100-layer
-    specimen are made a few layers at a time.
-    """
-    out: dict[str, list] = {}
-    for jr in jobs:
-        for u in jr.units:
-            vol = sum(volumes.get(b.block_index, 0.0) for b in u.blocks)
-            if vol <= 0:
-                continue
-            out.setdefault(u.object, []).append(_UnitBeads(jr.paths, u.z, u.height, u.layer, vol))
-    return out
-
-
 def predicted_change(
     analyses: Mapping[str, object],
     program,
+    output,
     object_codes: Mapping[str, int],
-    replaced: set[int],
-    added: Mapping[str, Sequence[Deposits]],
     filament_diameter: float,
+    loadcase=None,
     options: StiffnessOptions | None = None,
-    card: MaterialCard | None = None,
     cache=None,
     fea_keys: Mapping[str, str] | None = None,
+    budget: float | None = None,
 ) -> StiffnessChange:
-    """Predict the part's stiffness before and after a run.
+    """Predict the part's stiffness and failure load before and after a run, as ``loadpath compare`` does.
 
     Parameters
     ----------
     analyses : mapping of str -> Analysis
-        The run's FEA per body (its resolved load case and mesh are reused).
+        The run's FEA per body: its resolved body (the load case on the part) is reused, its mesh
+        is not (the model meshes the body its own way, :func:`loadpath.stiffness.model.body_mesh`).
     program : Program
         The slicer's G-code.
+    output : Program
+        The run's G-code (parsed back: the beads as the printer lays them).
     object_codes : mapping of str -> int
-        Object name -> index into ``program.objects``.
-    replaced : set of int
-        Rows of ``program.blocks`` the run replaced.
-    added : mapping of str -> sequence of Deposits or functions making them
-        The new beads per object (:func:`new_deposits`), after the slicer's kept ones in a
-        :class:`~loadpath.stiffness.deposits.Stack`.
+        Object name -> index into ``program.objects`` (the output labels its objects alike).
     filament_diameter : float, mm
+        Of the slicer's file as its geometry reads it (``PipelineResult.geometry``), as ``compare`` does.
+    loadcase : LoadCase, optional
+        Its ``[material] printed`` names the card when the file does not.
     options : StiffnessOptions, optional
-        Default: the bead model at :data:`VERDICT_RESOLUTION`.
-    card : MaterialCard, optional
-        The file's material (:func:`loadpath.stiffness.card_for`): its elastic ply replaces the
-        options' material and the failure load is predicted; None: stiffness only.
+        Default ``compare``'s (``StiffnessOptions()``).
     cache : loadpath.cache.Cache, optional
         Keeps each prediction under :func:`prediction_key` (with ``fea_keys``).
     fea_keys : mapping of str -> str, optional
         Object name -> the key of its analysis in the cache (``PipelineResult.fea_keys``); a body
         without one is predicted, not kept.
+    budget : float, optional
+        Most bead sample points of one body's prediction not in the cache (default
+        :data:`VERDICT_SAMPLES`).
 
     Returns
     -------
@@ -264,65 +273,97 @@ def predicted_change(
 
     Raises
     ------
+    TooCostly
+        A file over the budget, before any solve.
     LoadpathError
         A body extrudes nothing, or a solve fails its residual check.
     """
     t0 = time.perf_counter()
-    options = StiffnessOptions(resolution=VERDICT_RESOLUTION) if options is None else options
-    if card is not None:
-        options = dataclasses.replace(options, material=card.elastic)
+    budget = VERDICT_SAMPLES if budget is None else budget
+    options, card, _ = file_card(program.config, loadcase, options)
     layers = _CachedLayers(cache) if cache is not None and fea_keys else None
+    meshes: dict = {}
+    bodies = []
     with layer_store(layers) if layers is not None else nullcontext():
-        args = (analyses, program, object_codes, replaced, added, filament_diameter)
-        bodies = _bodies(*args, options, card, cache, fea_keys)
+        for name, an in analyses.items():
+            rb = an.resolved
+            key = (fea_keys or {}).get(name, "")
+            code = object_codes[name]
+            before = from_program(program, code, filament_diameter)
+            after = from_program(output, _same_object(program, output, code), filament_diameter)
+            for dep in (before, after):  # over the budget and not in the cache: stop before any solve
+                n = sample_count(dep, options)
+                if n > budget and not _cached(dep, options, card, cache, key):
+                    raise TooCostly(
+                        f"{n / 1e6:.0f} million bead samples, over the verdict's budget of {budget / 1e6:.0f} million, "
+                        "not predicted on every run",
+                        n,
+                    )
+            p0 = _predict(rb, meshes, before, options, card, cache, key)
+            p1 = _predict(rb, meshes, after, options, card, cache, key)
+            bodies.append(_body(name, p0, p1, p0.mesh))
     if layers is not None and layers.kept:
         cache.evict()
     return _summary(bodies, card, t0)
 
 
-def _bodies(  # type: ignore[no-untyped-def]
-    analyses, program, object_codes, replaced, added, filament_diameter, options, card, cache, fea_keys
-):
-    """Each body before and after (:func:`predicted_change`)."""
+def _same_object(program, output, code: int) -> int:  # type: ignore[no-untyped-def]
+    """The output's code of the slicer's object ``code`` (the splicer keeps the labels; -1: unlabelled)."""
+    if code < 0:
+        return code
+    label = program.objects[code]
+    if label not in output.objects:
+        raise LoadpathError(f"the output has no object {label!r}: its beads cannot be compared with the slicer's")
+    return output.objects.index(label)
+
+
+def change_from_results(before, after, seconds: float = 0.0) -> StiffnessChange:
+    """The change between two files ``compare`` has evaluated (no solve).
+
+    Parameters
+    ----------
+    before, after : FileResult
+        :func:`loadpath.stiffness.compare.evaluate_file` of the slicer's file and the run's output,
+        bodies in the same order, on the same meshes.
+    seconds : float
+        What the two evaluations took.
+    """
     bodies = []
-    for name, an in analyses.items():
-        code = object_codes[name]
-        before = from_program(program, code, filament_diameter)
-        kept = from_program(program, code, filament_diameter, exclude_blocks=replaced)
-        after = Stack((kept, *added.get(name, ())))
-        key = (fea_keys or {}).get(name, "")
-        # first-ply failure (with a card) on the same two solves
-        p0 = _predict(an, before, options, card, cache, key)
-        p1 = _predict(an, after, options, card, cache, key)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(p0.energy_density > 0, p1.energy_density / p0.energy_density, np.nan)
-        f0, f1 = p0.failure, p1.failure
-        bodies.append(
-            BodyChange(
-                name, p0.compliance, p1.compliance, p0.mass, p1.mass, ratio, an.mesh, failure_before=f0, failure_after=f1
-            )
-        )
-    return bodies
+    for b0, b1, f0, f1 in zip(before.predictions, after.predictions, before.failures, after.failures, strict=True):
+        p0 = _Predicted(b0.compliance, b0.mass, b0.energy_density, f0.load_factor, f0.failure_load, b0.mesh)
+        p1 = _Predicted(b1.compliance, b1.mass, b1.energy_density, f1.load_factor, f1.failure_load, b1.mesh)
+        bodies.append(_body(b0.name, p0, p1, b0.mesh))
+    return _summary(bodies, after.card, 0.0, seconds)
 
 
-def _summary(bodies: list[BodyChange], card: MaterialCard | None, t0: float) -> StiffnessChange:
-    """The part's change from its bodies' (:func:`predicted_change`)."""
+def _body(name: str, p0: _Predicted, p1: _Predicted, mesh) -> BodyChange:  # type: ignore[no-untyped-def]
+    e0, e1 = p0.energy_density, p1.energy_density
+    if e0.shape != e1.shape:  # two cached predictions of other meshes: no per-element ratio
+        e1 = np.full(e0.shape, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(e0 > 0, e1 / e0, np.nan)
+    return BodyChange(
+        name, p0.compliance, p1.compliance, p0.mass, p1.mass, energy_ratio=ratio, mesh=mesh,
+        failure_before=p0.failure, failure_after=p1.failure,
+        failure_load_before=p0.failure_load, failure_load_after=p1.failure_load,
+    )
+
+
+def _summary(bodies: list[BodyChange], card: MaterialCard, t0: float, seconds: float | None = None) -> StiffnessChange:
+    """The part's change from its bodies', as ``compare``'s row (:func:`loadpath.stiffness.compare.row`)."""
     c0 = sum(b.compliance_before for b in bodies)
     c1 = sum(b.compliance_after for b in bodies)
     m0 = sum(b.mass_before for b in bodies)
     m1 = sum(b.mass_after for b in bodies)
     absolute = c0 / c1 - 1.0 if c1 > 0 else float("nan")
     same_mass = (c0 * m0) / (c1 * m1) - 1.0 if c1 > 0 and m1 > 0 else float("nan")
-    fl = fl_mass = None
-    label = "stiffness only"
-    if card is not None:
-        # the part fails when its first body does: the smallest load factor, before and after
-        lam0 = min(b.failure_before for b in bodies)
-        lam1 = min(b.failure_after for b in bodies)
-        ok = np.isfinite(lam0) and np.isfinite(lam1) and lam0 > 0
-        fl = lam1 / lam0 - 1.0 if ok else float("nan")
-        fl_mass = (lam1 * m0) / (lam0 * m1) - 1.0 if ok and m1 > 0 else float("nan")
-        label = f"first-ply failure, {card.key.upper()} card"
-    return StiffnessChange(
-        absolute, same_mass, fl, fl_mass, label, bodies=tuple(bodies), seconds=time.perf_counter() - t0
-    )
+    # the part fails when its weakest body does (the smallest load factor), at that body's load
+    w0 = min(bodies, key=lambda b: b.failure_before)
+    w1 = min(bodies, key=lambda b: b.failure_after)
+    F0, F1 = w0.failure_load_before, w1.failure_load_after
+    ok = np.isfinite(F0) and np.isfinite(F1) and F0 > 0
+    fl = F1 / F0 - 1.0 if ok else float("nan")
+    fl_mass = (F1 * m0) / (F0 * m1) - 1.0 if ok and m1 > 0 else float("nan")
+    label = f"first-ply failure, {card.key.upper()} card"
+    secs = time.perf_counter() - t0 if seconds is None else seconds
+    return StiffnessChange(absolute, same_mass, fl, fl_mass, label, bodies=tuple(bodies), seconds=secs)

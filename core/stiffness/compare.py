@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -31,10 +31,11 @@ from loadpath.gcode.model import Program
 from loadpath.loadcase.model import LoadCase
 from loadpath.loadcase.resolve import ResolvedBody, resolve
 from loadpath.mesh.data import MeshData
-from loadpath.stiffness.cards import PLA_CARD, MaterialCard, card_for
+from loadpath.stiffness.cards import PLA_CARD, MaterialCard
 from loadpath.stiffness.deposits import from_program
-from loadpath.stiffness.strength import Failure, first_failure
-from loadpath.stiffness.predict import Prediction, StiffnessOptions, predict, stiffness_mesh
+from loadpath.stiffness.model import body_mesh, file_card, solve_body
+from loadpath.stiffness.predict import Prediction, StiffnessOptions
+from loadpath.stiffness.strength import Failure
 from loadpath.toolpath import Path
 
 __all__ = ["FileResult", "CompareRow", "evaluate_file", "compare_files", "gains", "infill_paths", "row"]
@@ -270,7 +271,6 @@ def evaluate_file(
     """
     from loadpath import gcode, geometry
 
-    options = StiffnessOptions() if options is None else options
     if isinstance(source, Program):
         program = source
     else:
@@ -279,9 +279,7 @@ def evaluate_file(
         except OSError as exc:
             raise LoadpathError(f"cannot read {source}: {exc.strerror or exc}; check the path") from None
     label = name if name is not None else (str(source) if not isinstance(source, Program) else "program")
-    named = options.card or getattr(loadcase.material, "printed", None)
-    card, card_why = card_for(program.config, named)
-    options = replace(options, material=card.elastic)
+    options, card, card_why = file_card(program.config, loadcase, options)
     geo = geometry.layer_geometry(program, check=False)
     rbs = resolve(loadcase, geo.bodies())
     diameter = geo.filament_diameter
@@ -289,20 +287,10 @@ def evaluate_file(
     mc = ms = cov = area = 0.0
     for rb in rbs:
         obj = geo.object(rb.name)
-        key = (
-            rb.analysis,
-            tuple(s.outline.wkb for s in rb.body.slabs),
-            tuple((s.z0, s.z1) for s in rb.body.slabs),
-        )
-        mesh = None if meshes is None else meshes.get(key)
-        if mesh is None:
-            mesh = stiffness_mesh(rb, options.pitch, options.mesh_size)
-            if meshes is not None:
-                meshes[key] = mesh
-        dep = from_program(program, obj.code, diameter)
-        pred = predict(rb, dep, options, mesh)
+        mesh = body_mesh(rb, options, meshes)
+        pred, fail = solve_body(rb, from_program(program, obj.code, diameter), options, card, mesh)
         preds.append(pred)
-        fails.append(first_failure(pred, card))
+        fails.append(fail)
         iso = analyze(rb, mesh=mesh)
         isos.append(iso)
         a, b, c, d = _path_metrics(program, obj, rb, iso, diameter, options.pitch)

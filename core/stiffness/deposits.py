@@ -124,10 +124,8 @@ class Stack:
     """Deposits in print order as a sequence of parts, each a :class:`Deposits` or a function that
     makes one when it is read: a part's beads without all of them in memory at once.
 
-    The verdict's prediction after a run is the slicer's kept beads and one part per replaced unit,
-    made from the engine's paths (:func:`loadpath.stiffness.change.new_deposits`); the bead model
-    reads it a few layers at a time (:mod:`loadpath.stiffness.layered`).  The beads are those of
-    :meth:`concat`.
+    The bead model reads it a few layers at a time (:mod:`loadpath.stiffness.layered`).  The beads
+    are those of :meth:`concat`.
     """
 
     parts: tuple

@@ -47,3 +47,8 @@ def test_sparse_replaced_bracket_keeps_the_slicers_failure_load_and_mass(bracket
     assert ours.mass / slicer.mass == pytest.approx(1.0, abs=0.02)
     assert ours.relative_failure_load >= 1.0, (ours.failure_load, ours.failure_location, ours.failure_mode)
     assert ours.relative_stiffness >= 1.1
+    # the verdict's figures are the kept candidate's, the same model as compare's (no second solve)
+    v = res.verdict
+    assert v.stiffness == pytest.approx(ours.relative_stiffness - 1.0, abs=1e-3)
+    assert v.failure_load == pytest.approx(ours.relative_failure_load - 1.0, abs=1e-3)
+    assert res.times["verdict"] < 1.0

@@ -22,12 +22,12 @@ from loadpath.stiffness import fields as fields_mod
 from loadpath.stiffness import layered
 from loadpath.stiffness.beads import attributes
 from loadpath.stiffness.cards import PLA_CARD
-from loadpath.stiffness.change import VERDICT_RESOLUTION
 from loadpath.stiffness.deposits import Deposits, Stack, from_program
 from meshes import rectangle_tri6
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "ohs.gcode"
 MAT = PLA_CARD.elastic
+STEP = 0.5  # mm between bead samples: coarse, so the module runs quickly (chunked and whole sampling agree bit for bit at any step)
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def example():
 
 def _whole(mesh, dep):
     pieces, attrs = attributes(dep, MAT.E1, MAT.G12)
-    return fields_mod.sample_deposits(mesh, pieces, VERDICT_RESOLUTION, attrs)
+    return fields_mod.sample_deposits(mesh, pieces, STEP, attrs)
 
 
 def _same(a, b) -> None:
@@ -74,10 +74,10 @@ def test_chunks_of_layers_give_the_whole_parts_fields_bit_for_bit(example, monke
     # chunks of one or two layers, sample batches of a third of a layer: batches straddle chunks
     monkeypatch.setattr(layered, "CHUNK_PIECES", int(1.5 * np.median(per_layer[per_layer > 0])))
     monkeypatch.setattr(fields_mod, "_CHUNK", 40_000)
-    _same(layered.sample_beads(mesh, dep, VERDICT_RESOLUTION, MAT.E1, MAT.G12), _whole(mesh, dep))
+    _same(layered.sample_beads(mesh, dep, STEP, MAT.E1, MAT.G12), _whole(mesh, dep))
     # the defaults (one chunk here) too
     monkeypatch.undo()
-    _same(layered.sample_beads(mesh, dep, VERDICT_RESOLUTION, MAT.E1, MAT.G12), whole)
+    _same(layered.sample_beads(mesh, dep, STEP, MAT.E1, MAT.G12), whole)
 
 
 def test_a_stack_with_interleaved_layers_gives_the_fields_of_its_concatenation(example, monkeypatch):
@@ -90,7 +90,7 @@ def test_a_stack_with_interleaved_layers_gives_the_fields_of_its_concatenation(e
     stack = Stack((kept, *(lambda d=d: d for d in later)))
     monkeypatch.setattr(layered, "CHUNK_PIECES", 30_000)
     monkeypatch.setattr(fields_mod, "_CHUNK", 50_000)
-    got = layered.sample_beads(mesh, stack, VERDICT_RESOLUTION, MAT.E1, MAT.G12)
+    got = layered.sample_beads(mesh, stack, STEP, MAT.E1, MAT.G12)
     _same(got, _whole(mesh, stack.concat()))
 
 
@@ -110,7 +110,7 @@ def test_memory_does_not_grow_with_the_layers(example, monkeypatch):
     peaks, held = [], []
     for d in (short, tall):
         layered.PEAK[0] = 0
-        peaks.append(_peak(lambda d=d: layered.sample_beads(mesh, d, VERDICT_RESOLUTION, MAT.E1, MAT.G12)))
+        peaks.append(_peak(lambda d=d: layered.sample_beads(mesh, d, STEP, MAT.E1, MAT.G12)))
         held.append(layered.PEAK[0])
     biggest_layer = int(np.bincount(dep.layer, weights=np.ceil(dep.length)).max())
     assert max(held) <= 40_000 + biggest_layer  # pieces held at once: one chunk
