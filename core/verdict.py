@@ -198,6 +198,11 @@ def build(
     date = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%MZ")
     if result is None or not result.changed:
         why = note or (result.passthrough if result is not None and result.passthrough else "")
+        skipped = result.splice.skipped if result is not None and result.splice is not None else ()
+        if not why and skipped:  # there was infill, and every block of it was refused
+            n = len(skipped)
+            which = "the infill block" if n == 1 else f"all {n} infill blocks"
+            why = f"{which} to replace kept as sliced: {skipped[0][1]}"
         return Verdict(__version__, date, False, engine=engine, warnings=warnings, note=why)
     blocks = result.splice.blocks
     layers = tuple(sorted({b.layer + 1 for b in blocks}))

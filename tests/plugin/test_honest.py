@@ -294,3 +294,32 @@ def test_profile_flattens_a_vendor_preset_prusaslicer_slices_with(tmp_path, caps
     assert main(["profile", "--printer", "Original Prusa i3 MK3SS", "-o", str(ini)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "did you mean 'Original Prusa i3 MK3'" in err[0]
+
+
+def test_every_block_refused_says_so_not_no_infill(shelf, capsys, monkeypatch):
+    """A file whose every replace block is kept as sliced (here: a volume tolerance no block can
+    meet) did have infill to replace: the verdict says the blocks were kept and why, not "no infill"."""
+    import dataclasses
+
+    from loadpath import splice
+
+    folder, g, case = shelf
+    real = splice.SpliceOptions
+
+    def refusing(*args, **kwargs):
+        return dataclasses.replace(real(*args, **kwargs), volume_tol=-1.0)  # no block can meet it
+
+    monkeypatch.setattr(splice, "SpliceOptions", refusing)  # as the settings build it
+    before = sha(g)
+    out = folder / "out.gcode"
+    assert main(["run", str(g), "--loadcase", str(case), "-o", str(out), *FAST]) == 0
+    err = capsys.readouterr().err
+    verdict = [x for x in err.splitlines() if x.startswith("loadpath 0.")][-1]
+    assert re.search(
+        r"nothing replaced \((the infill block|all \d+ infill blocks) to replace kept as sliced: the new "
+        r"paths would extrude \d+% of the slicer's volume",
+        verdict,
+    ), verdict
+    assert "no infill to replace" not in verdict
+    assert "kept as sliced" in err.split(verdict)[0]  # each block's warning came first
+    assert sha(g) == before
