@@ -307,7 +307,7 @@ def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None
         return predicted_change(
             pres.analyses,
             pres.program,
-            parse(pres.data, strict=False),
+            lambda: parse(pres.data, strict=False),  # parsed only for a part within the budget
             {o.name: o.code for o in pres.geometry.objects},
             pres.geometry.filament_diameter,
             loadcase=loadcase,

@@ -248,8 +248,10 @@ def predicted_change(
         is not (the model meshes the body its own way, :func:`loadpath.stiffness.model.body_mesh`).
     program : Program
         The slicer's G-code.
-    output : Program
-        The run's G-code (parsed back: the beads as the printer lays them).
+    output : Program or callable
+        The run's G-code (parsed back: the beads as the printer lays them), or a function of no
+        argument that parses it: called only once the slicer's beads are within the budget (a
+        1000-layer file's output, 100 MB of text, is 1.1 GB parsed; issue 17's 1 GB peak).
     object_codes : mapping of str -> int
         Object name -> index into ``program.objects`` (the output labels its objects alike).
     filament_diameter : float, mm
@@ -290,21 +292,29 @@ def predicted_change(
             key = (fea_keys or {}).get(name, "")
             code = object_codes[name]
             before = from_program(program, code, filament_diameter)
+            _within_budget(before, options, card, cache, key, budget)  # before the output is parsed
+            if callable(output):
+                output = output()
             after = from_program(output, _same_object(program, output, code), filament_diameter)
-            for dep in (before, after):  # over the budget and not in the cache: stop before any solve
-                n = sample_count(dep, options)
-                if n > budget and not _cached(dep, options, card, cache, key):
-                    raise TooCostly(
-                        f"{n / 1e6:.0f} million bead samples, over the verdict's budget of {budget / 1e6:.0f} million, "
-                        "not predicted on every run",
-                        n,
-                    )
+            _within_budget(after, options, card, cache, key, budget)
             p0 = _predict(rb, meshes, before, options, card, cache, key)
             p1 = _predict(rb, meshes, after, options, card, cache, key)
             bodies.append(_body(name, p0, p1, p0.mesh))
     if layers is not None and layers.kept:
         cache.evict()
     return _summary(bodies, card, t0)
+
+
+def _within_budget(dep: Deposits, options, card, cache, key: str, budget: float) -> None:  # type: ignore[no-untyped-def]
+    """Raise :class:`TooCostly` for beads over ``budget`` sample points that the cache does not hold
+    (before any solve)."""
+    n = sample_count(dep, options)
+    if n > budget and not _cached(dep, options, card, cache, key):
+        raise TooCostly(
+            f"{n / 1e6:.0f} million bead samples, over the verdict's budget of {budget / 1e6:.0f} million, "
+            "not predicted on every run",
+            n,
+        )
 
 
 def _same_object(program, output, code: int) -> int:  # type: ignore[no-untyped-def]
