@@ -78,7 +78,12 @@ def test_a_part_over_the_verdicts_budget_is_not_predicted_and_says_so(tmp_path, 
     # the shipped example has 7.9 million bead samples; a budget of 1 million stops before any solve
     from loadpath.stiffness import change
 
+    from loadpath import gcode
+
     monkeypatch.setattr(change, "VERDICT_SAMPLES", 1e6)
+    parsed = []
+    real_parse = gcode.parse
+    monkeypatch.setattr(gcode, "parse", lambda data, *a, **k: parsed.append(len(data)) or real_parse(data, *a, **k))
     src, case = EXAMPLES / "ohs.gcode", EXAMPLES / "ohs.toml"
     out = tmp_path / "ohs.loadpath.gcode"
     res = run_job(JobRequest(src, case, output=out, cli={"engine": "swarm", "replace": ("solid",), "cache": False}))
@@ -88,3 +93,6 @@ def test_a_part_over_the_verdicts_budget_is_not_predicted_and_says_so(tmp_path, 
     assert "stiffness not predicted (8 million bead samples, over the verdict's budget of 1 million" in v.line()
     assert "loadpath compare IN OUT --loadcase CASE predicts it" in v.line()
     assert res.times["verdict"] < 1.0
+    # the output is not parsed back for a part over the budget (1.1 GB for a 1000-layer file's output)
+    assert len(res.pipeline.data) > 2 * src.stat().st_size  # the output is the larger text
+    assert all(n < 2 * src.stat().st_size for n in parsed), parsed
