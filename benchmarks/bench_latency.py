@@ -139,6 +139,24 @@ process of the tree; the engine's workers hold 450 MB each at 1000 layers).  The
 still missed at 1000 layers (the pipeline alone extrapolates to 1.4 GB), and so is 15 s: the splice
 (per layer Python: rewrite, bead runs, ordering) is now the largest item, then the verdict's bead
 neighbour search (one KD-tree per layer and prediction, no two layers of the specimen alike).
+
+Measured 2026-12-04 (issue 17, fourth pass: the splice 2.8-3.4x faster with the same bytes,
+``benchmarks/bench_splice.py``; the verdict on ``loadpath compare``'s model with a sample budget, a
+part over it not predicted and its output not parsed back), median of 3 (the 1000-layer file: one
+run), load 1.2-1.8 on the 2 cores::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in
+    example                      10     0.16     8.20   50.1      0.89    5.4      676    0.25   3.53
+    specimen-100                100     0.42    12.80   30.3      3.97    9.4      460    2.31   4.26
+    gusset-gyroid30              40     0.35     7.55   21.3      0.81    2.3      696    2.32   1.11
+    gusset-gyroid30-sparse       40     0.34    51.14  148.7     12.94   37.6      702    2.32   0.54
+    gusset-100                   40     0.36    17.26   47.5      2.40    6.6      723    0.64   5.89
+    specimen-1000              1000     1.92   104.01   54.3     46.55   24.3     1833   22.95   4.35
+
+The same morning, before the merges, at load 0.6: the sparse gusset 77.80 s first (229.4x), 59.35 s
+repeated (175.0x); the 1000-layer file last measured at 483 s and 2001 MB.  The example's output is
+3.53x its input here because this benchmark's load case (``GRIP_PULL``) is not the example's own
+(2.47x with ``examples/ohs.toml``).
 """
 
 from __future__ import annotations
