@@ -212,25 +212,36 @@ def _ring_link(
     """The edge of ``region`` shrunk by ``inset``, from ``a`` to ``b`` the shorter way, or None.
 
     Both ends must lie within ``limit / 2`` of the same ring and the piece between their
-    projections must be at most ``limit`` long.
+    projections must be at most ``limit`` long.  With a ``cache`` (one per layer), each inset's
+    rings, their vertices and running lengths, and each end's distances and projections onto them
+    are made once: a layer asks for the same ends' boundary links many times (issue 17: a sparse
+    layer's linking made 15,000 of them).
     """
-    from shapely.ops import substring
-
     key = round(inset, 2)
-    if cache is not None and key in cache:
-        rings = cache[key]
+    cache = {} if cache is None else cache
+    if key in cache:
+        rings, per_end, arcs = cache[key]
     else:
         inner = region.buffer(-key, quad_segs=4) if key > 1e-6 else region
         rings = shapely.get_parts(shapely.get_parts(shapely.boundary(inner))) if not inner.is_empty else []
-        if cache is not None:
-            cache[key] = rings
+        per_end: dict = {}
+        arcs: dict = {}
+        cache[key] = (rings, per_end, arcs)
     if not len(rings):
         return None
-    pa, pb = shapely.points(a), shapely.points(b)
-    da = shapely.distance(rings, pa)
+
+    def near(p: Points2) -> tuple[np.ndarray, object]:
+        k = p.tobytes()
+        if k not in per_end:
+            pt = shapely.points(p)
+            per_end[k] = (shapely.distance(rings, pt), pt)
+        return per_end[k]
+
+    da, pa = near(a)
+    db, pb = near(b)
     k = int(np.argmin(da))
     ring = rings[k]
-    if da[k] > 0.5 * limit or float(shapely.distance(ring, pb)) > 0.5 * limit:
+    if da[k] > 0.5 * limit or float(db[k]) > 0.5 * limit:
         return None
     total = float(ring.length)
     sa, sb = float(ring.project(pa)), float(ring.project(pb))
@@ -242,19 +253,14 @@ def _ring_link(
         start, length, flip = (sa, fwd, False) if fwd <= back else (sb, back, True)
         end = start + length
         if end <= total:
-            piece = shapely.get_coordinates(substring(ring, start, end))
+            piece = _substring(ring, start, end, arcs, k)
         else:
-            piece = np.vstack(
-                [
-                    shapely.get_coordinates(substring(ring, start, total)),
-                    shapely.get_coordinates(substring(ring, 0.0, end - total))[1:],
-                ]
-            )
+            piece = np.vstack([_substring(ring, start, total, arcs, k), _substring(ring, 0.0, end - total, arcs, k)[1:]])
     else:
         lo, hi = sorted((sa, sb))
         if hi - lo > limit:
             return None
-        piece = shapely.get_coordinates(substring(ring, lo, hi))
+        piece = _substring(ring, lo, hi, arcs, k)
         flip = sa > sb
     if flip:
         piece = piece[::-1]
@@ -262,6 +268,29 @@ def _ring_link(
     keep = np.r_[True, np.hypot(*np.diff(pts, axis=0).T) > 1e-6]
     pts = pts[keep]
     return pts if len(pts) >= 2 else None
+
+
+def _substring(ring, start: float, end: float, arcs: dict, k: int) -> Points2:
+    """The vertices of ``shapely.ops.substring(ring, start, end)`` (``start <= end``, mm along it),
+    the same points: its two ends interpolated by shapely, the ring's vertices whose running length
+    (summed one segment at a time, as shapely does) lies strictly between; ``arcs`` keeps each
+    ring's vertices and running lengths (``k`` its index)."""
+    if k not in arcs:
+        xy = shapely.get_coordinates(ring)
+        run = [0.0]
+        c = xy.tolist()
+        for (x1, y1), (x2, y2) in zip(c[:-1], c[1:]):  # one by one, with substring's own arithmetic
+            run.append(run[-1] + ((x2 - x1) ** 2 + (y2 - y1) ** 2) ** 0.5)
+        arcs[k] = (xy, np.array(run))
+    xy, run = arcs[k]
+    p0 = shapely.get_coordinates(ring.interpolate(start))
+    if start == end:
+        return p0
+    p1 = shapely.get_coordinates(ring.interpolate(end))
+    # substring walks the segments: vertex i (all but the last) is taken when start < run[i] < end
+    inner = run[:-1]
+    mid = np.flatnonzero((inner > start) & (inner < end))
+    return np.vstack([p0, xy[mid], p1])
 
 
 def link_paths(

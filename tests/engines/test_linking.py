@@ -132,3 +132,28 @@ def test_lone_area_bounds(bad):
         LinkOptions(lone_area=bad)
     with pytest.raises(SettingsError, match="lone_share"):
         LinkOptions(lone_share=1.5)
+
+
+def test_boundary_piece_is_shapelys_substring_to_the_bit():
+    """The linking's own ring piece (:func:`linking._substring`, vertices and running lengths kept
+    per ring) gives exactly the points of ``shapely.ops.substring``, so the runs stay the same."""
+    import shapely
+    from shapely.ops import substring
+
+    from loadpath.engines import linking
+
+    rng = np.random.default_rng(7)
+    ring = shapely.Polygon(
+        np.c_[np.cos(np.linspace(0, 2 * np.pi, 97)[:-1]), np.sin(np.linspace(0, 2 * np.pi, 97)[:-1])]
+        * (20 + rng.uniform(-1, 1, 96))[:, None]
+    ).exterior
+    arcs: dict = {}
+    total = ring.length
+    # random pieces, a piece from 0, one to the very end, one of zero length, one ending on a vertex
+    run = np.r_[0, np.cumsum(np.hypot(*np.diff(shapely.get_coordinates(ring), axis=0).T))]
+    cases = [tuple(sorted(rng.uniform(0, total, 2))) for _ in range(200)]
+    cases += [(0.0, 5.0), (3.0, total), (7.5, 7.5), (run[10], run[20]), (0.0, total)]
+    for a, b in cases:
+        mine = linking._substring(ring, float(a), float(b), arcs, 0)
+        theirs = shapely.get_coordinates(substring(ring, float(a), float(b)))
+        assert mine.shape == theirs.shape and np.array_equal(mine, theirs), (a, b)
