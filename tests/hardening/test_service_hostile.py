@@ -184,7 +184,11 @@ def test_sigterm_during_a_job_ends_it_and_removes_its_folder(tmp_path, sliced):
         import threading
 
         def client() -> None:
-            with contextlib.suppress(OSError):  # the service is stopped under it: no answer comes
+            import http.client
+
+            # the service is stopped under it: no answer comes, or its error answer is cut off
+            # (seen once: HTTP 500 and then IncompleteRead, 0 of 119 bytes, in the client thread)
+            with contextlib.suppress(OSError, http.client.HTTPException):
                 _post_url(url, {"gcode": g.read_text(), "loadcase": GRIP_PULL,
                                 "settings": {"replace": ["solid", "sparse"]}})
 
