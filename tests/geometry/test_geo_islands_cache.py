@@ -35,6 +35,16 @@ def _differences(a, b, path="geometry") -> list[str]:
     return [] if a == b else [f"{path}: {a!r} != {b!r}"]
 
 
+def _unchanged_layers(a, b, n: int) -> int:
+    """How many of the ``n`` layers extrude the very same segments in two files."""
+    same = 0
+    for layer in range(n):
+        ra = a.moves[(a.moves["layer"] == layer) & a.moves["extrude"]]
+        rb = b.moves[(b.moves["layer"] == layer) & b.moves["extrude"]]
+        same += len(ra) == len(rb) and all(np.array_equal(ra[c], rb[c]) for c in ("x0", "y0", "x1", "y1"))
+    return same
+
+
 def test_a_re_export_finds_its_unchanged_layers(sliced, tmp_path):
     first = gcode.read(sliced("prusa", "ohs", "example"))
     again = gcode.read(sliced("prusa", "ohs", "example", perimeter_speed=30, temperature=210))
@@ -45,7 +55,12 @@ def test_a_re_export_finds_its_unchanged_layers(sliced, tmp_path):
     assert cold.count("islands") == n
     warm = Cache(tmp_path / "cache")
     got = geometry.layer_geometry(again, check=False, cache=warm)
-    assert warm.stats.hits["islands"] >= n // 2  # most layers are extruded as before
+    # every layer PrusaSlicer extruded exactly as before is found.  How many that is, is PrusaSlicer's
+    # doing: alone, all 10 layers come back the same and all 10 are found; one full suite run found
+    # only 4 against the old bound of half, so the count is measured here rather than assumed
+    same_layers = _unchanged_layers(first, again, n)
+    assert same_layers >= 1, "PrusaSlicer changed every layer's extrusions at other speeds"
+    assert warm.stats.hits["islands"] >= same_layers, (warm.stats.hits, same_layers)
     assert _differences(got, geometry.layer_geometry(again, check=False)) == []
     same = Cache(tmp_path / "cache")  # the very same file: every layer found
     assert _differences(geometry.layer_geometry(first, check=False, cache=same), kept) == []
