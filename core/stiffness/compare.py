@@ -247,6 +247,7 @@ def evaluate_file(
     options: StiffnessOptions | None = None,
     meshes: dict[Any, MeshData] | None = None,
     name: str | None = None,
+    metrics: bool = True,
 ) -> FileResult:
     """Predict one file's stiffness under a load case, with its path metrics.
 
@@ -259,6 +260,10 @@ def evaluate_file(
         Cache of meshes by body outline; pass the same dict for every file of a comparison.
     name : str, optional
         Label of the file in the result (default the path).
+    metrics : bool
+        Also the path metrics (an isotropic analysis per body, then beta and coverage); False: the
+        mechanics only (``isotropic`` empty, ``beta`` and ``coverage`` NaN), for a caller that ranks
+        files by stiffness and failure load (``density = "auto"``).
 
     Returns
     -------
@@ -291,6 +296,8 @@ def evaluate_file(
         pred, fail = solve_body(rb, from_program(program, obj.code, diameter), options, card, mesh)
         preds.append(pred)
         fails.append(fail)
+        if not metrics:
+            continue
         iso = analyze(rb, mesh=mesh)
         isos.append(iso)
         a, b, c, d = _path_metrics(program, obj, rb, iso, diameter, options.pitch)

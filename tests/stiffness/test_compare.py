@@ -145,3 +145,21 @@ def test_every_fill_model_gives_a_failure_load(prusa_pair, tmp_path, model):
     rows = json.loads(out.read_text())
     assert all(r["failure_load"] > 0 and r["safety_factor"] > 0 and len(r["failure_location"]) == 3 for r in rows)
     assert rows[0]["relative_failure_load"] == 1.0 and rows[1]["relative_failure_load"] > 0
+
+
+def test_mechanics_only_evaluation_gives_the_same_figures_without_the_path_metrics():
+    """``evaluate_file(metrics=False)`` (what ``density = "auto"`` ranks its candidates by) skips the
+    isotropic analysis and the path metrics, and predicts the very same stiffness and failure load."""
+    import math
+
+    from loadpath import gcode, loadcase
+    from loadpath.stiffness.compare import evaluate_file
+
+    program, case = gcode.read(REPO / "examples" / "ohs.gcode"), loadcase.read(CASE)
+    meshes: dict = {}
+    full = evaluate_file(program, case, meshes=meshes)
+    lean = evaluate_file(program, case, meshes=meshes, metrics=False)
+    assert full.isotropic and lean.isotropic == ()
+    assert math.isfinite(full.beta) and math.isnan(lean.beta) and math.isnan(lean.coverage)
+    assert [p.compliance for p in lean.predictions] == [p.compliance for p in full.predictions]
+    assert lean.failure_load == full.failure_load
