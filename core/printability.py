@@ -38,7 +38,18 @@ __all__ = [
     "measure_lines",
     "print_time",
     "replaced_blocks",
+    "VERDICT_LINES",
+    "verdict_counts",
 ]
+
+VERDICT_LINES = 1_500_000
+"""Outputs of at most this many lines are counted for the verdict on every run.
+
+Counting needs the output parsed (about 240 bytes of memory per line: 1.1 GB for the 4.6 million
+lines of a 1000-layer output, issue 17's 1 GB peak); the verdict's stiffness model parses outputs
+within its own budget anyway (:data:`loadpath.stiffness.change.VERDICT_SAMPLES`: the shipped
+example's output has 270 000 lines), and the count reuses that parse.
+"""
 
 
 @dataclass(frozen=True)
@@ -224,3 +235,31 @@ def replaced_blocks(program, output, splice) -> dict[str, dict[str, float]]:
     n = measure_lines(output, new, kin).as_dict()
     ratio = {k: (round(n[k] / s[k], 4) if s[k] else None) for k in s}
     return {"slicer": s, "loadpath": n, "ratio": ratio, "accel_mm_s2": kin.accel, "jerk_mm_s": kin.jerk}
+
+
+def verdict_counts(result) -> tuple[dict | None, str]:
+    """:func:`replaced_blocks` of a run for its verdict, or why it is not counted.
+
+    Parameters
+    ----------
+    result : loadpath.pipeline.PipelineResult
+        A run that replaced something.  Its parsed output (``result.output``, parsed once and kept)
+        is used when already parsed or when the output has at most :data:`VERDICT_LINES` lines.
+
+    Returns
+    -------
+    counts : dict or None
+        ``replaced_blocks``'s ``{"slicer": ..., "loadpath": ..., "ratio": ...}``.
+    why : str
+        Empty, or why there are no counts (a file over the budget).
+    """
+    if not result.changed:
+        return None, ""
+    if "output" not in vars(result):
+        lines = result.data.count(b"\n")
+        if lines > VERDICT_LINES:
+            return None, (
+                f"{lines / 1e6:.1f} million output lines, over the verdict's budget of "
+                f"{VERDICT_LINES / 1e6:.1f} million; the report counts them"
+            )
+    return replaced_blocks(result.program, result.output, result.splice), ""

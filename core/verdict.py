@@ -76,6 +76,11 @@ class Verdict:
     density : str
         With ``density = "auto"``: the sparse density criterion kept and the predictions that chose
         it (:mod:`loadpath.plugin.density_choice`); empty otherwise.
+    printability : dict or None
+        Paths, retractions and travel of the replaced blocks and the moves into them, the slicer's
+        and the output's (:func:`loadpath.printability.verdict_counts`); None: not counted.
+    printability_note : str
+        Why they were not counted (a file over the budget).
     """
 
     version: str
@@ -96,6 +101,8 @@ class Verdict:
     note: str = ""
     extra: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
     density: str = ""
+    printability: dict | None = None
+    printability_note: str = ""
 
     def line(self) -> str:
         """The one-line summary (no newline)."""
@@ -123,6 +130,7 @@ class Verdict:
             parts.append(f"stiffness not predicted ({self.note or 'no model result'})")
         pct = f" ({self.time_change_pct:+.1f} %)" if self.time_change_pct is not None else ""
         parts.append(f"print time {self.time_change_s / 60:+.1f} min{pct}")
+        parts.append(_counts(self.printability, self.printability_note))
         parts.append(f"mass {self.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00"))
         parts.append(w)
         return head + "; ".join(parts)
@@ -134,6 +142,17 @@ class Verdict:
         d["layers"], d["kinds"] = list(self.layers), list(self.kinds)
         d["line"] = self.line()
         return d
+
+
+def _counts(p: dict | None, note: str) -> str:
+    """``infill paths 25 -> 563, retractions 25 -> 488, travel 327 -> 1732 mm`` (slicer -> output)."""
+    if not p:
+        return f"retractions and travel not counted ({note or 'not asked for'})"
+    s, n = p["slicer"], p["loadpath"]
+    return (
+        f"infill paths {s['paths']:d} -> {n['paths']:d}, retractions {s['retractions']:d} -> "
+        f"{n['retractions']:d}, travel {s['travel_mm']:.0f} -> {n['travel_mm']:.0f} mm"
+    )
 
 
 def _pct(v: float | None) -> str:

@@ -38,6 +38,7 @@ from loadpath.plugin import settings as settings_mod
 from loadpath.plugin.density_choice import CANDIDATES, describe, judge, run_choosing
 from loadpath.plugin.lifecycle import note_written
 from loadpath.plugin.job_record import already_processed, fate, log, own_warnings, with_header
+from loadpath.printability import verdict_counts
 
 __all__ = ["JobRequest", "JobResult", "run_job", "default_output", "write_atomic", "infer_cura_filament"]
 
@@ -296,7 +297,6 @@ def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None
     ``loadpath compare``, which predicts the same.
     """
     from loadpath.errors import LoadpathError as _Err
-    from loadpath.gcode import parse
     from loadpath.stiffness.change import TooCostly, predicted_change
 
     if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
@@ -307,7 +307,7 @@ def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None
         return predicted_change(
             pres.analyses,
             pres.program,
-            lambda: parse(pres.data, strict=False),  # parsed only for a part within the budget
+            lambda: pres.output,  # parsed only for a part within the budget (and kept: the counts)
             {o.name: o.code for o in pres.geometry.objects},
             pres.geometry.filament_diameter,
             loadcase=loadcase,
@@ -434,6 +434,11 @@ def _run(
         v = dataclasses.replace(v, note="not asked for")
     if result.density is not None and pres.changed:
         v = dataclasses.replace(v, density=describe(result.density))
+    if pres.changed:
+        t = time.perf_counter()
+        counts, why = verdict_counts(pres)
+        v = dataclasses.replace(v, printability=counts, printability_note=why)
+        times["verdict"] = times.get("verdict", 0.0) + time.perf_counter() - t
     result.verdict = v
     if report is not None:
         report.finish(v)
