@@ -69,6 +69,13 @@ if not warmup.kernels_cached():
     print(f"setup: compiling the swarm engine (first time only, about {COMPILE_SECONDS} s)", file=sys.stderr)
     seconds = warmup.warm_up()
     print(f"setup: swarm engine compiled in {seconds:.0f} s", file=sys.stderr)
+
+# the point location of the verdict's bead model (loadpath.fea.locate_kernel): about a second
+import numpy as np
+from loadpath.fea.locate import TriangleLocator
+from loadpath.fea.locate_kernel import locate_points
+
+locate_points(TriangleLocator(np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])), np.zeros((1, 2)), 1e-9)
 PY
 then
   echo "setup: compiling the swarm engine failed (see above); it will compile on first use" >&2
