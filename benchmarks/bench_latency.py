@@ -25,7 +25,9 @@ in the same run, so the ratio holds on a loaded machine.  Parts (PrusaSlicer 2.5
 
 Columns: PrusaSlicer's slicing time; ``loadpath run`` on a cold cache (``first``, each repeat with
 its own empty ``LOADPATH_CACHE_DIR``); ``repeat``: the part re-sliced with other speeds and
-temperatures (same geometry, same load case) and run against the cache the first run filled; each
+temperatures (same geometry, same load case) and run against the cache one first run filled (repeat
+k against first run k's: before 2026-12-04, every repeat used the first run's cache, so repeats 2 and
+3 re-ran a file the cache had seen whole, and the median hid the first re-export's cost); each
 with its ratio to the slicing time; the largest peak resident memory of any loadpath run (``wait4``);
 the input's size and the output's against it (``out/in``, first run).  Targets of issue 17 are
 printed under the table with the measured figure and met/missed.  ``--quick``: one repeat, the
@@ -271,9 +273,9 @@ def bench(name, stl, settings, folder: Path, repeats: int, extra: list[str], tim
         cpu["first"].append(c)
     row["size_in_mb"] = gcode.stat().st_size / 1e6
     row["size_out_mb"] = out.stat().st_size / 1e6
-    for _ in range(repeats):
+    for k in range(repeats):  # each against the cache of one first run only: a re-export as a user makes it
         again = folder / f"{name}.speeds.loadpath.gcode"
-        w, m, c = _run(other, case, again, folder / f"cache-{name}-0", extra, timeout)
+        w, m, c = _run(other, case, again, folder / f"cache-{name}-{k}", extra, timeout)
         repeat.append(w)
         rss.append(m)
         cpu["repeat"].append(c)

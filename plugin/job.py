@@ -282,12 +282,13 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
         raise SettingsError(why)
 
 
-def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None):
+def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None, workers: int = 1):
     """The predicted stiffness and failure-load change and, when there is none, why (a warning when the model failed).
 
     The model of ``loadpath compare`` (:mod:`loadpath.stiffness.model`) on the slicer's file and the
     run's output, so the verdict says what ``compare`` says of the same two files; ``known``: that
-    change already computed (``density = "auto"`` judged the kept candidate with it), used as is.
+    change already computed (``density = "auto"`` judged the kept candidate with it), used as is;
+    ``workers``: processes for the two predictions of a body (the run's ``jobs``).
 
     Only 2D (plate) analyses of at most :data:`~loadpath.stiffness.change.VERDICT_SAMPLES` bead
     samples are predicted on every run: two solves with the beads sampled every 0.1 mm (the
@@ -313,6 +314,7 @@ def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None
             loadcase=loadcase,
             cache=cache,
             fea_keys=pres.fea_keys,
+            workers=workers,
         ), ""
     except TooCostly as exc:
         return None, f"{exc}: loadpath compare IN OUT --loadcase CASE predicts it"
@@ -410,7 +412,7 @@ def _run(
     t = time.perf_counter()
     asked = pres.changed and request.predict
     known = judged.change(pres) if judged is not None and asked else None
-    stiff, why = _prediction(pres, result.warnings, cache, lc, known) if asked else (None, "")
+    stiff, why = _prediction(pres, result.warnings, cache, lc, known, opts.workers) if asked else (None, "")
     times["verdict"] = time.perf_counter() - t
     report = None
     if request.report is not None:

@@ -69,6 +69,20 @@ if not warmup.kernels_cached():
     print(f"setup: compiling the swarm engine (first time only, about {COMPILE_SECONDS} s)", file=sys.stderr)
     seconds = warmup.warm_up()
     print(f"setup: swarm engine compiled in {seconds:.0f} s", file=sys.stderr)
+
+# the verdict's bead model: its point location and batch sampling (loadpath.fea.locate_kernel,
+# loadpath.stiffness.sample_kernel), a few seconds
+from types import SimpleNamespace
+
+import numpy as np
+from loadpath.fea.locate import TriangleLocator
+from loadpath.fea.locate_kernel import locate_points
+from loadpath.stiffness.sample_kernel import sample_batch
+
+tri = TriangleLocator(np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]]))
+locate_points(tri, np.zeros((1, 2)), 1e-9)
+one = SimpleNamespace(start=np.zeros((1, 2)), end=np.array([[0.5, 0.0]]), volume=np.ones(1), height=np.ones(1))
+sample_batch(one, np.zeros(1, dtype=np.int64), 0.1, tri, np.zeros(1, dtype=np.int64), np.zeros((1, 4)), np.zeros((3, 1)), 1)
 PY
 then
   echo "setup: compiling the swarm engine failed (see above); it will compile on first use" >&2

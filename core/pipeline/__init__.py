@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
@@ -435,8 +435,14 @@ def run(
 
     r = splice_options.motion.retraction  # the splicer's own rule for a travel it may leave primed
     free_hop = float("inf") if r.only_when_crossing else float(r.before_travel)
+    field_ids = [  # what names each job's field in the links' keys (None: sampled there)
+        _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal)
+        if fea_keys.get(j.unit.object) else None
+        for j in jobs
+    ]
     job_results, fills = _fills(
-        units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop
+        units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
+        field_ids=field_ids,
     )
     sres = splice(program, fills, splice_options)
     for block, why in sres.skipped:
@@ -562,13 +568,17 @@ def _simplify_paths(paths, plan: PlanOptions) -> tuple[Path, ...]:
     return tuple(Path(pts, w, p.kind) for (pts, w), p in zip(simple, paths, strict=True) if len(pts) >= 2)
 
 
-def _link_key(paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None) -> str:
+def _link_key(
+    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None
+) -> str:
     """Key of one :func:`link_paths` call in the cache: the paths' and the region's exact bytes, the pitch.
 
     Exact (no snapping): the links are a function of exactly these inputs, so a hit gives the very
-    runs a new linking would; with a ``field`` (the cuts read it) its stress at every path vertex
-    too.  The options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by
-    their repr; the code by :func:`loadpath.cache.code_stamp`.
+    runs a new linking would; with a ``field`` (the cuts read it) its name ``field_id``
+    (:func:`_field_id`: the analysis's key, its cut and the principal stress, which determine it),
+    else its stress at every path vertex (sampling it was 0.26 s of a cached 100-layer run).  The
+    options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by their repr;
+    the code by :func:`loadpath.cache.code_stamp`.
     """
     from loadpath.cache import code_stamp, digest
     from loadpath.engines.linking import LinkOptions
@@ -580,8 +590,11 @@ def _link_key(paths: tuple[Path, ...], region, pitch: float, field=None, link_op
         parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
         parts.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
     if field is not None and paths:  # the cuts read the field (LinkOptions.cut_stress)
-        mag = field.sample(np.concatenate([p.points for p in paths])).magnitude
-        parts.append(np.ascontiguousarray(mag, dtype=float).tobytes())
+        if field_id is not None:
+            parts.append(f"field {field_id}")
+        else:
+            mag = field.sample(np.concatenate([p.points for p in paths])).magnitude
+            parts.append(np.ascontiguousarray(mag, dtype=float).tobytes())
     return digest(parts)
 
 
@@ -595,7 +608,8 @@ def _link_one(i: int) -> tuple[tuple[Path, ...], dict]:
 
 
 def _link_all(
-    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]], cache: Any, workers: int, kept: list[int]
+    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]], cache: Any, workers: int, kept: list[int],
+    field_ids: Sequence[str | None] | None = None,
 ) -> list[tuple[tuple[Path, ...], dict]]:
     """Link every ``(paths, region, pitch, field, link options)`` of ``tasks``: ``(runs, stats)`` of
     :func:`link_paths` each.
@@ -607,7 +621,8 @@ def _link_all(
     """
     global _LINK_WORK
     out: list[tuple[tuple[Path, ...], dict] | None] = [None] * len(tasks)
-    keys = [_link_key(*t) for t in tasks] if cache is not None else [None] * len(tasks)
+    ids = field_ids if field_ids is not None else [None] * len(tasks)
+    keys = [_link_key(*t, field_id=f) for t, f in zip(tasks, ids, strict=True)] if cache is not None else [None] * len(tasks)
     first: dict[str, int] = {}
     todo = []
     for i, key in enumerate(keys):
@@ -644,6 +659,7 @@ def _fills(
     shifted_paths: dict[int, Toolpaths] | None = None,
     cache=None,
     free_hop: float = 1.0,
+    field_ids: Sequence[str | None] | None = None,
 ) -> tuple[list[EngineRun], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them.
 
@@ -655,6 +671,7 @@ def _fills(
     ``free_hop`` (mm): the longest travel the file's slicer makes without retracting (infinite
     where travels inside the region never retract, Cura's combing): the linking cuts paths to pair
     ends only where that saves retractions (:attr:`loadpath.engines.linking.LinkOptions.free_hop`).
+    ``field_ids`` (per job, :func:`_field_id`): what names each job's field in the links' keys.
     """
     from loadpath.engines.linking import LinkOptions
 
@@ -662,12 +679,14 @@ def _fills(
     kept = [0]
     link_opts = LinkOptions(free_hop=free_hop) if math.isfinite(free_hop) else LinkOptions(cut_reach=0.0)
     tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
+    task_fields: list[str | None] = []
 
-    def task(ps: tuple[Path, ...], u: Unit, fld: Any = None) -> int | None:
+    def task(ps: tuple[Path, ...], u: Unit, fld: Any = None, fid: str | None = None) -> int | None:
         """Index of the linking of ``ps`` in ``u``'s region (None: left as they are)."""
         if not options.link or len(ps) < 2:
             return None
         tasks.append((ps, u.fill_region, u.pitch, fld, link_opts))
+        task_fields.append(fid)
         return len(tasks) - 1
 
     # first pass: every job's paths, their staggered copy and the clipped variants, and what to link
@@ -677,7 +696,8 @@ def _fills(
         by_engine = ji in shifted_paths and bool(shifted_paths[ji].paths)
         base_raw = _simplified(tp.paths, plan, cache)
         fld = getattr(job.input, "field", None)
-        base_t = task(base_raw, job.unit, fld)
+        fid = field_ids[ji] if field_ids is not None else None
+        base_t = task(base_raw, job.unit, fld, fid)
         shifted_raw, shifted_t = None, None
         rows = []
         for k, u in enumerate(members):
@@ -689,18 +709,18 @@ def _fills(
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
                     shifted_raw = _simplified(moved, plan, cache)
-                shifted_t = task(shifted_raw, u0, fld)
+                shifted_t = task(shifted_raw, u0, fld, fid)
             clipped = clipped_t = None
             if not u.fill_region.equals(job.unit.fill_region):
                 # a region that differs a little: the paths clipped to it, linked in it (links along
                 # the representative's edge would be cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-                clipped_t = task(clipped, u, fld)
+                clipped_t = task(clipped, u, fld, fid)
             rows.append((u, use_shift, clipped, clipped_t))
         planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
 
-    linked = _link_all(tasks, cache, options.workers, kept)
+    linked = _link_all(tasks, cache, options.workers, kept, task_fields)
 
     def runs_of(ps: tuple[Path, ...], t: int | None) -> tuple[Path, ...]:
         return ps if t is None else linked[t][0]

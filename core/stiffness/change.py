@@ -180,24 +180,53 @@ def _cached(deposits: Deposits, options: StiffnessOptions, card, cache, key: str
     return isinstance(cache.get("prediction", prediction_key(key, deposits, options, card)), _Predicted)
 
 
-def _predict(rb, meshes: dict, deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> _Predicted:
-    """One body's prediction: from the cache under ``key`` when it holds it, else solved and kept.
+_PAIR: list = []
+"""What :func:`_solve_nth` reads in a forked worker: ``(rb, deposits, options, card, mesh)`` per solve
+(set by :func:`_predict_pair` before it forks; only the index and the figures cross processes)."""
 
-    The body's mesh is made (:func:`~loadpath.stiffness.model.body_mesh`) only to solve; a cached
-    prediction brings its own, which ``meshes`` then holds for the body's other prediction.
-    """
-    k = prediction_key(key, deposits, options, card) if cache is not None and key else None
-    if k is not None:
-        hit = cache.get("prediction", k)
-        if isinstance(hit, _Predicted) and hit.mesh is not None:
-            meshes.setdefault(mesh_key(rb, options), hit.mesh)
-            return hit
-    mesh = body_mesh(rb, options, meshes)
+
+def _solve_nth(k: int) -> tuple[float, float, np.ndarray, float, float]:
+    """Solve :data:`_PAIR`'s ``k``-th prediction: compliance, mass, energy density, load factor, failure load."""
+    rb, deposits, options, card, mesh = _PAIR[k]
     p, f = solve_body(rb, deposits, options, card, mesh)
-    out = _Predicted(p.compliance, p.mass, p.energy_density, f.load_factor, f.failure_load, mesh)
-    if k is not None:
-        cache.put("prediction", k, out)
-    return out
+    return p.compliance, p.mass, p.energy_density, f.load_factor, f.failure_load
+
+
+def _predict_pair(  # type: ignore[no-untyped-def]
+    rb, meshes: dict, pair: tuple, options: StiffnessOptions, card, cache, key: str, workers: int
+) -> tuple[tuple[_Predicted, _Predicted], int]:
+    """A body's two predictions (the slicer's beads, the output's) and how many were solved.
+
+    Each is read from the cache under :func:`prediction_key` when it holds it, else solved and kept.
+    The body's mesh is made (:func:`~loadpath.stiffness.model.body_mesh`) only to solve; a cached
+    prediction brings its own, which ``meshes`` then holds for a solve after it (the cache is read
+    and the meshes chosen in the pair's order).  The solves then run side by side in ``workers``
+    forked processes when there are two (the verdict is the run's last long stage and a solve uses
+    one core), else here; a solve is the same computation in a worker: the same figures bit for bit.
+    """
+    from loadpath.procs import fork_map
+
+    keys = [prediction_key(key, dep, options, card) if cache is not None and key else None for dep in pair]
+    out: list[_Predicted | None] = [None, None]
+    todo: list[tuple[int, object]] = []
+    for i, k in enumerate(keys):
+        if k is not None:
+            hit = cache.get("prediction", k)
+            if isinstance(hit, _Predicted) and hit.mesh is not None:
+                meshes.setdefault(mesh_key(rb, options), hit.mesh)
+                out[i] = hit
+                continue
+        todo.append((i, body_mesh(rb, options, meshes)))
+    _PAIR[:] = [(rb, pair[i], options, card, mesh) for i, mesh in todo]
+    try:
+        solved = fork_map(_solve_nth, list(range(len(todo))), workers)
+    finally:
+        _PAIR.clear()
+    for (i, mesh), got in zip(todo, solved, strict=True):
+        out[i] = _Predicted(*got, mesh)
+        if keys[i] is not None:
+            cache.put("prediction", keys[i], out[i])
+    return (out[0], out[1]), len(todo)
 
 
 class _CachedLayers:
@@ -238,6 +267,7 @@ def predicted_change(
     cache=None,
     fea_keys: Mapping[str, str] | None = None,
     budget: float | None = None,
+    workers: int = 1,
 ) -> StiffnessChange:
     """Predict the part's stiffness and failure load before and after a run, as ``loadpath compare`` does.
 
@@ -268,6 +298,10 @@ def predicted_change(
     budget : float, optional
         Most bead sample points of one body's prediction not in the cache (default
         :data:`VERDICT_SAMPLES`).
+    workers : int
+        Processes for a body's two predictions when neither is in the cache: 2 or more solves them
+        side by side in forked workers (:func:`loadpath.procs.fork_map`), 1 one after the other;
+        the same figures either way.
 
     Returns
     -------
@@ -286,6 +320,7 @@ def predicted_change(
     layers = _CachedLayers(cache) if cache is not None and fea_keys else None
     meshes: dict = {}
     bodies = []
+    forked = False
     with layer_store(layers) if layers is not None else nullcontext():
         for name, an in analyses.items():
             rb = an.resolved
@@ -297,10 +332,10 @@ def predicted_change(
                 output = output()
             after = from_program(output, _same_object(program, output, code), filament_diameter)
             _within_budget(after, options, card, cache, key, budget)
-            p0 = _predict(rb, meshes, before, options, card, cache, key)
-            p1 = _predict(rb, meshes, after, options, card, cache, key)
+            (p0, p1), solved = _predict_pair(rb, meshes, (before, after), options, card, cache, key, workers)
+            forked |= solved > 1 and workers > 1
             bodies.append(_body(name, p0, p1, p0.mesh))
-    if layers is not None and layers.kept:
+    if layers is not None and (layers.kept or forked):  # the workers kept layers this process did not count
         cache.evict()
     return _summary(bodies, card, t0)
 

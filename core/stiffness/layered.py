@@ -171,6 +171,8 @@ def sample_beads(  # noqa: N803
         pieces, attrs = attributes(stack.concat() if len(stack) != 1 else stack.part(0), E1, G12)
         PEAK[0] = max(PEAK[0], len(pieces))
         return _fields.sample_deposits(mesh, pieces, resolution, attrs)
+    from loadpath.stiffness.sample_kernel import sample_batch  # numba: not for a run whose predictions are cached
+
     m = len(mesh.cells)
     layers, ply_of = np.unique(plan.layer, return_inverse=True)
     n_ply = len(layers)
@@ -199,11 +201,16 @@ def sample_beads(  # noqa: N803
         part_acc = {k: a[cells] for k, a in acc.items()}
         batch = np.searchsorted(plan.splits, gidx, side="right")
         edges = np.flatnonzero(np.diff(batch)) + 1
-        for part in np.split(np.arange(len(pieces)), edges):
-            pts, _, seg, w = _fields._samples(pieces, part, resolution, 1)
-            elem, _ = locator.locate(pts)
-            idx = (ply[seg] - k0) * m + elem
-            lost += _fields.accumulate(part_vol, part_mom, part_acc, idx, elem >= 0, w, harm, attrs, seg)
+        table = np.stack([attrs[k] for k in part_acc])
+        for part in np.split(np.arange(len(pieces)), edges):  # the sums of fields.sample_deposits' batches
+            v, mo, ac, out = sample_batch(
+                pieces, part, resolution, locator, (ply[part] - k0) * m, harm, table, len(part_vol)
+            )
+            part_vol += v
+            part_mom += mo
+            for a, key in zip(ac, part_acc, strict=True):
+                part_acc[key] += a
+            lost += out
         del pieces, st, attrs, harm, gidx, batch, ply, runs
         k0 = k1
     return _fields.finish(mesh, layers, heights, vol, mom, acc, lost, resolution)

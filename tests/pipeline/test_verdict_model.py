@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 import slicing
 from cases import BRACKET_PIN
-from loadpath import loadcase
+from loadpath import loadcase, verdict
 from loadpath.plugin.job import JobRequest, run_job
 from loadpath.stiffness import compare_files
 
@@ -96,3 +96,27 @@ def test_a_part_over_the_verdicts_budget_is_not_predicted_and_says_so(tmp_path, 
     # the output is not parsed back for a part over the budget (1.1 GB for a 1000-layer file's output)
     assert len(res.pipeline.data) > 2 * src.stat().st_size  # the output is the larger text
     assert all(n < 2 * src.stat().st_size for n in parsed), parsed
+
+
+@pytest.mark.slow
+def test_the_two_predictions_side_by_side_give_the_figures_of_one_after_the_other(tmp_path):
+    """``jobs = 2`` solves the slicer's and the output's prediction in two forked workers
+    (:func:`loadpath.stiffness.change.predicted_change`, ``workers``); ``jobs = 1`` one after the
+    other here.  The same model on the same beads: every figure and per-element ratio bit for bit,
+    and the same output file."""
+    src, case = EXAMPLES / "ohs.gcode", EXAMPLES / "ohs.toml"
+    got = {}
+    for jobs in (1, 2):
+        out = tmp_path / f"ohs.{jobs}.gcode"
+        cli = {"engine": "swarm", "replace": ("solid",), "cache": False, "jobs": jobs}
+        res = run_job(JobRequest(src, case, output=out, cli=cli))
+        assert res.error is None and res.written, res.error
+        got[jobs] = (res.verdict.extra["stiffness"], out.read_bytes())
+    (one, text1), (two, text2) = got[1], got[2]
+    assert one.absolute is not None and one.failure_load is not None
+    for name in ("absolute", "same_mass", "failure_load", "failure_load_same_mass"):
+        assert getattr(two, name) == getattr(one, name), name
+    for b1, b2 in zip(one.bodies, two.bodies, strict=True):
+        assert (b2.compliance_before, b2.compliance_after) == (b1.compliance_before, b1.compliance_after)
+        assert b2.energy_ratio.tobytes() == b1.energy_ratio.tobytes()
+    assert verdict.without_header(text2) == verdict.without_header(text1)

@@ -1,5 +1,8 @@
 """The one place the engines import numba: its ``njit``, and the on-disk cache of the kernels.
 
+(Also the one place :mod:`loadpath.fea.locate_kernel`, the compiled point location of large
+queries, takes its ``njit`` from: :func:`jit_family` stamped with its own file.)
+
 * ``cache=True``: the machine code is written to numba's cache (``__pycache__`` next to the
   sources, or ``NUMBA_CACHE_DIR``) the first time a kernel runs, so a machine compiles once (about a
   minute of CPU) and later processes load it (well under a second).
