@@ -22,7 +22,8 @@ Stages (each timed in :attr:`PipelineResult.times`):
     from seeds half a pitch on, :func:`~loadpath.pipeline.paths.lays_phase`: the swarm and the
     streamlines' default mode; otherwise the paths are shifted sideways by half a pitch);
 ``splice``
-    the new paths written into the slicer's G-code (:func:`loadpath.splice.splice`);
+    the new paths written into the slicer's G-code (:func:`loadpath.splice.splice`), the blocks in
+    the same worker processes (each block's text depends on that block alone: the same bytes);
 ``check``
     the result re-read and checked against the original (:func:`loadpath.splice.verify.check_output`,
     from the new bytes: no second Program is built); a failure raises
@@ -438,7 +439,7 @@ def run(
     job_results, fills = _fills(
         units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop
     )
-    sres = splice(program, fills, splice_options)
+    sres = splice(program, fills, splice_options, workers=options.workers)
     for block, why in sres.skipped:
         b = program.block(block)
         warnings.append(f"layer {b.layer + 1}, {b.feature}: kept as sliced ({why})")
