@@ -451,6 +451,9 @@ def run(
 
     check = None
     if options.check:
+        from loadpath.memory import trim
+
+        trim()  # the splice's temporaries (each block's text, joined into the output) are freed
         regions = {f.block: f.region for f in fills if f.region is not None}
         check = check_output(
             program,
