@@ -32,3 +32,20 @@ def test_freed_arrays_leave_the_resident_size_after_trim():
     after = _rss_mb()
     assert before - after > 100, (before, after)
     assert all(a is None or a[0] == 1.0 for a in arrays)  # what is still held is intact
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc and /proc")
+def test_large_arrays_are_unmapped_when_freed():
+    """After map_large_arrays(), 6 MB arrays freed among held ones leave the resident size at once,
+    though a 16 MB array freed first would have raised glibc's threshold above them."""
+    from loadpath.memory import map_large_arrays
+
+    assert map_large_arrays()
+    big = np.ones(2_000_000)
+    del big
+    arrays = [np.ones(750_000) for _ in range(60)]  # 360 MB of 6 MB arrays
+    before = _rss_mb()
+    for k in range(0, len(arrays), 2):
+        arrays[k] = None
+    after = _rss_mb()
+    assert before - after > 120, (before, after)

@@ -28,7 +28,8 @@ Stages (each timed in :attr:`PipelineResult.times`):
     the same worker processes (each block's text depends on that block alone: the same bytes);
 ``check``
     the result re-read and checked against the original (:func:`loadpath.splice.verify.check_output`,
-    from the new bytes: no second Program is built); a failure raises
+    from the new bytes, a few hundred thousand lines at a time: no second Program is built); a
+    failure raises
     :class:`~loadpath.errors.SpliceError` and nothing is returned.
 
 Files with nothing to replace, and vase-mode or sequential prints, come back unchanged with a warning.
@@ -463,6 +464,7 @@ def run(
             regions=regions,
             retract_length=splice_options.motion.retraction.length,
         )
+        trim()  # the pieces' arrays, before the verdict copies the output to put its line in
         if check.problems:
             raise SpliceError(
                 f"the new G-code failed its check ({len(check.problems)} problem(s); first: "

@@ -42,8 +42,8 @@ from loadpath.splice.splicer import SpliceResult
 
 __all__ = ["check_pieces", "PIECE_LINES"]
 
-PIECE_LINES = 400_000
-"""Lines per piece by default: about 110 MB of reading at its peak (about 270 bytes a line)."""
+PIECE_LINES = 200_000
+"""Lines per piece by default: about 55 MB of reading at its peak (about 270 bytes a line)."""
 
 _BLOCK = 1 << 23  # bytes per block when counting line endings
 
