@@ -187,6 +187,30 @@ perimeter vertices at other speeds (15 of the gusset's 40 layers), so those laye
 links and both predictions are made again; the example's beads stay the same and its repeat
 (0.6-0.9 s: imports 0.2 s, the splice of 8 blocks at the new speeds 0.3 s, check, parse, the verdict
 from the cache) is unchanged.  Targets still missed: first run 3x (23-38x), repeat 1.5x (3.5-11x).
+
+Measured 2026-12-04 (issue 17, the 1000-layer file's time and memory: the splice's blocks in the
+worker processes, the check read piece by piece, layers whose region is their representative's
+within 0.05 mm printing its linked runs, orders kept, freed heap pages given back), ``--only
+example,specimen-1000``, median of 3, load 1.1-1.6; BEFORE = 7cc532c (main), AFTER = ceda7d6, one
+after the other (the slicer's times differ between the two runs: compare the ratios)::
+
+    part           slice s  first s     x  repeat s     x  peak MB  out/in  cpu:sl  first  repeat
+    BEFORE
+    example           0.13     9.90  75.4      0.86   6.6      676    3.53     0.1    9.3     0.8
+    specimen-1000     3.54   143.40  40.5     38.20  10.8     1854    4.35     3.6  163.6    38.2
+    AFTER
+    example           0.15     9.55  61.9      0.63   4.1      655    3.53     0.2   10.5     0.8
+    specimen-1000     2.13    26.44  12.4     18.06   8.5      750    4.35     3.9   38.6    27.6
+
+The 1000-layer file: 1 GB met (750 MB); 15 s still missed (26.4 s first, 18.1 s repeated).  Where
+its first run's CPU went before (in process, profiled): the linking of 1000 layers each in its own
+region (816 distinct regions, 0.2-0.3 s each) 260 s of worker time, the splice 37 s, the check's
+whole read of the 4.1M-line output 8 s and 1.05 GB.  Now (in process, one worker, profiled): the
+splice about 30 s of CPU (rewrite 20: travels and retractions 8.7, extrusion text 6.1; plan 8; bead
+runs 6.6; Python per path, 47k paths), split over the workers; the check 4.3 s; parse, geometry
+and load case 4 s; 22 linkings 4.4 s.  Output byte-identical to BEFORE on the 1000-layer file; the
+example and the 100-layer specimen print their representatives' runs (the reuse is a deliberate
+change: 205 -> 214 and 4577 -> 4622 retractions, the example's failure load +5.0 -> +4.9 %).
 """
 
 from __future__ import annotations

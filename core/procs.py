@@ -182,6 +182,9 @@ def fork_map(
         return out
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    from loadpath.memory import trim
+
+    trim()  # the workers start with the parent's resident pages: not its freed ones
     ctx = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=ctx,
                                initializer=worker_init, initargs=(os.getpid(),))

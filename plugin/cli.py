@@ -76,6 +76,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         143 on SIGTERM.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
+    from loadpath.memory import map_large_arrays
+
+    map_large_arrays()  # the resident size follows what a large file's arrays hold (loadpath.memory)
     command = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(command if command in COMMANDS else None)
     args = parser.parse_args(argv)

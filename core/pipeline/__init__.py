@@ -20,12 +20,16 @@ Stages (each timed in :attr:`PipelineResult.times`):
     one engine run per distinct unit (:mod:`loadpath.pipeline.paths`), in worker processes, reused on
     identical layers; every other one of those prints a staggered copy (the engine lays it itself
     from seeds half a pitch on, :func:`~loadpath.pipeline.paths.lays_phase`: the swarm and the
-    streamlines' default mode; otherwise the paths are shifted sideways by half a pitch);
+    streamlines' default mode; otherwise the paths are shifted sideways by half a pitch); a layer
+    whose region is its representative's within rounding (:func:`~loadpath.pipeline.paths.reuses`)
+    prints the representative's linked runs, any other is cut to its own region and linked in it;
 ``splice``
-    the new paths written into the slicer's G-code (:func:`loadpath.splice.splice`);
+    the new paths written into the slicer's G-code (:func:`loadpath.splice.splice`), the blocks in
+    the same worker processes (each block's text depends on that block alone: the same bytes);
 ``check``
     the result re-read and checked against the original (:func:`loadpath.splice.verify.check_output`,
-    from the new bytes: no second Program is built); a failure raises
+    from the new bytes, a few hundred thousand lines at a time: no second Program is built); a
+    failure raises
     :class:`~loadpath.errors.SpliceError` and nothing is returned.
 
 Files with nothing to replace, and vase-mode or sequential prints, come back unchanged with a warning.
@@ -58,6 +62,7 @@ from loadpath.pipeline.paths import (
     job_key,
     lays_phase,
     plan_jobs,
+    reuses,
     run_jobs,
     stagger,
     volume_scale,
@@ -444,7 +449,7 @@ def run(
         units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
         field_ids=field_ids,
     )
-    sres = splice(program, fills, splice_options)
+    sres = splice(program, fills, splice_options, workers=options.workers)
     for block, why in sres.skipped:
         b = program.block(block)
         warnings.append(f"layer {b.layer + 1}, {b.feature}: kept as sliced ({why})")
@@ -453,6 +458,9 @@ def run(
 
     check = None
     if options.check:
+        from loadpath.memory import trim
+
+        trim()  # the splice's temporaries (each block's text, joined into the output) are freed
         regions = {f.block: f.region for f in fills if f.region is not None}
         check = check_output(
             program,
@@ -462,6 +470,7 @@ def run(
             regions=regions,
             retract_length=splice_options.motion.retraction.length,
         )
+        trim()  # the pieces' arrays, before the verdict copies the output to put its line in
         if check.problems:
             raise SpliceError(
                 f"the new G-code failed its check ({len(check.problems)} problem(s); first: "
@@ -711,9 +720,10 @@ def _fills(
                     shifted_raw = _simplified(moved, plan, cache)
                 shifted_t = task(shifted_raw, u0, fld, fid)
             clipped = clipped_t = None
-            if not u.fill_region.equals(job.unit.fill_region):
-                # a region that differs a little: the paths clipped to it, linked in it (links along
-                # the representative's edge would be cut by the clipping)
+            if not reuses(u.fill_region, job.unit.fill_region):
+                # a region that differs by more than rounding (a sliver, TOL.region_reuse_mm): the
+                # paths clipped to it, linked in it (links along the representative's edge would be
+                # cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
                 clipped_t = task(clipped, u, fld, fid)

@@ -21,10 +21,13 @@ from loadpath.gcode.flavors import Dialect, detect_slicer
 from loadpath.gcode.lines import check_text, index_lines
 from loadpath.gcode.markers import Markers, read_markers
 from loadpath.gcode.parse import _HEAD, _print_end, _refuse_inches, _volumetric_area
-from loadpath.gcode.state import LineState, ffill, is_motion, machine_state
+from loadpath.gcode.state import LineState, Start, ffill, is_motion, machine_state
 from loadpath.gcode.words import BIT, G, Tokens, tokenize
 
-__all__ = ["LineView", "read_lines", "EXTRUSION_DTYPE"]
+__all__ = ["LineView", "read_lines", "read_piece", "Piece", "Carry", "EXTRUSION_DTYPE", "FAMILIES"]
+
+FAMILIES = ("prusa", "bambu", "cura")
+"""Layer-marker families, in the order :func:`read_lines` prefers them on a tie."""
 
 EXTRUSION_DTYPE = np.dtype(
     [("x0", "f8"), ("y0", "f8"), ("x1", "f8"), ("y1", "f8"), ("e", "f8"), ("width", "f8")]
@@ -86,8 +89,11 @@ class LineView:
         """Whether lines ``[start, stop)`` hold a G2/G3 arc."""
         return bool(self.arc_lines[start:stop].any())
 
-    def extrusions(self, start: int, stop: int) -> np.ndarray:
+    def extrusions(self, start: int, stop: int, origin: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
         """Return the extruding moves of lines ``[start, stop)`` (without arcs), in file order.
+
+        ``origin`` (mm): where the first line starts from (the initial position; for a piece of a
+        file, :func:`read_piece`, where the previous piece ended).
 
         Returns
         -------
@@ -100,7 +106,7 @@ class LineView:
         before = lines - 1  # a move starts from the state after the previous line (initially 0)
         out["x0"], out["y0"] = st.x[before], st.y[before]
         if len(lines) and lines[0] == 0:
-            out["x0"][0] = out["y0"][0] = 0.0
+            out["x0"][0], out["y0"][0] = origin
         out["x1"], out["y1"] = st.x[lines], st.y[lines]
         out["e"], out["width"] = st.de[lines], self.width_of_line[lines]
         return out
@@ -200,4 +206,152 @@ def read_lines(data: bytes) -> LineView:
         arc_lines=arc_lines,
         features=features,
         n_layers=len(layer_starts),
+    )
+
+
+@dataclass(frozen=True)
+class Carry:
+    """What a piece of a file inherits from the lines before it (:func:`read_piece`).
+
+    Attributes
+    ----------
+    start : Start
+        The machine state after the previous piece.
+    feature : int
+        Index into the caller's list of feature names in effect (-1: none yet).
+    width : float, mm
+        ``;WIDTH:`` in effect (NaN: none yet).
+    wipe : bool
+        Inside ``;WIPE_START`` ... ``;WIPE_END``.
+    """
+
+    start: Start = Start()
+    feature: int = -1
+    width: float = float("nan")
+    wipe: bool = False
+
+
+@dataclass(frozen=True)
+class Piece:
+    """A run of lines read on its own: its :class:`LineView` (local line numbers) and its markers.
+
+    Attributes
+    ----------
+    view : LineView
+        ``layer_of_line`` is all -1 and ``n_layers`` 0 (the layers are the whole file's to count:
+        ``layer_lines``); ``features`` is the caller's list of names as it stood after this piece.
+    layer_lines : dict of str -> (k,) int64
+        Local lines of each family's layer markers (:data:`FAMILIES`).
+    end_lines, custom_lines, time_elapsed_lines : (k,) int64
+        Local lines of the markers :func:`loadpath.gcode.parse._print_end` reads.
+    carry : Carry
+        What the next piece starts from.
+    """
+
+    view: LineView
+    layer_lines: dict[str, np.ndarray]
+    end_lines: np.ndarray
+    custom_lines: np.ndarray
+    time_elapsed_lines: np.ndarray
+    carry: Carry
+
+
+def read_piece(data: bytes, carry: Carry, names: list[str], area: float | None) -> Piece:
+    """Read whole lines ``data`` (a piece of a file) as :func:`read_lines` reads a file, from ``carry``.
+
+    A piece cut where no multi-line marker block is open (a config block, thumbnails: the header
+    and the trailer) gets the arrays the whole file's read has on those lines, but for the rounding
+    of sums of relative moves (:func:`loadpath.gcode.state.machine_state`).
+
+    Parameters
+    ----------
+    data : bytes
+        Whole lines (the last may lack its line ending only at the end of the file).
+    carry : Carry
+        The state the previous piece ended in (``Carry()`` for the file's first piece).
+    names : list of str
+        Feature names met so far; new ones are appended (the codes of ``feature_of_line`` index it).
+    area : float or None, mm^2
+        Filament cross-section when E is volumetric (the file's config: its header or trailer).
+    """
+    idx = index_lines(data)
+    tok = tokenize(idx)
+    _refuse_inches(data, idx.starts, tok)
+    mk = read_markers(data, idx, tok)
+    starts, ends = idx.starts, idx.ends
+    del idx
+    n = len(ends)
+    code = {name: k for k, name in enumerate(names)}
+    for name in mk.features:
+        if name not in code:
+            code[name] = len(names)
+            names.append(name)
+    glob = np.array([code[name] for name in mk.features] + [-1], dtype=np.int16)
+    cmd = tok.cmd
+    arc_lines = (cmd == G + 2) | (cmd == G + 3)
+    feature = ffill(
+        n,
+        np.asarray(mk.feature_lines, dtype=np.int64),
+        glob[np.asarray(mk.feature_codes, dtype=np.int64)],
+        np.int16(carry.feature),
+    )
+    width = ffill(
+        n, np.asarray(mk.width_lines, dtype=np.int64), np.asarray(mk.width_values, dtype=float), carry.width
+    )
+    in_wipe = ffill(
+        n, np.asarray(mk.wipe_lines, dtype=np.int64), np.asarray(mk.wipe_values, dtype=bool), carry.wipe
+    )
+    has_axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
+    fw_ok = ~tok.other_words
+    slim = Tokens(
+        cmd=cmd,
+        code_end=np.zeros(0, dtype=np.int64),
+        comment=np.zeros(0, dtype=bool),
+        values={c: tok.values[c] for c in "XYZEF"},
+        present=tok.present,
+        other_words=tok.other_words,
+    )
+    del tok
+    st = machine_state(slim, arc_lines, area, carry.start)
+    del slim
+    kinds = line_kinds(
+        cmd,
+        is_motion(cmd),
+        st.moved_xy,
+        st.de,
+        in_wipe,
+        np.asarray(mk.wipe_lines, dtype=np.int64),
+        mk.barrier_lines,
+        (cmd == G + 10) & fw_ok,
+        (cmd == G + 11) & fw_ok,
+        has_axes | arc_lines,
+    )
+    view = LineView(
+        data=data,
+        line_starts=starts,
+        line_ends=ends,
+        dialect=Dialect(slicer="unknown", version="", family="none"),
+        state=st,
+        kind_of_line=kinds,
+        layer_of_line=np.full(n, -1, dtype=np.int32),
+        feature_of_line=feature,
+        width_of_line=width,
+        arc_lines=arc_lines,
+        features=tuple(names),
+        n_layers=0,
+    )
+    nxt = Carry(
+        start=carry.start.after(st),
+        feature=int(feature[-1]) if n else carry.feature,
+        width=float(width[-1]) if n else carry.width,
+        wipe=bool(in_wipe[-1]) if n else carry.wipe,
+    )
+    lines = {fam: np.asarray(mk.layer_lines.get(fam, []), dtype=np.int64) for fam in FAMILIES}
+    return Piece(
+        view,
+        lines,
+        np.asarray(mk.end_lines, dtype=np.int64),
+        np.asarray(mk.custom_lines, dtype=np.int64),
+        np.asarray(mk.time_elapsed_lines, dtype=np.int64),
+        nxt,
     )

@@ -254,7 +254,9 @@ def style_of(program: Program) -> Style:
     return STYLES.get(program.dialect.family, STYLES["prusa"])
 
 
-def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions) -> SpliceResult:
+def splice(
+    program: Program, fills: Iterable[BlockFill], options: SpliceOptions, workers: int = 1
+) -> SpliceResult:
     """Replace blocks with new paths (see the module docstring).
 
     Parameters
@@ -263,95 +265,45 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
     fills : iterable of BlockFill
         At most one per block.
     options : SpliceOptions
+    workers : int
+        Processes for the blocks (:func:`loadpath.procs.fork_map`: forked, they inherit the program
+        and the fills; only each block's new text and report come back).  Each block's text depends
+        on that block alone, so the result is the same bytes whatever the number of workers.
 
     Returns
     -------
     SpliceResult
     """
+    global _WORK
     fills = sorted(fills, key=lambda f: f.block)
     seen = [f.block for f in fills]
     if len(set(seen)) != len(seen):
         raise SettingsError("a block was given new paths twice; give each block at most one BlockFill")
-    style = style_of(program)
-    vol_area = options.flow.filament_area if options.flow.volumetric else None
-    edits: list[tuple[int, int, bytes]] = []
-    reports, skipped = [], []
     plan_options = options.plan
     if plan_options.free_travel <= 0:  # the order prefers the travels the slicer would not retract
         r = options.motion.retraction
         free = float("inf") if r.only_when_crossing else r.before_travel
         plan_options = replace(plan_options, free_travel=free)
-    for fill in fills:
-        b = program.block(fill.block)
-        why = refusal(program, b)
-        if why is not None:
-            skipped.append((fill.block, why))
-            continue
-        feed = fill.feedrate or block_feedrate(program, b)
-        height = block_height(program, b)
-        s0 = program.state_before(b.span_start)
-        plan = plan_block(
-            fill.paths,
-            np.array([s0.x, s0.y]),
-            height,
-            feed,
-            options.flow,
-            plan_options,
-            region=fill.region,
-            nominal_pitch=fill.nominal_pitch,
-            flow_width=fill.flow_width,
-            target_filament=b.e * fill.volume_scale,
-            simplified=fill.simplified,
-        )
-        unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
-        ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
-        runs = options.runs
-        if fill.linked:  # linked runs: their own simplification bound (RunOptions.linked_resolution)
-            runs = replace(runs, resolution=runs.linked_resolution)
-        plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
-        aim = b.e * fill.volume_scale
-        whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
-        if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
-            skipped.append(
-                (
-                    fill.block,
-                    f"the new paths would extrude {plan.filament / aim:.0%} of the {whose} "
-                    "(the engine covered too little or too much of the region)",
-                )
-            )
-            continue
-        rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area)
-        edits.append((b.span_start, b.span_stop, rw.span.encode("utf-8")))
-        old_rows = [move_rows(program, b.span_start, b.span_stop)]
-        if rw.exit is not None:
-            edits.append((b.exit_start, b.exit_stop, rw.exit.encode("utf-8")))
-            old_rows.append(move_rows(program, b.exit_start, b.exit_stop))
-        secs_old = sum(kinematic_time(program.moves[r]) for r in old_rows)
-        reports.append(
-            BlockReport(
-                block=fill.block,
-                layer=b.layer,
-                feature=b.feature,
-                object=b.object,
-                filament_old=b.e,
-                filament_new=plan.filament,
-                filament_model=plan.raw_filament,
-                length_old=b.length,
-                length_new=plan.length,
-                seconds_old=secs_old,
-                seconds_new=rw.seconds,
-                n_paths=plan.n_paths,
-                n_links=plan.n_links,
-                n_travels=rw.n_travels,
-                n_retracts=rw.n_retracts,
-                correction=plan.correction,
-                feedrate=feed,
-                height=height,
-                width_min=plan.stats.get("width_min", float("nan")),
-                width_max=plan.stats.get("width_max", float("nan")),
-                volume_scale=fill.volume_scale,
-            )
-        )
+    from loadpath.procs import fork_map, forks
+
+    _WORK = [(program, fills, options, plan_options, style_of(program))]
+    try:
+        # contiguous batches: a few hundred kB of text per result instead of a round trip per block
+        n_batches = min(len(fills), 8 * workers) if forks(workers, len(fills)) else 1
+        cuts = [round(k * len(fills) / max(n_batches, 1)) for k in range(n_batches + 1)]
+        batches = [(a, z) for a, z in zip(cuts[:-1], cuts[1:], strict=True) if z > a]
+        done = fork_map(_splice_batch, batches, workers)
+    finally:
+        _WORK = []
+    edits: list[tuple[int, int, bytes]] = []
+    reports, skipped = [], []
+    for got in done:
+        for block, new_edits, report, why in got:
+            if why is not None:
+                skipped.append((block, why))
+                continue
+            edits += new_edits
+            reports.append(report)
     delta = sum(r.seconds_new - r.seconds_old for r in reports)
     dfil = sum(r.filament_new - r.filament_old for r in reports)
     if options.notes and reports:
@@ -363,6 +315,91 @@ def splice(program: Program, fills: Iterable[BlockFill], options: SpliceOptions)
     return SpliceResult(
         data=data, edits=counted, blocks=tuple(reports), skipped=tuple(skipped), seconds_delta=delta
     )
+
+
+_WORK: list[tuple] = []
+"""What :func:`splice` hands to :func:`_splice_batch` (inherited by the forked workers, not pickled):
+``(program, sorted fills, options, plan options, style)``."""
+
+
+def _splice_batch(span: tuple[int, int]) -> list[tuple[int, list, BlockReport | None, str | None]]:
+    """:func:`_splice_block` of the fills ``[a, z)`` of :data:`_WORK`."""
+    program, fills, options, plan_options, style = _WORK[0]
+    return [_splice_block(program, f, options, plan_options, style) for f in fills[span[0] : span[1]]]
+
+
+def _splice_block(
+    program: Program, fill: BlockFill, options: SpliceOptions, plan_options: PlanOptions, style: Style
+) -> tuple[int, list[tuple[int, int, bytes]], BlockReport | None, str | None]:
+    """One block's new text: ``(block, edits, report, None)``, or ``(block, [], None, why)`` when kept."""
+    vol_area = options.flow.filament_area if options.flow.volumetric else None
+    b = program.block(fill.block)
+    why = refusal(program, b)
+    if why is not None:
+        return fill.block, [], None, why
+    feed = fill.feedrate or block_feedrate(program, b)
+    height = block_height(program, b)
+    s0 = program.state_before(b.span_start)
+    plan = plan_block(
+        fill.paths,
+        np.array([s0.x, s0.y]),
+        height,
+        feed,
+        options.flow,
+        plan_options,
+        region=fill.region,
+        nominal_pitch=fill.nominal_pitch,
+        flow_width=fill.flow_width,
+        target_filament=b.e * fill.volume_scale,
+        simplified=fill.simplified,
+    )
+    unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
+    ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
+    runs = options.runs
+    if fill.linked:  # linked runs: their own simplification bound (RunOptions.linked_resolution)
+        runs = replace(runs, resolution=runs.linked_resolution)
+    plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
+    aim = b.e * fill.volume_scale
+    whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
+    if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
+        return (
+            fill.block,
+            [],
+            None,
+            f"the new paths would extrude {plan.filament / aim:.0%} of the {whose} "
+            "(the engine covered too little or too much of the region)",
+        )
+    rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area)
+    edits = [(b.span_start, b.span_stop, rw.span.encode("utf-8"))]
+    old_rows = [move_rows(program, b.span_start, b.span_stop)]
+    if rw.exit is not None:
+        edits.append((b.exit_start, b.exit_stop, rw.exit.encode("utf-8")))
+        old_rows.append(move_rows(program, b.exit_start, b.exit_stop))
+    secs_old = sum(kinematic_time(program.moves[r]) for r in old_rows)
+    report = BlockReport(
+        block=fill.block,
+        layer=b.layer,
+        feature=b.feature,
+        object=b.object,
+        filament_old=b.e,
+        filament_new=plan.filament,
+        filament_model=plan.raw_filament,
+        length_old=b.length,
+        length_new=plan.length,
+        seconds_old=secs_old,
+        seconds_new=rw.seconds,
+        n_paths=plan.n_paths,
+        n_links=plan.n_links,
+        n_travels=rw.n_travels,
+        n_retracts=rw.n_retracts,
+        correction=plan.correction,
+        feedrate=feed,
+        height=height,
+        width_min=plan.stats.get("width_min", float("nan")),
+        width_max=plan.stats.get("width_max", float("nan")),
+        volume_scale=fill.volume_scale,
+    )
+    return fill.block, edits, report, None
 
 
 # ---------------------------------------------------------------------------------------------- notes

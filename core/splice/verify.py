@@ -19,7 +19,8 @@ and the :class:`~loadpath.splice.SpliceResult`, and returns a :class:`SpliceChec
 The pipeline runs it before writing anything, so a file that fails is never written, through
 :func:`check_output`: the same checks from the output's bytes, read into the per-line arrays they
 compare (:mod:`loadpath.splice.lineview`) instead of a whole second :class:`Program` (on an 842k-line
-input whose output has 4.6M lines, that Program's parse peaked at 1.8 GB).
+input whose output has 4.6M lines, that Program's parse peaked at 1.8 GB), and piece by piece
+(:mod:`loadpath.splice.piecewise`: a few hundred thousand lines at a time, not the whole output).
 """
 
 from __future__ import annotations
@@ -81,14 +82,25 @@ def check_output(
     volume_tol: float = 0.03,
     regions: Mapping[int, Region] | None = None,
     retract_length: float = 0.0,
+    piece_lines: int | None = None,
 ) -> SpliceCheck:
     """:func:`check_splice` on the output's bytes, without parsing them into a :class:`Program`.
 
-    The output is read into a :class:`~loadpath.splice.lineview.LineView` (the same parse stages,
-    the same arrays, a third of the memory at its peak); an output with G2/G3 arcs is parsed in full,
-    since its moves are arc chords.  Same parameters and result as :func:`check_splice`, with the
-    output's bytes in place of its Program.
+    The output is read and checked in pieces of about ``piece_lines`` lines
+    (:func:`loadpath.splice.piecewise.check_pieces`, default
+    :data:`~loadpath.splice.piecewise.PIECE_LINES`; 0: in one piece), or else whole into a
+    :class:`~loadpath.splice.lineview.LineView` (the same parse stages, the same arrays, a third
+    of the memory at its peak); an output with G2/G3 arcs is parsed in full, since its moves are arc
+    chords.  Same parameters and result as :func:`check_splice`, with the output's bytes in place
+    of its Program.
     """
+    from loadpath.splice.piecewise import PIECE_LINES, check_pieces
+
+    lines = PIECE_LINES if piece_lines is None else piece_lines
+    if lines > 0 and len(original.layers) >= 2:
+        got = check_pieces(original, data, result, volume_tol, regions, retract_length, lines)
+        if got is not None:
+            return got
     view = read_lines(data)
     if view.arc_lines.any():
         from loadpath.gcode import parse

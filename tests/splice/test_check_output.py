@@ -13,6 +13,7 @@ import pytest
 from loadpath import gcode
 from loadpath.gcode.blocks import EXTRUDE
 from loadpath.splice.lineview import read_lines
+from loadpath.splice.piecewise import _cuts
 from loadpath.splice.verify import check_output, check_splice, layer_features
 from splice_helpers import SLICED_CASES, infill_blocks, rectilinear_fills, run_splice
 
@@ -62,10 +63,14 @@ def test_line_view_holds_the_programs_arrays(spliced):
     assert n_ext > 0
 
 
-def test_same_verdict_on_a_good_splice(spliced):
+@pytest.mark.parametrize("piece_lines", [0, 150, None], ids=["whole", "pieces", "default"])
+def test_same_verdict_on_a_good_splice(spliced, piece_lines):
+    """Read whole, in pieces of 150 lines (a few dozen pieces, cut between layers) or by default."""
     program, result, out, check, regions = spliced
     assert check.problems == []
-    _same(check_output(program, result.data, result, regions=regions), check)
+    if piece_lines:  # the pieces really are several
+        assert len(_cuts(program, result.line_map(program.n_lines), out.n_lines, piece_lines)) >= 3
+    _same(check_output(program, result.data, result, regions=regions, piece_lines=piece_lines), check)
 
 
 def _damage(program, result, out, how):
@@ -104,10 +109,42 @@ def _damage(program, result, out, how):
     return b"\n".join(lines)
 
 
+@pytest.mark.parametrize("piece_lines", [0, 150], ids=["whole", "pieces"])
 @pytest.mark.parametrize("how", ["kept line", "volume", "retraction", "outside", "layer"])
-def test_same_verdict_on_damaged_files(spliced, how):
+def test_same_verdict_on_damaged_files(spliced, how, piece_lines):
     program, result, _, _, regions = spliced
     data = _damage(program, result, gcode.parse(result.data, strict=False), how)
     want = check_splice(program, gcode.parse(data, strict=False), result, regions=regions)
     assert want.problems, f"the damage ({how}) went unnoticed"
-    _same(check_output(program, data, result, regions=regions), want)
+    _same(check_output(program, data, result, regions=regions, piece_lines=piece_lines), want)
+
+
+def test_pieces_hold_the_whole_reads_arrays(spliced):
+    """The output read in pieces of 150 lines, each from the state its previous piece ended in: every
+    per-line array the check reads is the whole read's, bit for bit (relative E sums included)."""
+    from loadpath.gcode.parse import _volumetric_area
+    from loadpath.splice.lineview import Carry, read_piece
+    from loadpath.splice.piecewise import _line_offsets
+
+    program, result, out, _, _ = spliced
+    cuts = _cuts(program, result.line_map(program.n_lines), out.n_lines, 150)
+    offsets = [0, *_line_offsets(result.data, cuts[1:]), len(result.data)]
+    assert len(cuts) >= 3
+    names: list[str] = []
+    carry, parts = Carry(), []
+    area = _volumetric_area(program.config)
+    for a, z in zip(offsets[:-1], offsets[1:], strict=True):
+        piece = read_piece(result.data[a:z], carry, names, area)
+        parts.append(piece.view)
+        carry = piece.carry
+    whole = read_lines(result.data)
+    for name in ("cmd", "x", "y", "z", "e", "de", "f", "retracted", "tool", "e_relative", "fw_retracted"):
+        got = np.concatenate([getattr(v.state, name) for v in parts])
+        assert np.array_equal(got, getattr(whole.state, name), equal_nan=name == "f"), name
+    assert np.array_equal(np.concatenate([v.kind_of_line for v in parts]), whole.kind_of_line)
+    widths = np.concatenate([v.width_of_line for v in parts])
+    assert np.array_equal(widths, whole.width_of_line, equal_nan=True)
+    feats = np.concatenate([v.feature_of_line for v in parts])
+    assert [names[f] if f >= 0 else None for f in feats.tolist()] == [
+        whole.features[f] if f >= 0 else None for f in whole.feature_of_line.tolist()
+    ]

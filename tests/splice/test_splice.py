@@ -17,6 +17,7 @@ from loadpath import gcode
 from loadpath.gcode.blocks import EXTRUDE, RETRACT, TRAVEL, UNRETRACT, WIPE
 from loadpath.gcode.flavors import Role
 from loadpath.plugin import settings as S
+from loadpath.splice import splice
 from loadpath.splice.verify import layer_features
 from loadpath.toolpath import Path as ToolPath
 from shapely.geometry import LineString
@@ -428,3 +429,22 @@ def test_block_whose_paths_miss_the_volume_is_kept_and_reported(sliced):
     assert [k for k, _ in result.skipped] == [i]
     assert "of the slicer's volume" in result.skipped[0][1]
     assert check.problems == []
+
+
+def test_blocks_spliced_in_worker_processes_give_the_same_bytes(sliced):
+    """``splice(..., workers=2)`` writes each block in forked workers: the same bytes, reports and
+    kept blocks as one process, in block order (one block's fill thins to a third of the lines so
+    that a kept block sits among the replaced ones)."""
+    program = gcode.read(sliced("prusa", "ohs", "solid"))
+    blocks = infill_blocks(program)
+    fills = rectilinear_fills(program, blocks)
+    thin = rectilinear_fills(program, [blocks[1]], pitch_scale=3.0)[0]
+    fills = [thin if f.block == thin.block else f for f in fills]
+    opts = S.splice_options(S.resolve(program))
+    one = splice(program, fills, opts)
+    two = splice(program, fills, opts, workers=2)
+    assert len(one.blocks) >= 4 and [k for k, _ in one.skipped] == [thin.block]
+    assert two.data == one.data
+    assert two.edits == one.edits and two.skipped == one.skipped
+    assert [r.block for r in two.blocks] == [r.block for r in one.blocks]
+    assert two.blocks == one.blocks
