@@ -24,7 +24,7 @@ ROOTS = {
 }
 
 STACK: tuple[tuple[str, ...], ...] = (
-    ("loadpath", "loadpath._typing", "loadpath.errors", "loadpath.tolerances", "loadpath.budget"),
+    ("loadpath", "loadpath._typing", "loadpath.errors", "loadpath.tolerances", "loadpath.budget", "loadpath.jit"),
     # the contracts between stages: stress field, engine input/output, body, engine registry,
     # toolpath options, metrics of paths in a field
     (

@@ -17,7 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from loadpath.engines.finish._numba import jit_family
+from loadpath.jit import jit_family
 
 __all__ = ["locate_points", "find", "grid_arrays"]
 

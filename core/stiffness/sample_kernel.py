@@ -20,7 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from loadpath.engines.finish._numba import jit_family
+from loadpath.jit import jit_family
 from loadpath.fea import locate_kernel
 from loadpath.fea.locate_kernel import find, grid_arrays
 

@@ -1,129 +1,24 @@
-"""The one place the engines import numba: its ``njit``, and the on-disk cache of the kernels.
+"""The ``njit`` of this package's kernels: :func:`loadpath.jit.jit_family` stamped with :data:`SOURCES`.
 
-(Also the one place :mod:`loadpath.fea.locate_kernel`, the compiled point location of large
-queries, takes its ``njit`` from: :func:`jit_family` stamped with its own file.)
-
-* ``cache=True``: the machine code is written to numba's cache (``__pycache__`` next to the
-  sources, or ``NUMBA_CACHE_DIR``) the first time a kernel runs, so a machine compiles once (about a
-  minute of CPU) and later processes load it (well under a second).
-* ``error_model="numpy"``: division by zero gives inf/NaN as in numpy (the kernels test for them)
-  instead of raising.
-* no ``fastmath``: IEEE arithmetic, so results are deterministic and NaN tests work.
-
-numba keys a cached function on its own source file only, but a cached caller holds the machine
-code of every kernel it calls (numba links and optimises callees into the caller): editing
-``kernel_geom.py`` would leave the swarm's ``kernel_step.run_swarm`` running the old geometry code
-from the cache.  Every kernel's cache entry is therefore stamped with all the sources that can be
-compiled into it: :func:`jit_family` gives an ``njit``/``njit_inline`` pair stamped with a list of
-sources.  This package's kernels use :data:`SOURCES` (their own files); an engine whose kernels call
-them makes its own pair with :data:`SOURCES` plus its files (``loadpath.engines.swarm._jit``), so
-editing a shared kernel recompiles that engine's kernels too.
-
-:func:`kernels_cached` tells (without compiling) whether a kernel is in the cache.  Nothing here
-imports an engine: the warm-up that runs an engine on a tiny layer belongs to the engine
-(``loadpath.engines.swarm.warmup``).
+The finishing kernels (widths, ends) and the geometry kernels they and the swarm's step call are
+compiled with this pair; an engine whose kernels call them makes its own pair with :data:`SOURCES`
+plus its files (``loadpath.engines.swarm._jit``), so editing a shared kernel recompiles that
+engine's kernels too (:mod:`loadpath.jit` says why).  Nothing here imports an engine: the warm-up
+that runs an engine on a tiny layer belongs to the engine (``loadpath.engines.swarm.warmup``).
 """
 
 from __future__ import annotations
 
-import os
-import pickle
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
-from loadpath.errors import ToolMissingError
+from loadpath.jit import _DISPATCHERS, _stamp, jit_family, kernels_cached, objmode
 
-try:
-    import numba
-except ImportError as exc:  # pragma: no cover - numba is a hard dependency
-    raise ToolMissingError(
-        "the swarm engine needs numba (it compiles the per-step loop): pip install numba"
-    ) from exc
-
-__all__ = ["njit", "njit_inline", "objmode", "jit_family", "kernels_cached", "SOURCES"]
-
-objmode = numba.objmode
+__all__ = ["njit", "njit_inline", "objmode", "jit_family", "kernels_cached", "SOURCES", "_DISPATCHERS", "_stamp"]
 
 _HERE = Path(__file__).resolve().parent
+
 SOURCES = tuple(_HERE / f"{m}.py" for m in ("kernel_geom", "kernel_widths", "kernel_ends"))
 """Files whose code ends up in this package's compiled kernels (the finishing widths and ends, and
 the geometry kernels they and the swarm's step call)."""
 
-_DISPATCHERS: list[Any] = []
-
-
-def _stamp(sources: tuple[Path, ...] = SOURCES) -> tuple:
-    st = [os.stat(p) for p in sources]
-    return tuple((s.st_mtime, s.st_size) for s in st)
-
-
-def _stale_safe(load_index: Callable[[], Any]) -> Callable[[], Any]:
-    """``load_index`` reading an index it cannot unpickle as an empty one (a stale cache).
-
-    An index pickles the argument types of each compiled signature by module path; one written
-    before a kernel module moved names a module that no longer exists, and numba would raise
-    ``ModuleNotFoundError`` instead of compiling again.  Empty, the kernel compiles and the index
-    is rewritten.
-    """
-
-    def load() -> Any:
-        try:
-            return load_index()
-        except (ImportError, AttributeError, EOFError, pickle.UnpicklingError):
-            return {}
-
-    return load
-
-
-def _shared_stamp(disp: Any, sources: tuple[Path, ...]) -> Any:
-    """Stamp ``disp``'s cache entries with every source in ``sources`` (see the module docstring)."""
-    try:
-        cache_file = disp._cache._cache_file
-        cache_file._source_stamp = _stamp(sources)
-        cache_file._load_index = _stale_safe(cache_file._load_index)
-    except (AttributeError, OSError):  # pragma: no cover - other numba internals: numba's own stamp
-        pass
-    _DISPATCHERS.append(disp)
-    return disp
-
-
-_Jit = Callable[[Callable[..., Any]], Callable[..., Any]]
-
-
-def jit_family(sources: tuple[Path, ...]) -> tuple[_Jit, _Jit]:
-    """``(njit, njit_inline)`` whose kernels' cache entries are stamped with ``sources``.
-
-    ``njit`` compiles in nopython mode, cached on disk, numpy error model.  ``njit_inline`` compiles
-    a function into each of its compiled callers (numba IR inlining): for the stages of a step that
-    run from one place, since numba optimises a compiled function together with every compiled
-    function it calls, so a stage compiled apart is optimised once on its own and again inside its
-    caller; inlined, it is compiled only inside the caller.  Not for functions called from many
-    places (each call site gets its own copy).
-    """
-
-    def njit(func: Callable[..., Any]) -> Callable[..., Any]:
-        return _shared_stamp(numba.njit(cache=True, error_model="numpy")(func), sources)
-
-    def njit_inline(func: Callable[..., Any]) -> Callable[..., Any]:
-        return _shared_stamp(numba.njit(cache=True, error_model="numpy", inline="always")(func), sources)
-
-    return njit, njit_inline
-
-
 njit, njit_inline = jit_family(SOURCES)
-
-
-def kernels_cached(disp: Any) -> bool:
-    """Whether the compiled function ``disp`` is in numba's cache here.
-
-    Reads the cache index only (no compile).  False also when the sources changed since.
-    """
-    if disp.signatures:  # compiled or loaded in this process already
-        return True
-    try:
-        index = disp._cache._cache_file._load_index()
-        magic = disp.targetctx.codegen().magic_tuple()
-    except (AttributeError, OSError):  # pragma: no cover - other numba internals: assume cold
-        return False
-    return any(key[1] == magic for key in index)

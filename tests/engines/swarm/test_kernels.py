@@ -7,6 +7,7 @@ import multiprocessing
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,16 +33,30 @@ def test_stable_argsort_is_numpys_stable_order():
 
 def test_every_kernel_is_stamped_with_all_kernel_sources():
     # a cached caller holds its callees' machine code: editing any kernel source must recompile all
-    # (the shared kernels of loadpath.engines.finish call no swarm code: their own sources suffice)
-    stamp = shared._stamp(jit.SOURCES)
-    own = shared._stamp(shared.SOURCES)
-    assert len(stamp) == len(jit.SOURCES) >= 4 and set(shared.SOURCES) < set(jit.SOURCES)
-    assert len(shared._DISPATCHERS) > 20
-    swarm_dir = jit.SOURCES[-1].parent
-    for disp in shared._DISPATCHERS:
-        in_swarm = disp.py_func.__code__.co_filename.startswith(str(swarm_dir))
-        expected = stamp if in_swarm else own
-        assert disp._cache._cache_file._source_stamp == expected, disp.py_func.__name__
+    # (the shared kernels of loadpath.engines.finish call no swarm code: their own sources suffice;
+    # the FEA's point location and the stiffness model's bead sampling are families of their own,
+    # the sampling's including the point location it inlines)
+    from loadpath import jit as lp_jit
+    from loadpath.fea import locate_kernel
+    from loadpath.stiffness import sample_kernel  # noqa: F401 - its kernels register on import
+
+    assert len(shared._stamp(jit.SOURCES)) == len(jit.SOURCES) >= 4 and set(shared.SOURCES) < set(jit.SOURCES)
+    assert len(shared._DISPATCHERS) > 20 and len(lp_jit.FAMILIES) == len(shared._DISPATCHERS)
+    swarm_dir, finish_dir = jit.SOURCES[-1].parent, shared.SOURCES[0].parent
+    locate = Path(locate_kernel.__file__).resolve()
+    seen = set()
+    for disp, sources in lp_jit.FAMILIES:
+        src = Path(disp.py_func.__code__.co_filename).resolve()
+        assert src in sources, disp.py_func.__name__  # its own file at least
+        if src.parent == swarm_dir:
+            assert sources == jit.SOURCES, disp.py_func.__name__
+        elif src.parent == finish_dir:
+            assert sources == shared.SOURCES, disp.py_func.__name__
+        elif src.name == "sample_kernel.py":
+            assert set(sources) == {src, locate}, disp.py_func.__name__
+        assert disp._cache._cache_file._source_stamp == shared._stamp(sources), disp.py_func.__name__
+        seen.add(src.parent)
+    assert {swarm_dir, finish_dir, locate.parent} <= seen
 
 
 def test_a_new_process_loads_the_kernels_from_the_cache(warm):
