@@ -39,6 +39,7 @@ from loadpath.gcode.parse import _HEAD, _print_end, _volumetric_area
 from loadpath.gcode.words import G, tokenize
 from loadpath.splice.lineview import EXTRUSION_DTYPE, FAMILIES, Carry, read_piece
 from loadpath.splice.splicer import SpliceResult
+from loadpath.splice.verify import first_difference, kept_state
 
 __all__ = ["check_pieces", "PIECE_LINES"]
 
@@ -194,26 +195,15 @@ def check_pieces(
         def differ(name, a, b, tol=0.0, mask=None, ik=ik):
             if name in first_bad:
                 return
-            bad = np.abs(a - b) > tol if tol else a != b
-            if a.dtype.kind == "f":
-                bad &= ~(np.isnan(a) & np.isnan(b))
-            if mask is not None:
-                bad &= mask
-            if bad.any():
-                k = int(np.argmax(bad))
+            k = first_difference(a, b, tol, mask)
+            if k is not None:
                 first_bad[name] = (
                     f"{name} differs after kept line {ik[k] + 1} ({original.line(int(ik[k]))!r}): "
                     f"{a[k]!r} in the original, {b[k]!r} in the output"
                 )
 
-        differ("Z", so.z[ik], st.z[jk], 1e-6)
-        differ("E mode", so.e_relative[ik], st.e_relative[jk])
-        differ("positioning mode", so.absolute_xyz[ik], st.absolute_xyz[jk])
-        differ("tool", so.tool[ik], st.tool[jk])
-        differ("retraction", so.retracted[ik], st.retracted[jk], 1e-4)
-        differ("firmware retraction", so.fw_retracted[ik], st.fw_retracted[jk])
-        differ("logical E", so.e[ik], st.e[jk], 2e-5, mask=~so.e_relative[ik])
-        differ("feedrate", so.f[ik], st.f[jk], 1e-6, mask=motion[sel])
+        for name, a, b, tol, mask in kept_state(so, st, ik, jk, motion[sel]):
+            differ(name, a, b, tol, mask)
         prev_o = np.maximum(ik - 1, 0)
         pj = np.maximum(j_k[sel] - 1, 0) - a_line  # -1: the previous piece's last line
         for axis, before in (("x", prev_xy[0]), ("y", prev_xy[1])):

@@ -120,6 +120,43 @@ def _extrusions(output: Program | LineView, start: int, stop: int) -> np.ndarray
     return mv[mv["extrude"]]
 
 
+def first_difference(a: np.ndarray, b: np.ndarray, tol: float = 0.0, mask: np.ndarray | None = None) -> int | None:
+    """Index of the first entry where ``a`` and ``b`` (n,) differ by more than ``tol`` (NaN equal to
+    NaN; only where ``mask``), or None."""
+    bad = np.abs(a - b) > tol if tol else a != b
+    if a.dtype.kind == "f":
+        bad &= ~(np.isnan(a) & np.isnan(b))
+    if mask is not None:
+        bad &= mask
+    return int(np.argmax(bad)) if bad.any() else None
+
+
+def kept_state(so, sn, i_k: np.ndarray, j_k: np.ndarray, motion: np.ndarray):
+    """The machine state a kept line must see in the output as in the original, one field at a time.
+
+    Parameters
+    ----------
+    so, sn : MachineState
+        Of the original and of the output (or of a piece of it).
+    i_k, j_k : (k,) int
+        The kept lines' indices in each.
+    motion : (k,) bool
+        Which kept lines are moves (their feedrate counts).
+
+    Yields
+    ------
+    (name, original values, output values, tolerance, mask or None)
+    """
+    yield "Z", so.z[i_k], sn.z[j_k], 1e-6, None
+    yield "E mode", so.e_relative[i_k], sn.e_relative[j_k], 0.0, None
+    yield "positioning mode", so.absolute_xyz[i_k], sn.absolute_xyz[j_k], 0.0, None
+    yield "tool", so.tool[i_k], sn.tool[j_k], 0.0, None
+    yield "retraction", so.retracted[i_k], sn.retracted[j_k], 1e-4, None
+    yield "firmware retraction", so.fw_retracted[i_k], sn.fw_retracted[j_k], 0.0, None
+    yield "logical E", so.e[i_k], sn.e[j_k], 2e-5, ~so.e_relative[i_k]
+    yield "feedrate", so.f[i_k], sn.f[j_k], 1e-6, motion
+
+
 def check_splice(
     original: Program,
     output: Program | LineView,
@@ -171,27 +208,16 @@ def check_splice(
     def differ(
         name: str, a: np.ndarray, b: np.ndarray, tol: float = 0.0, mask: np.ndarray | None = None
     ) -> None:
-        bad = np.abs(a - b) > tol if tol else a != b
-        if a.dtype.kind == "f":
-            bad &= ~(np.isnan(a) & np.isnan(b))
-        if mask is not None:
-            bad &= mask
-        if bad.any():
-            k = int(np.argmax(bad))
+        k = first_difference(a, b, tol, mask)
+        if k is not None:
             problems.append(
                 f"{name} differs after kept line {i_k[k] + 1} ({original.line(int(i_k[k]))!r}): "
                 f"{a[k]!r} in the original, {b[k]!r} in the output"
             )
 
-    differ("Z", so.z[i_k], sn.z[j_k], 1e-6)
-    differ("E mode", so.e_relative[i_k], sn.e_relative[j_k])
-    differ("positioning mode", so.absolute_xyz[i_k], sn.absolute_xyz[j_k])
-    differ("tool", so.tool[i_k], sn.tool[j_k])
-    differ("retraction", so.retracted[i_k], sn.retracted[j_k], 1e-4)
-    differ("firmware retraction", so.fw_retracted[i_k], sn.fw_retracted[j_k])
-    differ("logical E", so.e[i_k], sn.e[j_k], 2e-5, mask=~so.e_relative[i_k])
     motion = np.isin(so.cmd[i_k], (G + 0, G + 1, G + 2, G + 3))
-    differ("feedrate", so.f[i_k], sn.f[j_k], 1e-6, mask=motion)
+    for name, a, b, tol, mask in kept_state(so, sn, i_k, j_k, motion):
+        differ(name, a, b, tol, mask)
     moving = np.isin(original.kind_of_line[i_k], (EXTRUDE, WIPE)) | np.isin(so.cmd[i_k], (G + 2, G + 3))
     prev_o, prev_n = np.maximum(i_k - 1, 0), np.maximum(j_k - 1, 0)
     for axis in ("x", "y"):
