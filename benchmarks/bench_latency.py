@@ -202,7 +202,13 @@ after the other (the slicer's times differ between the two runs: compare the rat
     example           0.15     9.55  61.9      0.63   4.1      655    3.53     0.2   10.5     0.8
     specimen-1000     2.13    26.44  12.4     18.06   8.5      750    4.35     3.9   38.6    27.6
 
-The 1000-layer file: 1 GB met (750 MB); 15 s still missed (26.4 s first, 18.1 s repeated).  Where
+(These AFTER figures include 07b5c0c, the reuse of a representative's linked runs, reverted the same
+day: it made a CuraEngine file with combined sparse infill fail its check.  On the final code, same
+day, load about 2, one run: specimen-1000 slice 2.44 s, first run 108.0 s (44.2x), repeat 39.1 s
+(16.0x), peak 909 MB; example, median of 3: 0.17 s, 5.14 s (30.4x), 0.94 s (5.5x), 253 MB; gusset
+0.44 s, 5.82 s (13.1x), 2.93 s (6.6x), 310 MB.)
+
+The 1000-layer file with 07b5c0c: 1 GB met (750 MB); 15 s still missed (26.4 s first, 18.1 s repeated).  Where
 its first run's CPU went before (in process, profiled): the linking of 1000 layers each in its own
 region (816 distinct regions, 0.2-0.3 s each) 260 s of worker time, the splice 37 s, the check's
 whole read of the 4.1M-line output 8 s and 1.05 GB.  Now (in process, one worker, profiled): the
