@@ -46,8 +46,6 @@ __all__ = ["objmode", "jit_family", "kernels_cached", "FAMILIES"]
 
 objmode = numba.objmode
 
-_DISPATCHERS: list[Any] = []
-
 FAMILIES: list[tuple[Any, tuple[Path, ...]]] = []
 """Every kernel made by a :func:`jit_family` pair, with the sources its cache entries are stamped with."""
 
@@ -83,7 +81,6 @@ def _shared_stamp(disp: Any, sources: tuple[Path, ...]) -> Any:
         cache_file._load_index = _stale_safe(cache_file._load_index)
     except (AttributeError, OSError):  # pragma: no cover - other numba internals: numba's own stamp
         pass
-    _DISPATCHERS.append(disp)
     FAMILIES.append((disp, tuple(sources)))
     return disp
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from loadpath.jit import _DISPATCHERS, _stamp, jit_family, kernels_cached, objmode
+from loadpath.jit import jit_family, kernels_cached, objmode
 
-__all__ = ["njit", "njit_inline", "objmode", "jit_family", "kernels_cached", "SOURCES", "_DISPATCHERS", "_stamp"]
+__all__ = ["njit", "njit_inline", "objmode", "jit_family", "kernels_cached", "SOURCES"]
 
 _HERE = Path(__file__).resolve().parent
 
