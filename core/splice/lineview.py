@@ -122,6 +122,42 @@ class LineView:
         return out
 
 
+def _slim(tok: Tokens) -> tuple[Tokens, np.ndarray, np.ndarray]:
+    """The words the machine state reads (arcs are the full parse's: check_output hands them over).
+
+    Returns the slim tokens, which lines carry an X, Y, Z or E word and which carry no other word
+    (n,) bool each: the caller then drops ``tok``, whose other word values are the largest part of
+    a parse, before the machine state is computed.
+    """
+    has_axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
+    slim = Tokens(
+        cmd=tok.cmd,
+        code_end=np.zeros(0, dtype=np.int64),
+        comment=np.zeros(0, dtype=bool),
+        values={c: tok.values[c] for c in "XYZEF"},
+        present=tok.present,
+        other_words=tok.other_words,
+    )
+    return slim, has_axes, ~tok.other_words
+
+
+def _kinds(cmd, st: LineState, in_wipe, wipe_lines, barrier_lines, fw_ok, moves) -> np.ndarray:
+    """:func:`loadpath.gcode.blocks.line_kinds` of lines read here (``G10``/``G11`` firmware retraction
+    only on lines with no other word, ``moves``: lines with an axis word or an arc)."""
+    return line_kinds(
+        cmd,
+        is_motion(cmd),
+        st.moved_xy,
+        st.de,
+        in_wipe,
+        wipe_lines,
+        barrier_lines,
+        (cmd == G + 10) & fw_ok,
+        (cmd == G + 11) & fw_ok,
+        moves,
+    )
+
+
 def read_lines(data: bytes) -> LineView:
     """Read ``data`` (text G-code) into a :class:`LineView` (the stages of :func:`parse_bytes`).
 
@@ -162,17 +198,7 @@ def read_lines(data: bytes) -> LineView:
         end_lines=mk.end_lines, custom_lines=mk.custom_lines, time_elapsed_lines=mk.time_elapsed_lines
     )  # what _print_end reads
     del mk
-    has_axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
-    fw_ok = ~tok.other_words
-    # the words the machine state reads (arcs are the full parse's: check_output hands them over)
-    slim = Tokens(
-        cmd=cmd,
-        code_end=np.zeros(0, dtype=np.int64),
-        comment=np.zeros(0, dtype=bool),
-        values={c: tok.values[c] for c in "XYZEF"},
-        present=tok.present,
-        other_words=tok.other_words,
-    )
+    slim, has_axes, fw_ok = _slim(tok)
     del tok
     st = machine_state(slim, arc_lines, area)
     del slim  # the word values: the largest part of a parse
@@ -181,18 +207,7 @@ def read_lines(data: bytes) -> LineView:
     del extrusion_lines
     layer_of_line = ffill(n, layer_starts, np.arange(len(layer_starts), dtype=np.int32), np.int32(-1))
     layer_of_line[print_end:] = -1
-    kinds = line_kinds(
-        cmd,
-        is_motion(cmd),
-        st.moved_xy,
-        st.de,
-        in_wipe,
-        wipe_lines,
-        barrier_lines,
-        (cmd == G + 10) & fw_ok,
-        (cmd == G + 11) & fw_ok,
-        has_axes | arc_lines,
-    )
+    kinds = _kinds(cmd, st, in_wipe, wipe_lines, barrier_lines, fw_ok, has_axes | arc_lines)
     return LineView(
         data=data,
         line_starts=starts,
@@ -301,30 +316,12 @@ def read_piece(data: bytes, carry: Carry, names: list[str], area: float | None) 
     in_wipe = ffill(
         n, np.asarray(mk.wipe_lines, dtype=np.int64), np.asarray(mk.wipe_values, dtype=bool), carry.wipe
     )
-    has_axes = (tok.present & np.uint16(BIT["X"] | BIT["Y"] | BIT["Z"] | BIT["E"])) != 0
-    fw_ok = ~tok.other_words
-    slim = Tokens(
-        cmd=cmd,
-        code_end=np.zeros(0, dtype=np.int64),
-        comment=np.zeros(0, dtype=bool),
-        values={c: tok.values[c] for c in "XYZEF"},
-        present=tok.present,
-        other_words=tok.other_words,
-    )
+    slim, has_axes, fw_ok = _slim(tok)
     del tok
     st = machine_state(slim, arc_lines, area, carry.start)
     del slim
-    kinds = line_kinds(
-        cmd,
-        is_motion(cmd),
-        st.moved_xy,
-        st.de,
-        in_wipe,
-        np.asarray(mk.wipe_lines, dtype=np.int64),
-        mk.barrier_lines,
-        (cmd == G + 10) & fw_ok,
-        (cmd == G + 11) & fw_ok,
-        has_axes | arc_lines,
+    kinds = _kinds(
+        cmd, st, in_wipe, np.asarray(mk.wipe_lines, dtype=np.int64), mk.barrier_lines, fw_ok, has_axes | arc_lines
     )
     view = LineView(
         data=data,

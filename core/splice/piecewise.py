@@ -39,7 +39,7 @@ from loadpath.gcode.parse import _HEAD, _print_end, _volumetric_area
 from loadpath.gcode.words import G, tokenize
 from loadpath.splice.lineview import EXTRUSION_DTYPE, FAMILIES, Carry, read_piece
 from loadpath.splice.splicer import SpliceResult
-from loadpath.splice.verify import first_difference, kept_state
+from loadpath.splice.verify import SpliceCheck, first_difference, kept_state
 
 __all__ = ["check_pieces", "PIECE_LINES"]
 
@@ -102,8 +102,6 @@ def check_pieces(
         chords) or when the original's first or last layer marker has no place in it (no cut is
         known to be safe: the caller reads it whole).
     """
-    from loadpath.splice.verify import SpliceCheck
-
     check_text(data)
     n = original.n_lines
     lmap = result.line_map(n)
