@@ -42,7 +42,7 @@ from loadpath.fea.locate import TriangleLocator
 from loadpath.mesh.data import MeshData
 from loadpath.stiffness.deposits import Deposits
 
-__all__ = ["PlyFields", "sample_deposits", "tet_section", "DEFAULT_RESOLUTION", "MAX_FILL"]
+__all__ = ["PlyFields", "sample_deposits", "tet_section", "bead_grid", "DEFAULT_RESOLUTION", "MAX_FILL"]
 
 DEFAULT_RESOLUTION = 0.1
 """mm between sample points along and across a bead (a quarter of a 0.4 mm nozzle's bead)."""
@@ -129,16 +129,38 @@ class PlyFields:
         return np.mod(0.5 * np.arctan2(s, c), np.pi), np.hypot(c, s) / tot
 
 
+def bead_grid(beads, rows: Ints, res: float) -> tuple[np.ndarray, ...]:
+    """How beads ``rows`` are sampled: each a grid of ``n_al`` points along by ``n_ac`` across.
+
+    Parameters
+    ----------
+    beads : Deposits (or anything with ``start``, ``end`` (n, 2) mm, ``volume`` mm³, ``height`` mm)
+    rows : (k,) int
+    res : float, mm
+        Largest spacing of the samples.
+
+    Returns
+    -------
+    a, d : (k, 2) float, mm
+        Start and start-to-end vector.
+    length, width : (k,) float, mm
+        The width is the one that holds the bead's volume (volume / (length * height)).
+    n_al, n_ac : (k,) int
+    """
+    a = beads.start[rows]
+    d = beads.end[rows] - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    w = beads.volume[rows] / (length * beads.height[rows])
+    n_al = np.maximum(1, np.ceil(length / res)).astype(np.int64)
+    n_ac = np.maximum(1, np.ceil(w / res)).astype(np.int64)
+    return a, d, length, w, n_al, n_ac
+
+
 def _samples(
     dep: Deposits, rows: Ints, res: float, nz: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Sample points of beads ``rows``: (points (p, 2), z (p,), bead row (p,), volume share (p,))."""
-    a, b = dep.start[rows], dep.end[rows]
-    d = b - a
-    length = np.hypot(d[:, 0], d[:, 1])
-    w = dep.volume[rows] / (length * dep.height[rows])
-    n_al = np.maximum(1, np.ceil(length / res)).astype(np.int64)
-    n_ac = np.maximum(1, np.ceil(w / res)).astype(np.int64)
+    a, d, length, w, n_al, n_ac = bead_grid(dep, rows, res)
     out_p, out_z, out_s, out_w = [], [], [], []
     for nac in np.unique(n_ac):  # beads of one width class: points along, then offsets across
         g = np.flatnonzero(n_ac == nac)

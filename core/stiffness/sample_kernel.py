@@ -23,6 +23,7 @@ import numpy as np
 from loadpath.jit import jit_family
 from loadpath.fea import locate_kernel
 from loadpath.fea.locate_kernel import find, grid_arrays
+from loadpath.stiffness.fields import bead_grid
 
 __all__ = ["sample_batch"]
 
@@ -108,12 +109,7 @@ def sample_batch(
     lost : float, mm³
         Volume of the sample points outside every element.
     """
-    a, b = pieces.start[part], pieces.end[part]
-    d = b - a
-    length = np.hypot(d[:, 0], d[:, 1])
-    w = pieces.volume[part] / (length * pieces.height[part])
-    n_al = np.maximum(1, np.ceil(length / resolution)).astype(np.int64)
-    n_ac = np.maximum(1, np.ceil(w / resolution)).astype(np.int64)
+    a, d, length, w, n_al, n_ac = bead_grid(pieces, part, resolution)
     vol = np.zeros(n_cells)
     mom = np.zeros((n_cells, 4))
     acc = np.zeros((len(attrs), n_cells))
