@@ -413,13 +413,15 @@ def _run(
     asked = pres.changed and request.predict
     known = judged.change(pres) if judged is not None and asked else None
     stiff, why = _prediction(pres, result.warnings, cache, lc, known, opts.workers) if asked else (None, "")
+    # the printability counts reuse the output the prediction parsed; the report shows the same
+    counts, counts_why = verdict_counts(pres)
     times["verdict"] = time.perf_counter() - t
     report = None
     if request.report is not None:
         from loadpath.report import build_report
 
         t = time.perf_counter()
-        report = build_report(pres, s, times, source=inp.name)
+        report = build_report(pres, s, times, source=inp.name, printability=counts)
         result.warnings.extend(report.warnings)
         times["report"] = time.perf_counter() - t
     result.warnings.extend(own_warnings(caught if caught is not None else []))
@@ -437,10 +439,7 @@ def _run(
     if result.density is not None and pres.changed:
         v = dataclasses.replace(v, density=describe(result.density))
     if pres.changed:
-        t = time.perf_counter()
-        counts, why = verdict_counts(pres)
-        v = dataclasses.replace(v, printability=counts, printability_note=why)
-        times["verdict"] = times.get("verdict", 0.0) + time.perf_counter() - t
+        v = dataclasses.replace(v, printability=counts, printability_note=counts_why)
     result.verdict = v
     if report is not None:
         report.finish(v)

@@ -119,7 +119,12 @@ def write_report(
 
 
 def build_report(
-    result, settings, times: dict[str, float], source: str = "", with_metrics: bool = True
+    result,
+    settings,
+    times: dict[str, float],
+    source: str = "",
+    with_metrics: bool = True,
+    printability: dict | None = None,
 ) -> Report:
     """Build the report of a pipeline result in memory (see the module docstring).
 
@@ -132,6 +137,10 @@ def build_report(
         Input file name.
     with_metrics : bool
         Compute the metrics (a second or so per distinct layer).
+    printability : dict, optional
+        The replaced blocks' counts when the run has them already (the verdict's,
+        :func:`loadpath.printability.verdict_counts`); else they are counted here.
+
     Returns
     -------
     Report
@@ -176,7 +185,7 @@ def build_report(
                 str(k): v for k, v in (result.check.volume_ratio if result.check else {}).items()
             },
         },
-        "printability": _printability(result),
+        "printability": printability or _printability(result),
         "layers": [lr.numbers for lr in layers],
         "blocks": [dict(vars(b)) for b in (result.splice.blocks if result.splice else ())],
     }
