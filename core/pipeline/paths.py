@@ -287,6 +287,14 @@ def length_target(job: Job) -> float | None:
     return total if total > 0 else None
 
 
+def _machine_of(machine: Machine | None, job: Job) -> Machine | None:
+    """The machine facts of one job: the run's, with the slicer's flow width where the job keeps it
+    (sparse infill printed at the slicer's bead width; the engines that declare ``flow_width``)."""
+    if machine is None or not job.unit.fixed_width:
+        return machine
+    return replace(machine, flow_width=float(job.unit.flow_width))
+
+
 def _run_one(i: int) -> tuple[Toolpaths, float]:
     engine, inp, params, target, retry, machine = _WORK[i]
     t0 = time.perf_counter()
@@ -347,7 +355,10 @@ def run_jobs(
     keys : sequence of str, optional
     """
     global _WORK
-    _WORK = [(engine, j.input, {**params, **j.params}, length_target(j), length_retry, machine) for j in jobs]
+    _WORK = [
+        (engine, j.input, {**params, **j.params}, length_target(j), length_retry, _machine_of(machine, j))
+        for j in jobs
+    ]
     n = len(jobs)
     out: list[tuple[Toolpaths, float] | None] = [None] * n
     if cache is not None and keys is not None:
