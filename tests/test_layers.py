@@ -44,13 +44,13 @@ STACK: tuple[tuple[str, ...], ...] = (
     ("loadpath.fea",),
     ("loadpath.stiffness",),
     ("loadpath.engines.finish",),
-    ("loadpath.engines.swarm", "loadpath.engines.streamlines"),
+    ("loadpath.engines.swarm", "loadpath.engines.streamlines", "loadpath.engines.levelset"),
     ("loadpath.splice",),
     ("loadpath.pipeline",),
     ("loadpath.report", "loadpath.verdict"),  # what a run says: its report and its one-line verdict
     ("loadpath.plugin", "loadpath.prusaslicer_postproc", "loadpath.examples"),
 )
-ENGINES = ("loadpath.engines.swarm", "loadpath.engines.streamlines")
+ENGINES = ("loadpath.engines.swarm", "loadpath.engines.streamlines", "loadpath.engines.levelset")
 APPLICATION = ("loadpath.plugin", "loadpath.prusaslicer_postproc", "loadpath.examples")
 
 

@@ -80,6 +80,9 @@ class Engine:
         ``"module:function"`` compiling what the engine compiles, run before workers fork.
     machine : tuple of str
         :class:`Machine` fields the engine receives as options of the same name.
+    density : bool
+        Whether it lays a density field itself (``inp.density``); otherwise :func:`generate` runs
+        it once per zone of the field at the zone's pitch.
     """
 
     name: str
@@ -90,6 +93,7 @@ class Engine:
     phase: Callable[[Mapping[str, Any]], bool] = lambda options: False
     warm_up: str | None = None
     machine: tuple[str, ...] = ()
+    density: bool = False
 
     def __post_init__(self) -> None:
         unknown = set(self.machine) - {f.name for f in fields(Machine)}
@@ -180,7 +184,7 @@ def generate(engine: str, inp: EngineInput, machine: Machine | None = None, **op
     entry = get(engine)
     module = importlib.import_module(entry.module)
     params = {**entry.machine_options(machine), **options}
-    if inp.density is not None:
+    if inp.density is not None and not entry.density:
         return _zoned(module, inp, params)
     result: Toolpaths = module.generate(inp, **params)
     return result
@@ -246,3 +250,15 @@ register(
         machine=("nozzle", "width_range"),
     )
 )
+register(
+    Engine(
+        name="levelset",
+        module="loadpath.engines.levelset",
+        options="loadpath.engines.levelset:LevelSetOptions",
+        summary="level sets of a field fitted to the principal stress (the thesis's Ch. 3)",
+        phase=lambda options: True,
+        density=True,
+        machine=("flow_width",),
+    )
+)
+"""The level-set engine (:mod:`loadpath.engines.levelset`): edge-to-edge paths that link into zig-zags."""

@@ -26,6 +26,7 @@ from integration_helpers import (
     write_bad_case,
     write_case,
 )
+from loadpath import engines
 from loadpath.plugin.service import Service, ServiceConfig
 
 
@@ -205,7 +206,7 @@ def test_requests_are_checked_with_clear_json_errors(tight, tmp_path):
         assert (status, body["ok"], body["error"]["code"]) == (want_status, False, code), body
         assert body["error"]["message"] and "\n" not in body["error"]["message"]
     status, body = get(url + "/v1/schema")
-    assert status == 200 and body["settings"]["engine"]["choices"] == ["swarm", "streamlines"]
+    assert status == 200 and body["settings"]["engine"]["choices"] == list(engines.NAMES) == ["swarm", "streamlines", "levelset"]
 
 
 def test_an_upload_over_the_limit_gets_its_answer_not_a_broken_pipe(tight, tmp_path):

@@ -80,7 +80,7 @@ def test_overlap_reaches_the_output(solid_run):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("engine", ["swarm", "streamlines"])
+@pytest.mark.parametrize("engine", ["swarm", "streamlines", "levelset"])
 def test_staggered_layers_are_laid_by_the_engine_itself(solid_run, engine):
     """Identical layers alternate between the engine's paths and its own copy from seeds half a pitch on.
 
@@ -100,7 +100,7 @@ def test_staggered_layers_are_laid_by_the_engine_itself(solid_run, engine):
         assert shifted > 0.97 and shifted > base - 0.01
         # and its paths do not lie on the first copy's: they start half a pitch on; the swarm's
         # spacing pulls them part of the way back over 150 mm (median 0.23 pitch off on this part),
-        # the streamlines' stay about half a pitch off
+        # the streamlines' and the level sets' stay about half a pitch off
         pts = shapely.points(resample(j.shifted, u.pitch)[0])
         lines = np.array([shapely.LineString(p.points) for p in j.paths.paths], dtype=object)
         d = shapely.distance(pts, lines[shapely.STRtree(lines).nearest(pts)])

@@ -7,7 +7,7 @@ import json
 
 import pytest
 from cases import GRIP_PULL
-from loadpath import gcode, loadcase
+from loadpath import engines, gcode, loadcase
 from loadpath.errors import SettingsError
 from loadpath.plugin import settings as S
 
@@ -137,6 +137,6 @@ def test_bad_values_name_the_setting(values, match):
 
 def test_cura_setting_definitions_from_the_schema():
     defs = S.cura_setting_definitions()
-    assert defs["engine"]["type"] == "enum" and set(defs["engine"]["options"]) == {"swarm", "streamlines"}
+    assert defs["engine"]["type"] == "enum" and set(defs["engine"]["options"]) == set(engines.NAMES) == {"swarm", "streamlines", "levelset"}
     assert defs["pitch"]["unit"] == "mm" and defs["K"]["default_value"] == 5.0
     json.dumps(defs)  # what getSettingDataString needs

@@ -1,0 +1,178 @@
+"""The level-set engine: paths that run edge to edge, link into zig-zags, and follow the stress.
+
+Closed-form fields (no FEA): a uniform field, the Kirsch open hole, a cantilever in bending (whose
+``max_abs`` direction jumps by 90 degrees across the neutral axis) and a density field from the
+analysis' strain energy.  What a printer needs is checked on the paths themselves and after the
+shared linking stage: how many runs a layer prints as (each a travel, and on PrusaSlicer a
+retraction), coverage, alignment against the best straight infill.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from loadpath import metrics as M
+from loadpath.density import DensityOptions, density_field
+from loadpath.engines import NAMES, generate
+from loadpath.engines.levelset import LevelSetOptions, fit
+from loadpath.engines.linking import link_paths
+from loadpath.errors import GeometryError, SettingsError
+from loadpath.field import AnalyticField, kirsch_tensor
+from loadpath.toolpath import EngineInput
+from shapely.geometry import MultiPolygon, Point, box
+
+PITCH = 0.45
+
+
+def uniform(angle_deg: float):
+    c, s = np.cos(np.radians(angle_deg)), np.sin(np.radians(angle_deg))
+    return lambda p: np.tile([10 * c * c, 10 * s * s, 10 * c * s], (len(p), 1))
+
+
+def cantilever(height: float, length: float):
+    """Clamped at x = 0, tip load at x = length: sxx = M y / I, sxy parabolic."""
+    c, inertia = 0.5 * height, height**3 / 12.0
+
+    def f(p):
+        x, y = p[:, 0], p[:, 1] - c
+        return np.stack([-(length - x) * y / inertia, np.zeros(len(p)), -(c * c - y * y) / (2 * inertia)], axis=1)
+
+    return f
+
+
+def open_hole(length=40.0, width=16.0, radius=3.0):
+    cx, cy = length / 2, width / 2
+    region = box(0, 0, length, width).difference(Point(cx, cy).buffer(radius, 64))
+    return region, AnalyticField(lambda p: kirsch_tensor(p, (cx, cy), radius, 10.0), region, scale=10.0)
+
+
+def _ends(tp):
+    return np.array([p.points[k] for p in tp.paths for k in (0, -1)])
+
+
+def _runs(tp, region, field=None):
+    runs, _ = link_paths(tp.paths, region, PITCH, field=field)
+    return runs
+
+
+def test_registered_with_its_density_and_the_slicers_width():
+    assert "levelset" in NAMES
+    region = box(0, 0, 20, 10)
+    tp = generate("levelset", EngineInput(region, AnalyticField(uniform(0), None), PITCH))
+    assert tp.stats["residual"] < 1e-8 and tp.stats["n_paths"] == len(tp.paths) > 0
+
+
+def test_uniform_field_lays_straight_lines_at_the_pitch_that_link_into_one_zigzag():
+    """The slicer's rectilinear infill, turned to the stress: every path edge to edge, one run."""
+    region = box(0, 0, 30, 12)
+    field = AnalyticField(uniform(30.0), None)
+    tp = generate("levelset", EngineInput(region, field, PITCH))
+    d = np.array([np.cos(np.radians(30)), np.sin(np.radians(30))])
+    for p in tp.paths:
+        if np.hypot(*(p.points[-1] - p.points[0])) < 4 * PITCH:
+            continue  # a corner's short path: its ends bend to the edges
+        chord = p.points[-1] - p.points[0]
+        assert abs(chord @ d) / np.hypot(*chord) > np.cos(np.radians(1.0))
+        seg = np.diff(p.points[1:-1], axis=0)  # the end segments may bend to reach the edge
+        seg = seg[np.hypot(*seg.T) > 1e-6]
+        assert np.all(np.abs(seg @ d) / np.hypot(*seg.T) > np.cos(np.radians(2.0)))
+    # every end on the boundary (a quarter pitch in, as the other engines' ends)
+    dist = shapely.distance(region.exterior, shapely.points(_ends(tp)))
+    assert np.all(dist < 0.5 * PITCH), dist.max()
+    # the pitch is the nominal one, the length what that pitch lays in the region
+    pitch = np.concatenate([p.pitch for p in tp.paths])
+    assert np.median(pitch) == pytest.approx(PITCH, rel=0.03)
+    assert tp.total_length == pytest.approx(region.area / PITCH, rel=0.03)
+    runs = _runs(tp, region)
+    assert len(runs) <= 2, len(runs)
+    cov = M.coverage(tp, region)
+    assert cov.coverage >= 0.97 and cov.overlap <= 0.03, cov
+
+
+def test_open_hole_follows_the_stress_better_than_any_straight_infill_and_prints_as_few_runs():
+    region, field = open_hole()
+    tp = generate("levelset", EngineInput(region, field, PITCH))
+    ours = M.alignment(tp, field, PITCH, region=region)
+    _, best = M.best_rectilinear(region, field, PITCH)
+    assert ours.beta_curved > best.beta_curved + 0.02, (ours.beta_curved, best.beta_curved)
+    cov = M.coverage(tp, region)
+    assert cov.coverage >= 0.97 and cov.overlap <= 0.04, cov
+    # nearly every path ends on the outline or the hole: few interior ends to pay a travel for
+    dist = shapely.distance(region.boundary, shapely.points(_ends(tp)))
+    assert np.mean(dist < 1.0 * PITCH) >= 0.9, np.mean(dist < PITCH)
+    runs = _runs(tp, region, field)
+    # a rectilinear slicer lays this plate (hole in the middle) as a handful of zig-zags
+    assert len(runs) <= 12, len(runs)
+
+
+def test_a_jump_of_the_followed_stress_cuts_the_fit_and_no_path_runs_along_it():
+    """Bending, max_abs: the followed direction turns 90 degrees at the neutral axis."""
+    region = box(0, 0, 30, 10)
+    field = AnalyticField(cantilever(10, 30), region, scale=1.0)
+    inp = EngineInput(region, field, PITCH)
+    f = fit(inp, LevelSetOptions())
+    assert not f.cut.is_empty
+    # the cut lies along the neutral axis
+    assert abs(f.cut.centroid.y - 5.0) < 0.5 and f.cut.bounds[2] - f.cut.bounds[0] > 20
+    tp = generate("levelset", inp)
+    for p in tp.paths:
+        assert not shapely.LineString(p.points).crosses(shapely.LineString([(2, 5), (28, 5)])) or (
+            np.ptp(p.points[:, 1]) > 1.0
+        )
+    cov = M.coverage(tp, region)
+    assert cov.coverage >= 0.95, cov
+    al = M.alignment(tp, field, PITCH, region=region)
+    assert al.beta >= 0.95, al
+
+
+def test_density_field_sets_where_the_lines_go_at_the_total_the_pitch_lays():
+    region = box(0, 0, 40, 12)
+    field = AnalyticField(cantilever(12, 40), region, scale=1.0)
+    slicer_pitch, width = 2.0, 0.45
+    df = density_field(field, region, width, slicer_pitch, DensityOptions())
+    tp = generate("levelset", EngineInput(region, field, slicer_pitch, density=df), flow_width=width)
+    assert "zones" not in tp.stats  # one fit over the whole region, no zones and no seams
+    assert tp.total_length == pytest.approx(region.area / slicer_pitch, rel=0.05)
+    # more line per area where the field is denser: the clamped end against the tip
+    def length_in(geom):
+        return sum(shapely.LineString(p.points).intersection(geom).length for p in tp.paths)
+
+    root, tip = box(0, 0, 10, 12), box(30, 0, 40, 12)
+    rho = df.sample(np.array([[5.0, 6.0], [35.0, 6.0]]))
+    assert rho[0] > rho[1]
+    assert length_in(root) > 1.3 * length_in(tip)
+
+
+def test_phase_half_lays_the_paths_between_those_of_phase_zero():
+    region = box(0, 0, 20, 10)
+    field = AnalyticField(uniform(0.0), None)
+    a = generate("levelset", EngineInput(region, field, PITCH))
+    b = generate("levelset", EngineInput(region, field, PITCH), phase=0.5)
+    ya = np.sort([p.points[:, 1].mean() for p in a.paths])
+    yb = np.sort([p.points[:, 1].mean() for p in b.paths])
+    gaps = np.abs(yb[:, None] - ya[None, :]).min(axis=1)
+    assert np.median(gaps) == pytest.approx(0.5 * PITCH, abs=0.1 * PITCH)
+
+
+def test_two_islands_and_determinism():
+    region = MultiPolygon([box(0, 0, 12, 10), box(20, 0, 32, 10)])
+    field = AnalyticField(uniform(60.0), None)
+    a = generate("levelset", EngineInput(region, field, PITCH))
+    b = generate("levelset", EngineInput(region, field, PITCH))
+    assert len(a.paths) == len(b.paths)
+    assert all(np.array_equal(p.points, q.points) for p, q in zip(a.paths, b.paths, strict=True))
+    for island in region.geoms:
+        assert any(island.buffer(1e-6).contains(shapely.LineString(p.points)) for p in a.paths)
+
+
+def test_bad_options_and_regions_get_one_line():
+    region = box(0, 0, 10, 10)
+    field = AnalyticField(uniform(0.0), None)
+    with pytest.raises(SettingsError, match="no option bogus"):
+        generate("levelset", EngineInput(region, field, PITCH), bogus=1)
+    with pytest.raises(SettingsError, match="align"):
+        generate("levelset", EngineInput(region, field, PITCH), align=-1)
+    bowtie = shapely.Polygon([(0, 0), (10, 10), (10, 0), (0, 10)])
+    with pytest.raises(GeometryError, match="buffer"):
+        generate("levelset", EngineInput(bowtie, field, PITCH))
