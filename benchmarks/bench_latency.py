@@ -384,7 +384,8 @@ def main(argv=None) -> int:
     ap.add_argument("out", type=Path, nargs="?", default=None, help="folder for bench_latency.json")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="one repeat; example, 100 layers, gyroid gusset")
-    ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
+    from loadpath.engines import NAMES
+    ap.add_argument("--engine", default="swarm", choices=tuple(NAMES))
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds before a run is given up")
     ap.add_argument("--only", default=None, help="comma-separated part names")
     args, _ = ap.parse_known_args(argv)

@@ -312,7 +312,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", nargs="?", default=None)
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
+    from loadpath.engines import NAMES
+    ap.add_argument("--engine", default="swarm", choices=tuple(NAMES))
     ap.add_argument("--parts", default=None, help="comma-separated subset of " + ",".join(PARTS))
     ap.add_argument("--configs", default=None, help="slicer-pattern-fill, comma-separated: prusa-gyroid-20")
     ap.add_argument("--variants", default=None, help="comma-separated subset of " + ",".join(VARIANTS))

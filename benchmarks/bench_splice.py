@@ -177,7 +177,8 @@ def main(argv=None) -> int:
     ap.add_argument("out", type=Path, nargs="?", default=None, help="working folder (kept between runs)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--only", default="example,specimen-100", help="comma-separated part names")
-    ap.add_argument("--engine", default="swarm", choices=("swarm", "streamlines"))
+    from loadpath.engines import NAMES
+    ap.add_argument("--engine", default="swarm", choices=tuple(NAMES))
     ap.add_argument("--profile", type=int, default=25, help="top functions shown (0: no profile)")
     ap.add_argument("--no-check", action="store_true", help="time the splice only")
     args, _ = ap.parse_known_args(argv)
