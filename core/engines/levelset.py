@@ -437,6 +437,14 @@ MATCH_TOLERANCE = 0.005
 """Relative length error accepted (the splicer then corrects the last per cent by the flow)."""
 
 
+def _integral(f: LevelSetFit, values: np.ndarray, region: Region) -> float:
+    """Integral of a node array over a region: the sum over the nodes inside times the cell area."""
+    ny, nx = values.shape
+    px, py = np.meshgrid(f.x0 + f.h * np.arange(nx), f.y0 + f.h * np.arange(ny))
+    inside = shapely.contains_xy(region, px, py) & np.isfinite(values)
+    return float(np.sum(values[inside]) * f.h * f.h)
+
+
 def _target_length(f: LevelSetFit, inp: EngineInput) -> float:
     """Path length (mm) that lays the region at its nominal or density-field pitch: sum of s0 dA."""
     region = inp.region
@@ -541,7 +549,11 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
     # the length the nominal (or the density field's) pitch lays in the region: the line density
     # integrated over the region's nodes
     target = _target_length(f, inp)
-    scale = 1.0
+    # first guess by the coarea formula: the level sets k = 0, 1, 2 ... of scale * phi are about
+    # scale * (integral of |grad phi| over the region) long, so one or two contourings suffice
+    coarea = _integral(f, f.density, inset)
+    scale = target / coarea if coarea > 0 else 1.0
+    steps = 0
     paths: list[Path] = []
     total = 0.0
     # the scale is matched on the level sets of phase 0, so a staggered copy (phase 0.5) lies
@@ -549,6 +561,7 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
     base = replace(o, phase=0.0)
     for step in range(MATCH_STEPS):
         paths, total = _paths(f, inp, base, inset, scale)
+        steps += 1
         if total <= 0 or abs(total / target - 1.0) <= MATCH_TOLERANCE or step == MATCH_STEPS - 1:
             break
         scale *= target / total
@@ -577,6 +590,7 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
         "length_mm": round(total, 2),
         "length_target_mm": round(target, 2),
         "density_scale": round(scale, 4),
+        "contourings": steps,
         **{k: v for k, v in ends.items() if isinstance(v, (int, float))},
     }
     return Toolpaths(paths=tuple(paths), stats=stats)
