@@ -20,7 +20,9 @@ Stages (each timed in :attr:`PipelineResult.times`):
     one engine run per distinct unit (:mod:`loadpath.pipeline.paths`), in worker processes, reused on
     identical layers; every other one of those prints a staggered copy (the engine lays it itself
     from seeds half a pitch on, :func:`~loadpath.pipeline.paths.lays_phase`: the swarm and the
-    streamlines' default mode; otherwise the paths are shifted sideways by half a pitch);
+    streamlines' default mode; otherwise the paths are shifted sideways by half a pitch); a layer
+    whose region is its representative's within rounding (:func:`~loadpath.pipeline.paths.reuses`)
+    prints the representative's linked runs, any other is cut to its own region and linked in it;
 ``splice``
     the new paths written into the slicer's G-code (:func:`loadpath.splice.splice`), the blocks in
     the same worker processes (each block's text depends on that block alone: the same bytes);
@@ -60,6 +62,7 @@ from loadpath.pipeline.paths import (
     job_key,
     lays_phase,
     plan_jobs,
+    reuses,
     run_jobs,
     stagger,
     volume_scale,
@@ -717,9 +720,10 @@ def _fills(
                     shifted_raw = _simplified(moved, plan, cache)
                 shifted_t = task(shifted_raw, u0, fld, fid)
             clipped = clipped_t = None
-            if not u.fill_region.equals(job.unit.fill_region):
-                # a region that differs a little: the paths clipped to it, linked in it (links along
-                # the representative's edge would be cut by the clipping)
+            if not reuses(u.fill_region, job.unit.fill_region):
+                # a region that differs by more than rounding (a sliver, TOL.region_reuse_mm): the
+                # paths clipped to it, linked in it (links along the representative's edge would be
+                # cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
                 clipped_t = task(clipped, u, fld, fid)

@@ -49,6 +49,7 @@ from loadpath.field import StressField
 from loadpath.geometry import group_regions
 from loadpath.pipeline.units import Unit
 from loadpath.procs import fork_map, forks
+from loadpath.tolerances import TOL
 from loadpath.toolpath import EngineInput, Path, Toolpaths
 
 __all__ = [
@@ -64,6 +65,7 @@ __all__ = [
     "length_target",
     "job_key",
     "volume_scale",
+    "reuses",
 ]
 
 
@@ -464,6 +466,20 @@ def stagger(
     width = local_pitch([p.points for p in out], region, pitch)
     pts, width, _ = extend_ends([p.points for p in out], width, region, pitch, edge_gap=inset / pitch)
     return tuple(Path(q, w, p.kind) for q, w, p in zip(pts, width, out, strict=True))
+
+
+def reuses(region: Region, representative: Region, tol: float = TOL.region_reuse_mm) -> bool:
+    """Whether a unit with ``region`` prints its job representative's linked runs as they are.
+
+    True when the two boundaries lie within ``tol`` (mm) of each other, both ways (the discrete
+    Hausdorff distance of the two regions' vertices to the other's boundary): the runs then leave the
+    unit's region by at most ``tol``, and its links along the edge follow its own perimeters within
+    that.  Otherwise the paths are cut to the region (:func:`clip_to`) and linked in it: a region that
+    lacks a sliver, or has one more, is that far off at the sliver's vertices.
+    """
+    if region.equals(representative):
+        return True
+    return bool(shapely.hausdorff_distance(region, representative) <= tol)
 
 
 def clip_to(paths: Sequence[Path], region: Region, min_length: float) -> tuple[Path, ...]:
