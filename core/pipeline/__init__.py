@@ -59,6 +59,7 @@ from loadpath.pipeline.paths import (
     Job,
     assign,
     clip_to,
+    lies_in,
     job_key,
     lays_phase,
     plan_jobs,
@@ -731,6 +732,27 @@ def _fills(
         planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
 
     linked = _link_all(tasks, cache, options.workers, kept, task_fields)
+
+    # a layer prints the job's runs as they are only where they lie in its own region: reuses()
+    # compares the regions, but the engine keeps only its vertices inside the representative's
+    # region, and a segment between two of them can cut across a concave edge (a hole) that
+    # clip_to trimmed when every other layer was clipped; those layers are cut and linked in their
+    # own region after all (a second, short linking)
+    first_late = len(tasks)
+    for ji, (job, _, _, _, _, base_raw, base_t, shifted_raw, shifted_t, rows) in enumerate(planned):
+        fld = getattr(job.input, "field", None)
+        fid = field_ids[ji] if field_ids is not None else None
+        for i, (u, use_shift, clipped, _) in enumerate(rows):
+            if clipped is not None:
+                continue
+            raw, t = (shifted_raw, shifted_t) if use_shift else (base_raw, base_t)
+            ps = raw if t is None else linked[t][0]
+            if lies_in(ps, u.fill_region):
+                continue
+            clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
+            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid))
+    if len(tasks) > first_late:
+        linked += _link_all(tasks[first_late:], cache, options.workers, kept, task_fields[first_late:])
 
     def runs_of(ps: tuple[Path, ...], t: int | None) -> tuple[Path, ...]:
         return ps if t is None else linked[t][0]
