@@ -493,14 +493,14 @@ def lies_in(paths: Sequence[Path], region: Region, tol: float = TOL.region_reuse
     and 0.01 mm inside).  Exact for the segments, not just the vertices: the paths must be covered by
     the region grown by ``tol``.
     """
-    if not paths:
+    ps = [p.points for p in paths if len(p.points) >= 2]
+    if not ps:
         return True
-    parts = [shapely.LineString(p.points) for p in paths if len(p.points) >= 2]
-    if not parts:
-        return True
-    lines = shapely.MultiLineString(parts)
-    grown = region.buffer(tol, quad_segs=4) if tol > 0 else region
-    return bool(shapely.covered_by(lines, grown))
+    # one call for all the lines (about 1 ms for a 1000-layer specimen's 7000 vertices)
+    index = np.repeat(np.arange(len(ps)), [len(q) for q in ps])
+    lines = shapely.linestrings(np.concatenate(ps), indices=index)
+    grown = region.buffer(tol, quad_segs=4) if tol > 0 else region  # its arcs' chords lie inside the true one
+    return bool(shapely.covered_by(lines, grown).all())
 
 
 def clip_to(paths: Sequence[Path], region: Region, min_length: float) -> tuple[Path, ...]:

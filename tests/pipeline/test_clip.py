@@ -88,8 +88,17 @@ def test_the_shipped_examples_layers_print_their_representatives_runs(tmp_path):
     )
     assert result.pipeline.check is not None and result.pipeline.check.ok
     runs = result.pipeline.jobs
-    units = [(r, u, r.shifted if shift else r.printed) for r in runs for u, shift in zip(r.units, r.staggered)]
-    own = [u for r, u, ps in units if not (reuses(u.fill_region, r.job.unit.fill_region) and lies_in(ps, u.fill_region))]
+    # a layer prints the runs (its copy's on staggered layers) as they are where its region is the
+    # representative's within rounding and they lie in it; any other is linked in its own region
+    units = [
+        (r, u, r.shifted if shift else r.printed)
+        for r in runs
+        for u, shift in zip(r.units, r.staggered, strict=True)
+    ]
+    own = [
+        u for r, u, ps in units
+        if not (reuses(u.fill_region, r.job.unit.fill_region) and lies_in(ps, u.fill_region))
+    ]
     assert len(units) - len(own) >= 6  # the test means something: most layers reuse
     copies = sum(1 for r in runs if any(r.staggered))
     linkings = len(list((tmp_path / "cache" / "links").iterdir()))
@@ -104,17 +113,16 @@ def test_a_reused_staggered_copy_that_cuts_into_a_hole_is_cut_to_the_layer(slice
     No layer prints it as it is (its region is its representative's within rounding, but the runs
     are not inside it): every new extrusion lies within TOL.region_reuse_mm of its region (the
     check would allow half a bead)."""
-    from pipeline_helpers import run, write_case
-
     from loadpath.pipeline.paths import lies_in
     from loadpath.tolerances import TOL
+    from pipeline_helpers import run, write_case
 
     gpath = sliced("cura", "ohs", "mixed", infill_sparse_thickness=0.4)
     _, result, _ = run(gpath, write_case(tmp_path), tmp_path / "out.gcode", replace="sparse", density="stack")
     runs = result.pipeline.jobs
     # what the test is about: a staggered copy that leaves the region of the layers printing it
     leaves = [
-        (r, u) for r in runs for u, shift in zip(r.units, r.staggered)
+        (r, u) for r in runs for u, shift in zip(r.units, r.staggered, strict=True)
         if shift and not lies_in(r.shifted, u.fill_region, 0.5 * u.flow_width)
     ]
     assert leaves, "no staggered copy leaves its layers' region any more: this file no longer tests the cut"
