@@ -41,6 +41,15 @@ class Tolerances:
         A perimeter chain whose two ends are closer than this many bead widths is a closed loop
         (PrusaSlicer clips every loop end by 0.15 x the nozzle diameter, 0.06 mm on a 0.4 nozzle; the
         beads of a gap narrower than one bead width touch, so the wall is closed).
+    region_reuse_mm : float
+        A layer whose region's boundary lies within this of its engine run's representative's
+        (Hausdorff distance, both ways) prints the representative's linked runs as they are, instead
+        of the paths clipped to its own region and linked again (:func:`loadpath.pipeline.paths.reuses`).
+        The regions of the 1000-layer specimen's identical layers lie 9 um apart in the median and
+        28 um at the 90th percentile (PrusaSlicer simplifies its paths within ``gcode_resolution``,
+        12.5 um, and rounds to 1 um; then the measured infill overlap): 0.05 mm takes them all, a
+        ninth of a 0.45 mm bead and half of what PrusaSlicer's own infill runs into the perimeters
+        (``infill_overlap``, 0.1 mm); a layer lacking a sliver (0.75 mm from its neighbours) is cut.
     region_check_rel : float
         An infill block's centre lines must lie inside its derived region within this many flow widths
         (slicers run infill lines into the innermost perimeter: PrusaSlicer's ``infill_overlap``,
@@ -59,6 +68,7 @@ class Tolerances:
     arc_chord_mm: float = 0.005
     loop_close_rel: float = 1.0
     region_check_rel: float = 0.5
+    region_reuse_mm: float = 0.05
 
 
 TOL = Tolerances()

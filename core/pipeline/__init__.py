@@ -20,7 +20,9 @@ Stages (each timed in :attr:`PipelineResult.times`):
     one engine run per distinct unit (:mod:`loadpath.pipeline.paths`), in worker processes, reused on
     identical layers; every other one of those prints a staggered copy (the engine lays it itself
     from seeds half a pitch on, :func:`~loadpath.pipeline.paths.lays_phase`: the swarm and the
-    streamlines' default mode; otherwise the paths are shifted sideways by half a pitch);
+    streamlines' default mode; otherwise the paths are shifted sideways by half a pitch); a layer
+    whose region is its representative's within rounding (:func:`~loadpath.pipeline.paths.reuses`)
+    prints the representative's linked runs, any other is cut to its own region and linked in it;
 ``splice``
     the new paths written into the slicer's G-code (:func:`loadpath.splice.splice`), the blocks in
     the same worker processes (each block's text depends on that block alone: the same bytes);
@@ -57,9 +59,11 @@ from loadpath.pipeline.paths import (
     Job,
     assign,
     clip_to,
+    lies_in,
     job_key,
     lays_phase,
     plan_jobs,
+    reuses,
     run_jobs,
     stagger,
     volume_scale,
@@ -717,9 +721,10 @@ def _fills(
                     shifted_raw = _simplified(moved, plan, cache)
                 shifted_t = task(shifted_raw, u0, fld, fid)
             clipped = clipped_t = None
-            if not u.fill_region.equals(job.unit.fill_region):
-                # a region that differs a little: the paths clipped to it, linked in it (links along
-                # the representative's edge would be cut by the clipping)
+            if not reuses(u.fill_region, job.unit.fill_region):
+                # a region that differs by more than rounding (a sliver, TOL.region_reuse_mm): the
+                # paths clipped to it, linked in it (links along the representative's edge would be
+                # cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
                 clipped_t = task(clipped, u, fld, fid)
@@ -727,6 +732,27 @@ def _fills(
         planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
 
     linked = _link_all(tasks, cache, options.workers, kept, task_fields)
+
+    # a layer prints the job's runs as they are only where they lie in its own region: reuses()
+    # compares the regions, but the engine keeps only its vertices inside the representative's
+    # region, and a segment between two of them can cut across a concave edge (a hole) that
+    # clip_to trimmed when every other layer was clipped; those layers are cut and linked in their
+    # own region after all (a second, short linking)
+    first_late = len(tasks)
+    for ji, (job, _, _, _, _, base_raw, base_t, shifted_raw, shifted_t, rows) in enumerate(planned):
+        fld = getattr(job.input, "field", None)
+        fid = field_ids[ji] if field_ids is not None else None
+        for i, (u, use_shift, clipped, _) in enumerate(rows):
+            if clipped is not None:
+                continue
+            raw, t = (shifted_raw, shifted_t) if use_shift else (base_raw, base_t)
+            ps = raw if t is None else linked[t][0]
+            if lies_in(ps, u.fill_region):
+                continue
+            clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
+            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid))
+    if len(tasks) > first_late:
+        linked += _link_all(tasks[first_late:], cache, options.workers, kept, task_fields[first_late:])
 
     def runs_of(ps: tuple[Path, ...], t: int | None) -> tuple[Path, ...]:
         return ps if t is None else linked[t][0]
