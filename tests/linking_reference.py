@@ -63,7 +63,8 @@ def _ring_link(region, a, b, inset: float, limit: float, cache: dict):
         if end <= total:
             piece = _substring(ring, start, end, arcs, k)
         else:
-            piece = np.vstack([_substring(ring, start, total, arcs, k), _substring(ring, 0.0, end - total, arcs, k)[1:]])
+            rest = _substring(ring, 0.0, end - total, arcs, k)[1:]
+            piece = np.vstack([_substring(ring, start, total, arcs, k), rest])
     else:
         lo, hi = sorted((sa, sb))
         if hi - lo > limit:
@@ -83,7 +84,7 @@ def _substring(ring, start: float, end: float, arcs: dict, k: int) -> np.ndarray
         xy = shapely.get_coordinates(ring)
         run = [0.0]
         c = xy.tolist()
-        for (x1, y1), (x2, y2) in zip(c[:-1], c[1:]):
+        for (x1, y1), (x2, y2) in zip(c[:-1], c[1:], strict=True):
             run.append(run[-1] + ((x2 - x1) ** 2 + (y2 - y1) ** 2) ** 0.5)
         arcs[k] = (xy, np.array(run))
     xy, run = arcs[k]
@@ -123,7 +124,8 @@ class OneByOne(_Layer):
             o = self.options
             edge_limit = max(o.max_edge_link, o.max_link) * pitch
             inset = float(np.clip(0.5 * (self.edge_d[ea] + self.edge_d[eb]), 0.0, o.edge_reach * pitch))
-            cand = _ring_link(self.region, e_pt[ea], e_pt[eb], inset, edge_limit, self.__dict__.setdefault("rings", {}))
+            rings = self.__dict__.setdefault("rings", {})
+            cand = _ring_link(self.region, e_pt[ea], e_pt[eb], inset, edge_limit, rings)
             if (
                 cand is not None
                 and self.forward(cand, ea, eb)
@@ -140,15 +142,17 @@ class OneByOne(_Layer):
 def _same(x, y) -> bool:
     if x is None or y is None:
         return x is None and y is None
-    return x[2] == y[2] and all(p.shape == q.shape and np.array_equal(p, q) for p, q in zip(x[:2], y[:2], strict=True))
+    pairs = zip(x[:2], y[:2], strict=True)
+    return x[2] == y[2] and all(p.shape == q.shape and np.array_equal(p, q) for p, q in pairs)
 
 
 def assert_links_as_one_by_one(
-    paths: list[Path], region, pitch: float, options: LinkOptions = LinkOptions(), every: bool = True
+    paths: list[Path], region, pitch: float, options: LinkOptions | None = None, every: bool = True
 ) -> tuple[int, int]:
     """Link ``paths`` both ways with the batched tests and with :class:`OneByOne`: the same runs and
     counts; with ``every``, also every candidate's test (both ways round, as straight link, as
     boundary link and as either) the same points and samples.  Returns the boundary links laid."""
+    options = LinkOptions() if options is None else options
     ps = [p for p in paths if len(p.points) >= 2]
     if options.min_fragment > 0:
         ps, _ = drop_fragments(ps, options.min_fragment * pitch, options.fragment_share)

@@ -68,7 +68,7 @@ class Rings:
         run = []
         for c in (x.tolist() for x in xy):  # one by one, with substring's own arithmetic
             acc = [0.0]
-            for (x1, y1), (x2, y2) in zip(c[:-1], c[1:]):
+            for (x1, y1), (x2, y2) in zip(c[:-1], c[1:], strict=True):
                 acc.append(acc[-1] + ((x2 - x1) ** 2 + (y2 - y1) ** 2) ** 0.5)
             run.append(np.array(acc))
         return cls(
@@ -94,7 +94,7 @@ class Rings:
             np.concatenate([p.total for p in parts] + [np.zeros(0)]),
             np.concatenate([p.xy for p in parts] + [np.zeros((0, 2))]),
             np.concatenate([p.run for p in parts] + [np.zeros(0)]),
-            np.concatenate([p.first[:-1] + d for p, d in zip(parts, shift, strict=True)] + [[int(n_vert.sum())]]),
+            np.concatenate([p.first[:-1] + d for p, d in zip(parts, shift, strict=True)] + [[n_vert.sum()]]),
         ), np.concatenate([[0], np.cumsum(n_ring)])
 
 
@@ -125,7 +125,9 @@ def _ranges(start: np.ndarray, count: np.ndarray, step: np.ndarray) -> np.ndarra
     return start[rep] + step[rep] * k
 
 
-def _gather(pool: Points2, start: np.ndarray, count: np.ndarray, step: np.ndarray) -> tuple[Points2, np.ndarray]:
+def _gather(
+    pool: Points2, start: np.ndarray, count: np.ndarray, step: np.ndarray
+) -> tuple[Points2, np.ndarray]:
     """Pieces made of blocks of ``pool``: row ``i`` of ``start``, ``count``, ``step`` (c, blocks) int
     lists piece ``i``'s blocks in order, each ``count`` points from ``start`` by ``step``.
 
@@ -156,7 +158,9 @@ class _Parts:
     has_hi: np.ndarray
 
 
-def _parts(rg: Rings, k: np.ndarray, lo: np.ndarray, hi: np.ndarray, used: np.ndarray | None = None) -> _Parts:
+def _parts(
+    rg: Rings, k: np.ndarray, lo: np.ndarray, hi: np.ndarray, used: np.ndarray | None = None
+) -> _Parts:
     """``shapely.ops.substring(rg.rings[k[i]], lo[i], hi[i])`` for every ``i`` (``lo <= hi``, mm),
     as blocks: its ends interpolated by shapely, the ring's vertices (all but its last) whose
     running length lies strictly between ``lo`` and ``hi``; only the first end when they are equal.
@@ -235,8 +239,9 @@ def _projections(
     """How far along ring ``k[i]`` the points ``pts[ea[i]]`` and ``pts[eb[i]]`` project (mm, (c,)
     each; shapely's ``project``), each end onto each ring once."""
     c = len(k)
-    pair, inv = np.unique(np.concatenate([ea, eb]) * len(rg.rings) + np.concatenate([k, k]), return_inverse=True)
-    along = shapely.line_locate_point(rg.rings[pair % len(rg.rings)], shapely.points(pts[pair // len(rg.rings)]))
+    n_r = len(rg.rings)
+    pair, inv = np.unique(np.concatenate([ea, eb]) * n_r + np.concatenate([k, k]), return_inverse=True)
+    along = shapely.line_locate_point(rg.rings[pair % n_r], shapely.points(pts[pair // n_r]))
     return along[inv[:c]], along[inv[c:]]
 
 

@@ -220,7 +220,7 @@ def _polyline_samples(points: Points2, at: np.ndarray, step: float) -> tuple[Poi
     per = np.bincount(np.repeat(np.arange(len(at) - 1), np.diff(at) - 1), weights=n, minlength=len(at) - 1)
     total = per.astype(np.int64) + 1  # and the last vertex
     last = np.cumsum(total) - 1
-    out = np.empty((int(total.sum()), 2))
+    out = np.zeros((int(total.sum()), 2))
     out[last] = points[at[1:] - 1]
     rest = np.ones(len(out), dtype=bool)
     rest[last] = False
@@ -591,13 +591,16 @@ class _Layer:
             for i, (x, y, ok) in enumerate(zip(ea.tolist(), eb.tolist(), clear.tolist(), strict=True))
         }
 
-    def _edge_links(self, ea: np.ndarray | None = None, eb: np.ndarray | None = None) -> dict[tuple[int, int], tuple | None]:
+    def _edge_links(
+        self, ea: np.ndarray | None = None, eb: np.ndarray | None = None
+    ) -> dict[tuple[int, int], tuple | None]:
         """Boundary links from end ``ea[i]`` to ``eb[i]`` (default: every boundary candidate, both
         ways): ``(ea, eb) -> (points, samples, inside)``, or None where the ring piece does not exist.
 
         Each link on the region's edge shrunk by its ends' mean distance to it (at most the edge
-        reach; rounded to 0.01 mm), all of them at once (:func:`loadpath.engines.edge_links.ring_pieces`),
-        then sampled as :func:`_samples` and tested for lying inside the (grown) region together.
+        reach; rounded to 0.01 mm), all of them at once
+        (:func:`loadpath.engines.edge_links.ring_pieces`), then sampled as :func:`_samples` and
+        tested for lying inside the (grown) region together.
         """
         if ea is None or eb is None:
             ks = np.flatnonzero(self.near_edge)
@@ -615,7 +618,8 @@ class _Layer:
             return out
         at = np.append(at[ok], len(pts))
         s, s_at = _polyline_samples(pts, at, _sample_step(pitch))
-        inside = shapely.covers(self.grown, shapely.linestrings(pts, indices=np.repeat(np.arange(len(ok)), np.diff(at))))
+        lines = shapely.linestrings(pts, indices=np.repeat(np.arange(len(ok)), np.diff(at)))
+        inside = shapely.covers(self.grown, lines)
         at, s_at = at.tolist(), s_at.tolist()
         for j, (x, y) in enumerate(zip(ea[ok].tolist(), eb[ok].tolist(), strict=True)):
             out[(x, y)] = (pts[at[j] : at[j + 1]], s[s_at[j] : s_at[j + 1]], bool(inside[j]))

@@ -138,9 +138,8 @@ def test_boundary_piece_is_shapelys_substring_to_the_bit():
     """The linking's own ring pieces (:func:`edge_links.substrings`, many at once from the rings'
     vertices and running lengths) give exactly the points of ``shapely.ops.substring``, so the runs
     stay the same."""
-    from shapely.ops import substring
-
     from loadpath.engines import edge_links
+    from shapely.ops import substring
 
     rng = np.random.default_rng(7)
     poly = shapely.Polygon(
@@ -178,7 +177,6 @@ def test_batched_candidate_tests_link_engine_layers_as_one_by_one(engine):
     """The same on engine layers of a plate with a hole (the Kirsch field, no FEA): paths that end
     on the outline and on the hole, boundary links on both rings, both ways round."""
     from linking_reference import assert_links_as_one_by_one
-
     from loadpath.engines import generate
     from loadpath.field import AnalyticField, kirsch_tensor
     from loadpath.toolpath import EngineInput
