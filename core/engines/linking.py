@@ -46,7 +46,12 @@ the two ends it joins, as a slicer's zig-zag turn does.
 Both ways share one preparation of the layer (:class:`_Layer`: the fragments dropped, the ends,
 the samples and their trees, the candidates) and each candidate's geometric test, made once: it
 does not depend on the links laid before (issue 17: the example's linking 3.5x less CPU, the same
-runs).
+runs).  What costs little per candidate once batched is made for all candidates at the first one
+tried: every straight candidate's samples and clearance (one tree query), every boundary
+candidate's ring piece (:func:`loadpath.engines.edge_links.ring_pieces`), samples and containment;
+a boundary link's turn, length and clearance are tested only when a pass tries it (most are never
+tried, and their clearance queries, batched, cost more than the ones tried one by one).  The same
+runs as one test at a time (``tests/linking_reference.py``).
 
 (Over 400 lines: the search shares its end, sample and tree arrays with the acceptance test of
 both kinds of link and both passes; split, they would pass a dozen arrays around.)
@@ -62,6 +67,7 @@ import numpy as np
 import shapely
 from loadpath._typing import Points2, Region
 from loadpath.engines.cuts import cut_paths
+from loadpath.engines.edge_links import Rings, ring_pieces, shrunk_rings
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
@@ -191,7 +197,7 @@ def _segment_samples(p0: Points2, p1: Points2, step: float) -> tuple[Points2, np
     """Points from each ``p0[i]`` towards ``p1[i]`` (k, 2), at most ``step`` apart, far ends left out.
 
     Returns the points (m, 2), segment by segment, and each segment's count (k,) int: the one
-    sampling rule of the links' clearance tests (:func:`_samples`, :meth:`_Layer._straight_links`).
+    sampling rule of the links' clearance tests (:func:`_polyline_samples`).
     """
     dv = p1 - p0
     n = np.maximum(1, np.ceil(np.hypot(dv[:, 0], dv[:, 1]) / step).astype(np.int64))
@@ -200,97 +206,49 @@ def _segment_samples(p0: Points2, p1: Points2, step: float) -> tuple[Points2, np
     return p0[rep] + (k / n[rep])[:, None] * dv[rep], n
 
 
+def _polyline_samples(points: Points2, at: np.ndarray, step: float) -> tuple[Points2, np.ndarray]:
+    """Points along many polylines at most ``step`` apart (vertices included): the polylines'
+    ``points`` (m, 2) back to back, polyline ``i`` from ``at[i]`` to ``at[i + 1]`` (c + 1,) int, each
+    of two points or more.
+
+    Returns the samples (s, 2), polyline after polyline (each segment's :func:`_segment_samples`,
+    then the polyline's last vertex), and where each polyline's start (c + 1,) int.
+    """
+    seg = np.ones(max(len(points) - 1, 0), dtype=bool)
+    seg[at[1:-1] - 1] = False  # no segment from one polyline's last vertex to the next one's first
+    inner, n = _segment_samples(points[:-1][seg], points[1:][seg], step)
+    per = np.bincount(np.repeat(np.arange(len(at) - 1), np.diff(at) - 1), weights=n, minlength=len(at) - 1)
+    total = per.astype(np.int64) + 1  # and the last vertex
+    last = np.cumsum(total) - 1
+    out = np.zeros((int(total.sum()), 2))
+    out[last] = points[at[1:] - 1]
+    rest = np.ones(len(out), dtype=bool)
+    rest[last] = False
+    out[rest] = inner
+    return out, np.concatenate([[0], last + 1])
+
+
 def _samples(points: Points2, step: float) -> Points2:
-    """Points along a polyline at most ``step`` apart (vertices included)."""
+    """Points along a polyline at most ``step`` apart (vertices included): one polyline's
+    :func:`_polyline_samples`, without the bookkeeping of many."""
     out, _ = _segment_samples(points[:-1], points[1:], step)
     return np.vstack([out, points[-1:]])
 
 
-def _ring_link(
-    region: Region, a: Points2, b: Points2, inset: float, limit: float, cache: dict | None = None
-) -> Points2 | None:
-    """The edge of ``region`` shrunk by ``inset``, from ``a`` to ``b`` the shorter way, or None.
-
-    Both ends must lie within ``limit / 2`` of the same ring and the piece between their
-    projections must be at most ``limit`` long.  With a ``cache`` (one per layer), each inset's
-    rings, their vertices and running lengths, and each end's distances and projections onto them
-    are made once: a layer asks for the same ends' boundary links many times (issue 17: a sparse
-    layer's linking made 15,000 of them).
-    """
-    key = round(inset, 2)
-    cache = {} if cache is None else cache
-    if key in cache:
-        rings, per_end, arcs = cache[key]
-    else:
-        inner = region.buffer(-key, quad_segs=4) if key > 1e-6 else region
-        rings = shapely.get_parts(shapely.get_parts(shapely.boundary(inner))) if not inner.is_empty else []
-        per_end: dict = {}
-        arcs: dict = {}
-        cache[key] = (rings, per_end, arcs)
-    if not len(rings):
-        return None
-
-    def near(p: Points2) -> tuple[np.ndarray, object]:
-        k = p.tobytes()
-        if k not in per_end:
-            pt = shapely.points(p)
-            per_end[k] = (shapely.distance(rings, pt), pt)
-        return per_end[k]
-
-    da, pa = near(a)
-    db, pb = near(b)
-    k = int(np.argmin(da))
-    ring = rings[k]
-    if da[k] > 0.5 * limit or float(db[k]) > 0.5 * limit:
-        return None
-    total = float(ring.length)
-    sa, sb = float(ring.project(pa)), float(ring.project(pb))
-    if ring.is_closed:
-        fwd = (sb - sa) % total
-        back = total - fwd
-        if min(fwd, back) > limit:
-            return None
-        start, length, flip = (sa, fwd, False) if fwd <= back else (sb, back, True)
-        end = start + length
-        if end <= total:
-            piece = _substring(ring, start, end, arcs, k)
-        else:
-            piece = np.vstack([_substring(ring, start, total, arcs, k), _substring(ring, 0.0, end - total, arcs, k)[1:]])
-    else:
-        lo, hi = sorted((sa, sb))
-        if hi - lo > limit:
-            return None
-        piece = _substring(ring, lo, hi, arcs, k)
-        flip = sa > sb
-    if flip:
-        piece = piece[::-1]
-    pts = np.vstack([a[None], piece, b[None]])
-    keep = np.r_[True, np.hypot(*np.diff(pts, axis=0).T) > 1e-6]
-    pts = pts[keep]
-    return pts if len(pts) >= 2 else None
+def _edge_limit(options: LinkOptions, pitch: float) -> float:
+    """The longest boundary link, mm (never shorter than the longest straight one)."""
+    return max(options.max_edge_link, options.max_link) * pitch
 
 
-def _substring(ring, start: float, end: float, arcs: dict, k: int) -> Points2:
-    """The vertices of ``shapely.ops.substring(ring, start, end)`` (``start <= end``, mm along it),
-    the same points: its two ends interpolated by shapely, the ring's vertices whose running length
-    (summed one segment at a time, as shapely does) lies strictly between; ``arcs`` keeps each
-    ring's vertices and running lengths (``k`` its index)."""
-    if k not in arcs:
-        xy = shapely.get_coordinates(ring)
-        run = [0.0]
-        c = xy.tolist()
-        for (x1, y1), (x2, y2) in zip(c[:-1], c[1:]):  # one by one, with substring's own arithmetic
-            run.append(run[-1] + ((x2 - x1) ** 2 + (y2 - y1) ** 2) ** 0.5)
-        arcs[k] = (xy, np.array(run))
-    xy, run = arcs[k]
-    p0 = shapely.get_coordinates(ring.interpolate(start))
-    if start == end:
-        return p0
-    p1 = shapely.get_coordinates(ring.interpolate(end))
-    # substring walks the segments: vertex i (all but the last) is taken when start < run[i] < end
-    inner = run[:-1]
-    mid = np.flatnonzero((inner > start) & (inner < end))
-    return np.vstack([p0, xy[mid], p1])
+def _sample_step(pitch: float) -> float:
+    """How far apart a link's and a path's clearance samples lie, mm (a quarter pitch)."""
+    return 0.25 * pitch
+
+
+def _clear_reach(options: LinkOptions, pitch: float) -> float:
+    """Within what distance of a link's sample a path's or another link's sample is too near, mm:
+    the clearance less half a sampling step (an eighth of a pitch)."""
+    return options.clearance * pitch - 0.5 * _sample_step(pitch)
 
 
 def link_paths(
@@ -492,8 +450,8 @@ class _Layer:
         and whether both ends are near the edge (a boundary link is a candidate);
     order : (k,) int
         the candidates, shortest first.
-    ring_cache : dict
-        The region's rings shrunk by each inset (:func:`_ring_link`).
+    region_key : bytes
+        The region's WKB: what names its shrunk rings (:func:`loadpath.engines.edge_links.shrunk_rings`).
     tried : dict
         ``(ea, eb, straight_ok, edge_ok)`` -> the link's points, their samples and whether it is a
         boundary link, or None: the geometric test of a candidate does not depend on the links laid
@@ -501,6 +459,9 @@ class _Layer:
     straight_links : dict or None
         The straight candidates' points, samples and clearance, both ways, all made at the first
         straight link tried (:meth:`_straight_links`).
+    edge_links : dict or None
+        The boundary candidates' points, samples and containment, both ways, all made at the first
+        boundary link tried (:meth:`_edge_links`).
     """
 
     ps: list[Path]
@@ -522,9 +483,10 @@ class _Layer:
     straight: np.ndarray
     near_edge: np.ndarray
     order: np.ndarray
-    ring_cache: dict
+    region_key: bytes
     tried: dict
     straight_links: dict | None = None
+    edge_links: dict | None = None
 
     @classmethod
     def of(cls, ps: list[Path], region: Region, pitch: float, options: LinkOptions) -> _Layer | None:
@@ -533,7 +495,7 @@ class _Layer:
 
         n = len(ps)
         limit = options.max_link * pitch
-        edge_limit = max(options.max_edge_link, options.max_link) * pitch
+        edge_limit = _edge_limit(options, pitch)
         # ends: 2 i = head of path i, 2 i + 1 = its tail; outward direction from a point ~ half a pitch in
         e_pt = np.empty((2 * n, 2))
         e_dir = np.empty((2 * n, 2))
@@ -549,7 +511,7 @@ class _Layer:
                 e_dir[2 * i + side] = v / max(float(np.hypot(*v)), 1e-12)
                 e_w[2 * i + side] = p.pitch[0] if side == 0 else p.pitch[-1]
         # every path densely sampled, for the clearance test
-        samp = [_samples(p.points, 0.25 * pitch) for p in ps]
+        samp = [_samples(p.points, _sample_step(pitch)) for p in ps]
         s_pid = np.repeat(np.arange(n), [len(s) for s in samp])
         # unbalanced, not compacted: built several times faster, the same points within reach
         tree = cKDTree(np.concatenate(samp), balanced_tree=False, compact_nodes=False)
@@ -574,57 +536,94 @@ class _Layer:
         order = candidates[np.argsort(gap[candidates], kind="stable")]
         return cls(
             ps, region, grown, pitch, options, e_pt, e_dir, e_w, edge_d, tree, s_pid, s_arc, p_len,
-            a, b, gap, straight_dir & straight_in, near_edge, order, {}, {},
+            a, b, gap, straight_dir & straight_in, near_edge, order, shapely.to_wkb(region), {},
         )
 
     def clear_of_paths(self, s: Points2, ea: int, eb: int) -> bool:
         """Whether samples ``s`` of a link from end ``ea`` to ``eb`` keep the clearance from every path.
 
-        Its own two paths count only beyond ``2 pitch`` of the ends it joins.
+        Its own two paths count only beyond ``2 pitch`` of the ends it joins (:meth:`_exempt`; the
+        test of one link, :meth:`_clear` of many).
         """
-        pitch = self.pitch
-        hits = self.tree.query_ball_point(s, self.options.clearance * pitch - 0.125 * pitch)
+        hits = self.tree.query_ball_point(s, _clear_reach(self.options, self.pitch))
         found = [h for h in hits if h]
         if not found:
             return True
         h = np.concatenate(found)
         return not bool(np.any(~self._exempt(h, ea) & ~self._exempt(h, eb)))
 
+    def _clear(self, s: Points2, at: np.ndarray, ea: np.ndarray, eb: np.ndarray) -> np.ndarray:
+        """Whether each link ``i``, from end ``ea[i]`` to ``eb[i]`` (c,) int, keeps the clearance
+        from every path: its samples ``s[at[i] : at[i + 1]]`` ((m, 2) mm; ``at`` (c + 1,) int), all
+        of them in one tree query, its own ends' exemptions as arrays (:meth:`_exempt`).
+
+        Returns (c,) bool.
+        """
+        import itertools
+
+        hits = self.tree.query_ball_point(s, _clear_reach(self.options, self.pitch))
+        count = np.fromiter((len(x) for x in hits), dtype=np.int64, count=len(hits))
+        h = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=int(count.sum()))
+        c = np.repeat(np.repeat(np.arange(len(ea)), np.diff(at)), count)
+        bad = ~self._exempt(h, ea[c]) & ~self._exempt(h, eb[c])
+        clear = np.ones(len(ea), dtype=bool)
+        clear[c[bad]] = False
+        return clear
+
     def _straight_links(self) -> dict[tuple[int, int], tuple]:
         """Every straight candidate link, both ways: ``(ea, eb) -> (i, lo, hi, clear, samples)``, its
         samples ``samples[lo:hi]`` and whether it is clear of the paths.
 
-        All sampled and tested against the paths at once (one tree query, the exemptions of each
-        link's own ends as arrays): the same samples as :func:`_samples` (the same arithmetic, link
-        by link) and the same test as :meth:`clear_of_paths`.
+        All sampled and tested against the paths at once (:meth:`_clear`): the same samples as
+        :func:`_samples` and the same test as :meth:`clear_of_paths`.
         """
-        import itertools
-
         ks = np.flatnonzero(self.straight)
         ea = np.concatenate([self.a[ks], self.b[ks]])
         eb = np.concatenate([self.b[ks], self.a[ks]])
         if not len(ea):
             return {}
-        p1 = self.e_pt[eb]
-        inner, n = _segment_samples(self.e_pt[ea], p1, 0.25 * self.pitch)
-        total = n + 1  # n pieces and the far end
-        link_of = np.repeat(np.arange(len(ea)), total)
-        last = np.cumsum(total) - 1
-        pts = np.empty((int(total.sum()), 2))
-        pts[last] = p1
-        pts[np.setdiff1d(np.arange(len(pts)), last, assume_unique=True)] = inner
-        hits = self.tree.query_ball_point(pts, self.options.clearance * self.pitch - 0.125 * self.pitch)
-        count = np.fromiter((len(x) for x in hits), dtype=np.int64, count=len(hits))
-        h = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=int(count.sum()))
-        c = np.repeat(link_of, count)
-        bad = ~self._exempt(h, ea[c]) & ~self._exempt(h, eb[c])
-        clear = np.ones(len(ea), dtype=bool)
-        clear[c[bad]] = False
-        ends = np.concatenate([[0], np.cumsum(total)]).tolist()
+        ends_xy = np.stack([self.e_pt[ea], self.e_pt[eb]], axis=1).reshape(-1, 2)
+        pts, at = _polyline_samples(ends_xy, np.arange(0, 2 * len(ea) + 1, 2), _sample_step(self.pitch))
+        clear = self._clear(pts, at, ea, eb)
+        ends = at.tolist()
         return {
             (x, y): (i, ends[i], ends[i + 1], ok, pts)
             for i, (x, y, ok) in enumerate(zip(ea.tolist(), eb.tolist(), clear.tolist(), strict=True))
         }
+
+    def _edge_links(
+        self, ea: np.ndarray | None = None, eb: np.ndarray | None = None
+    ) -> dict[tuple[int, int], tuple | None]:
+        """Boundary links from end ``ea[i]`` to ``eb[i]`` (default: every boundary candidate, both
+        ways): ``(ea, eb) -> (points, samples, inside)``, or None where the ring piece does not exist.
+
+        Each link on the region's edge shrunk by its ends' mean distance to it (at most the edge
+        reach; rounded to 0.01 mm), all of them at once
+        (:func:`loadpath.engines.edge_links.ring_pieces`), then sampled as :func:`_samples` and
+        tested for lying inside the (grown) region together.
+        """
+        if ea is None or eb is None:
+            ks = np.flatnonzero(self.near_edge)
+            ea, eb = np.concatenate([self.a[ks], self.b[ks]]), np.concatenate([self.b[ks], self.a[ks]])
+        o, pitch = self.options, self.pitch
+        inset = np.clip(0.5 * (self.edge_d[ea] + self.edge_d[eb]), 0.0, o.edge_reach * pitch)
+        keys, g = np.unique([round(float(x), 2) for x in inset], return_inverse=True)
+        if not len(keys):
+            return {}
+        rings, groups = Rings.concat([shrunk_rings(self.region, float(k), self.region_key) for k in keys])
+        pts, at, exists = ring_pieces(rings, groups, g, self.e_pt, ea, eb, _edge_limit(o, pitch))
+        ok = np.flatnonzero(exists)
+        out: dict[tuple[int, int], tuple | None] = dict.fromkeys(zip(ea.tolist(), eb.tolist(), strict=True))
+        if not len(ok):
+            return out
+        at = np.append(at[ok], len(pts))
+        s, s_at = _polyline_samples(pts, at, _sample_step(pitch))
+        lines = shapely.linestrings(pts, indices=np.repeat(np.arange(len(ok)), np.diff(at)))
+        inside = shapely.covers(self.grown, lines)
+        at, s_at = at.tolist(), s_at.tolist()
+        for j, (x, y) in enumerate(zip(ea[ok].tolist(), eb[ok].tolist(), strict=True)):
+            out[(x, y)] = (pts[at[j] : at[j + 1]], s[s_at[j] : s_at[j + 1]], bool(inside[j]))
+        return out
 
     def _exempt(self, h: np.ndarray, e: int | np.ndarray) -> np.ndarray:
         """Which sample hits ``h`` lie on the path of end ``e`` (one end, or one per hit) within
@@ -668,22 +667,23 @@ class _Layer:
                     out = (np.vstack([e_pt[ea], e_pt[eb]]), pts[lo:hi], False)
             else:  # a long link of the second pass
                 cand = np.vstack([e_pt[ea], e_pt[eb]])
-                s = _samples(cand, 0.25 * pitch)
+                s = _samples(cand, _sample_step(pitch))
                 if self.clear_of_paths(s, ea, eb):
                     out = (cand, s, False)
         if out is None and edge_ok:
-            o = self.options
-            edge_limit = max(o.max_edge_link, o.max_link) * pitch
-            inset = float(np.clip(0.5 * (self.edge_d[ea] + self.edge_d[eb]), 0.0, o.edge_reach * pitch))
-            cand = _ring_link(self.region, e_pt[ea], e_pt[eb], inset, edge_limit, self.ring_cache)
-            if (
-                cand is not None
-                and self.forward(cand, ea, eb)
-                and float(np.sum(np.hypot(*np.diff(cand, axis=0).T))) <= edge_limit
-                and self.grown.covers(shapely.LineString(cand))
-            ):
-                s = _samples(cand, 0.25 * pitch)
-                if self.clear_of_paths(s, ea, eb):
+            if self.edge_links is None:
+                self.edge_links = self._edge_links()
+            if (ea, eb) not in self.edge_links:  # not a candidate (a link laid before cuts)
+                self.edge_links.update(self._edge_links(np.array([ea]), np.array([eb])))
+            known = self.edge_links[(ea, eb)]
+            if known is not None:
+                cand, s, inside = known
+                if (
+                    inside
+                    and self.forward(cand, ea, eb)
+                    and float(np.sum(np.hypot(*np.diff(cand, axis=0).T))) <= _edge_limit(self.options, pitch)
+                    and self.clear_of_paths(s, ea, eb)
+                ):
                     out = (cand, s, True)
         self.tried[key] = out
         return out
@@ -748,11 +748,10 @@ def _link(
     ps, options, pitch = layer.ps, layer.options, layer.pitch
     n = len(ps)
     a, b, e_pt, e_dir = layer.a, layer.b, layer.e_pt, layer.e_dir
-    clear = options.clearance * pitch
     used = np.zeros(2 * n, dtype=bool)
     parent = list(range(n))
     link: dict[int, tuple[int, Points2]] = {}  # end -> (other end, link points from this end)
-    laid = _Laid(clear - 0.125 * pitch)
+    laid = _Laid(_clear_reach(options, pitch))
 
     def accept(ea: int, eb: int, straight_ok: bool, edge_ok: bool) -> bool:
         if used[ea] or used[eb] or (allowed is not None and not (allowed[ea] and allowed[eb])):

@@ -135,25 +135,55 @@ def test_lone_area_bounds(bad):
 
 
 def test_boundary_piece_is_shapelys_substring_to_the_bit():
-    """The linking's own ring piece (:func:`linking._substring`, vertices and running lengths kept
-    per ring) gives exactly the points of ``shapely.ops.substring``, so the runs stay the same."""
-    import shapely
+    """The linking's own ring pieces (:func:`edge_links.substrings`, many at once from the rings'
+    vertices and running lengths) give exactly the points of ``shapely.ops.substring``, so the runs
+    stay the same."""
+    from loadpath.engines import edge_links
     from shapely.ops import substring
 
-    from loadpath.engines import linking
-
     rng = np.random.default_rng(7)
-    ring = shapely.Polygon(
+    poly = shapely.Polygon(
         np.c_[np.cos(np.linspace(0, 2 * np.pi, 97)[:-1]), np.sin(np.linspace(0, 2 * np.pi, 97)[:-1])]
         * (20 + rng.uniform(-1, 1, 96))[:, None]
-    ).exterior
-    arcs: dict = {}
+    )
+    rings = edge_links.Rings.of(poly, 0.0)
+    ring = rings.rings[0]
     total = ring.length
     # random pieces, a piece from 0, one to the very end, one of zero length, one ending on a vertex
     run = np.r_[0, np.cumsum(np.hypot(*np.diff(shapely.get_coordinates(ring), axis=0).T))]
     cases = [tuple(sorted(rng.uniform(0, total, 2))) for _ in range(200)]
     cases += [(0.0, 5.0), (3.0, total), (7.5, 7.5), (run[10], run[20]), (0.0, total)]
-    for a, b in cases:
-        mine = linking._substring(ring, float(a), float(b), arcs, 0)
+    lo, hi = np.array(cases).T
+    pts, at = edge_links.substrings(rings, np.zeros(len(cases), dtype=np.int64), lo, hi)
+    for i, (a, b) in enumerate(cases):
+        mine = pts[at[i] : at[i + 1]]
         theirs = shapely.get_coordinates(substring(ring, float(a), float(b)))
         assert mine.shape == theirs.shape and np.array_equal(mine, theirs), (a, b)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_batched_candidate_tests_link_as_one_by_one_on_the_plate(seed):
+    """The candidates' tests made in batches (every straight candidate in one tree query, every
+    boundary candidate's ring piece, samples and containment at once) give exactly what the tests
+    made one link at a time gave (``tests/linking_reference.py``, the code of a57aa31)."""
+    from linking_reference import assert_links_as_one_by_one
+
+    laid, passing = assert_links_as_one_by_one(_plate(seed), box(0, 0, 20, 10), 0.45)
+    assert laid > 0 and passing > laid
+
+
+@pytest.mark.parametrize("engine", ["levelset", "swarm"])
+def test_batched_candidate_tests_link_engine_layers_as_one_by_one(engine):
+    """The same on engine layers of a plate with a hole (the Kirsch field, no FEA): paths that end
+    on the outline and on the hole, boundary links on both rings, both ways round."""
+    from linking_reference import assert_links_as_one_by_one
+    from loadpath.engines import generate
+    from loadpath.field import AnalyticField, kirsch_tensor
+    from loadpath.toolpath import EngineInput
+    from shapely.geometry import Point
+
+    region = box(0, 0, 40, 16).difference(Point(20, 8).buffer(3.0, 64))
+    field = AnalyticField(lambda p: kirsch_tensor(p, (20, 8), 3.0, 10.0), region, scale=10.0)
+    tp = generate(engine, EngineInput(region, field, 0.45))
+    _, passing = assert_links_as_one_by_one(list(tp.paths), region, 0.45)
+    assert passing > 0

@@ -212,3 +212,17 @@ def test_cuts_pair_ends_that_cost_a_retraction(prusa_run):
         after += hop_groups(new, 1.0)
         cuts += st["cuts"]
     assert cuts > 0 and after < before, (before, after, cuts)
+
+
+def test_batched_candidate_tests_link_real_layers_as_one_by_one(prusa_run):
+    """On the real bracket's layers (every job's engine paths in its region) the batched candidate
+    tests of ``loadpath.engines.linking`` link exactly as the tests made one link at a time did
+    (``tests/linking_reference.py``); the first job's every candidate is compared too."""
+    from linking_reference import assert_links_as_one_by_one
+
+    _, res = prusa_run
+    laid = 0
+    for k, jr in enumerate(res.jobs):
+        u = jr.units[0]
+        laid += assert_links_as_one_by_one(list(jr.paths.paths), u.fill_region, u.pitch, every=k == 0)[0]
+    assert laid > 0
