@@ -180,6 +180,16 @@ class LevelSetFit:
     residual: float
     misalignment: float
 
+    def axes(self) -> tuple[Floats, Floats]:
+        """Node coordinates along x, (nx,), and along y, (ny,), mm."""
+        ny, nx = self.phi.shape
+        return self.x0 + self.h * np.arange(nx), self.y0 + self.h * np.arange(ny)
+
+    def inside(self, region: Region) -> np.ndarray:
+        """(ny, nx) bool: the nodes inside ``region``."""
+        px, py = np.meshgrid(*self.axes())
+        return shapely.contains_xy(region, px, py)
+
     def sample(self, values: np.ndarray, points: Points2) -> Floats:
         """Bilinear interpolation of a node array at points (NaN nodes count as their neighbours)."""
         p = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -222,14 +232,13 @@ def _orient(n: np.ndarray, edges: np.ndarray, count: int) -> np.ndarray:
     # kept ones a tiny positive amount, so the path length rounds to the number of flips
     w = np.where(flip, 1.0, 1e-7)
     g = sparse.coo_matrix((w, (tree.row, tree.col)), shape=(count, count)).tocsr()
+    # one search from every component's first node: the others' roots are out of reach, so each
+    # node's shortest distance is the one from its own root
     _, labels = csgraph.connected_components(g, directed=False)
-    signs = np.ones(count)
-    for comp in np.unique(labels):
-        members = np.flatnonzero(labels == comp)
-        dist = csgraph.dijkstra(g, indices=int(members[0]), directed=False)
-        parity = np.rint(dist[members]).astype(np.int64) % 2
-        signs[members] = np.where(parity == 1, -1.0, 1.0)
-    return signs
+    _, roots = np.unique(labels, return_index=True)
+    dist = csgraph.dijkstra(g, indices=roots, directed=False, min_only=True)
+    parity = np.rint(dist).astype(np.int64) % 2
+    return np.where(parity == 1, -1.0, 1.0)
 
 
 def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
@@ -299,7 +308,6 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
     edges = edges[(edges >= 0).all(axis=1)]
     signs = _orient(nvec[act], edges, m)
     n_act = nvec[act] * signs[:, None]
-    d_act = np.stack([n_act[:, 1], -n_act[:, 0]], axis=1)
     qa_act = qa[act]
 
     # two triangles per cell whose corners are all active: (a, b, c) with grad = ((b-a), (c-a)) / h
@@ -408,9 +416,7 @@ def _contours(f: LevelSetFit, phase: float, scale: float = 1.0) -> list[np.ndarr
     """The level sets ``scale * phi = k + phase`` as polylines (mm)."""
     import contourpy
 
-    ny, nx = f.phi.shape
-    xs = f.x0 + f.h * np.arange(nx)
-    ys = f.y0 + f.h * np.arange(ny)
+    xs, ys = f.axes()
     z = np.ma.masked_invalid(scale * f.phi)
     lo, hi = float(np.nanmin(z)), float(np.nanmax(z))
     levels = np.arange(np.floor(lo - phase) + phase, hi + 1.0, 1.0)
@@ -440,22 +446,19 @@ MATCH_TOLERANCE = 0.005
 
 def _integral(f: LevelSetFit, values: np.ndarray, region: Region) -> float:
     """Integral of a node array over a region: the sum over the nodes inside times the cell area."""
-    ny, nx = values.shape
-    px, py = np.meshgrid(f.x0 + f.h * np.arange(nx), f.y0 + f.h * np.arange(ny))
-    inside = shapely.contains_xy(region, px, py) & np.isfinite(values)
+    inside = f.inside(region) & np.isfinite(values)
     return float(np.sum(values[inside]) * f.h * f.h)
 
 
 def _target_length(f: LevelSetFit, inp: EngineInput) -> float:
     """Path length (mm) that lays the region at its nominal or density-field pitch: sum of s0 dA."""
     region = inp.region
-    ny, nx = f.phi.shape
-    xs = f.x0 + f.h * np.arange(nx)
-    ys = f.y0 + f.h * np.arange(ny)
-    px, py = np.meshgrid(xs, ys)
+    if inp.density is None:
+        return float(region.area / inp.pitch)
+    px, py = np.meshgrid(*f.axes())
     inside = shapely.contains_xy(region, px, py)
     pts = np.stack([px[inside], py[inside]], axis=1)
-    if inp.density is None or len(pts) == 0:
+    if len(pts) == 0:
         return float(region.area / inp.pitch)
     local = inp.density.pitch_at(pts) * inp.pitch / inp.density.base_pitch
     # the nodes' mean line density times the exact area
