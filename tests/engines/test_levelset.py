@@ -90,6 +90,22 @@ def test_uniform_field_lays_straight_lines_at_the_pitch_that_link_into_one_zigza
     assert cov.coverage >= 0.97 and cov.overlap <= 0.03, cov
 
 
+def test_sparse_line_ends_keep_the_slicers_gap_to_the_perimeter_not_a_share_of_the_pitch():
+    """Sparse lines (the slicer's bead width at a 2 mm pitch) end a quarter bead width inside the
+    region, where PrusaSlicer's own infill ends (0.10 mm at a 0.41 mm flow width), at any pitch."""
+    region = box(0, 0, 30, 12)
+    field = AnalyticField(uniform(30.0), None)
+    width, pitch = 0.4, 2.0
+    tp = generate("levelset", EngineInput(region, field, pitch), flow_width=width)
+    dist = shapely.distance(region.exterior, shapely.points(_ends(tp)))
+    long = np.array([np.hypot(*(p.points[-1] - p.points[0])) >= 4 * pitch for p in tp.paths for _ in (0, 1)])
+    assert long.sum() >= 10
+    # a quarter of the bead width (0.1 mm) and the sampling of the extension (a ninth of the pitch)
+    assert np.all(dist[long] <= 0.25 * width + pitch / 9.0 + 1e-6), dist[long].max()
+    assert np.median(dist[long]) <= 0.25 * width + 0.05, np.median(dist[long])
+    assert np.all(dist >= 0.25 * width - 1e-6), dist.min()
+
+
 def test_open_hole_follows_the_stress_better_than_any_straight_infill_and_prints_as_few_runs():
     region, field = open_hole()
     tp = generate("levelset", EngineInput(region, field, PITCH))
