@@ -230,7 +230,7 @@ def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, len
 
     The rest comes from the job: its region (to 1 µm), pitch (to 1 µm), load entry, seed, its
     density field (:func:`density_bytes`) and, for a fixed-width job, the slicer's extruded length
-    it matches (to 1 µm).
+    it matches and its flow width (the machine fact the engines receive, :func:`_machine_of`; to 1 µm).
     """
     from loadpath.cache import code_stamp, digest, geometry_bytes
 
@@ -246,6 +246,7 @@ def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, len
             field_id,
             f"{inp.pitch:.6f} {inp.seed} {length_retry!r}",
             "none" if target is None else f"{target:.3f}",
+            f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid",
             geometry_bytes(inp.region),
             geometry_bytes(inp.load_entry),
             density_bytes(inp.density),
