@@ -42,11 +42,12 @@ the edge (:func:`loadpath.engines.finish.ends.extend_ends`) as the other engines
 
 Measured (``benchmarks/bench_printability.py``, real PrusaSlicer 2.5 slices, ``loadpath compare``'s
 model), retractions in the replaced blocks against the slicer's, level sets (swarm): 100 % solid
-bar 20 -> 75 (241), beam 10 -> 249 (555), bracket 25 -> 247 (488), two islands 20 -> 20 (125); 40 %
-sparse 16 -> 28, 8 -> 36, 20 -> 68, 16 -> 16; 30 % gyroid 30 -> 18 (62).  Predicted stiffness /
-failure load over the slicer's at 40 %: 1.347 / 2.505, 1.341 / 1.935, 1.294 / 1.475, 1.245 / 2.053
-(the swarm's 1.321 / 1.662, 1.313 / 1.811, 1.249 / 1.516, 1.235 / 1.710); at 100 % the failure load
-is lower than the swarm's on the bar (0.928 against 1.054) and the bracket (0.923 against 0.954).
+bar 20 -> 75 (241), beam 10 -> 245 (555), bracket 25 -> 245 (488), two islands 20 -> 20 (125); 40 %
+sparse 16 -> 24, 8 -> 40, 20 -> 64, 16 -> 16; 30 % gyroid 30 -> 22 (66).  Predicted stiffness /
+failure load over the slicer's at 40 %: 1.354 / 2.564, 1.367 / 1.983, 1.316 / 1.775, 1.291 / 2.460
+(the swarm's 1.321 / 1.662, 1.313 / 1.811, 1.249 / 1.516, 1.235 / 1.710); 30 % gyroid 1.283 / 1.862
+(1.250 / 1.207); at 100 % the failure load is lower than the swarm's on the bar (0.928 against
+1.047) and the bracket (0.924 against 0.956).
 
 (Over 400 lines: the fit assembles four kinds of least-squares rows over one grid and its
 triangles; split, the grid's index arrays would be passed between modules.)
