@@ -505,10 +505,17 @@ def _width_changes(wq: np.ndarray, current: float, hysteresis: float) -> list[tu
 
     A marker is written where the quantized width ``wq`` (mm, per segment) moved ``hysteresis`` mm or
     more from the last one stated (``current`` before the first segment, NaN: none).  Sequential by
-    nature; plain floats over a chain's few dozen segments cost less than numpy's passes would.
+    nature; plain floats over the segments where the width changes.
     """
     out = []
-    for k, w in enumerate(wq.tolist()):
+    at: list[int] | range = range(len(wq))
+    if hysteresis > 0 and len(wq) > 1:
+        # a segment as wide as the one before adds no marker: that one left the stated width within
+        # the hysteresis of it, or stated it (runs of one width: a few changes per chain)
+        at = np.flatnonzero(np.concatenate([[True], wq[1:] != wq[:-1]])).tolist()
+    ws = wq.tolist()
+    for k in at:
+        w = ws[k]
         if not abs(w - current) < hysteresis:
             current = w
             out.append((k, current))
