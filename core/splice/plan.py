@@ -143,9 +143,14 @@ class Chain:
     feedrate: Floats
 
     @cached_property
+    def segments(self) -> Floats:
+        """Length of each segment, ``(n - 1,)`` mm (once: the length and the rewrite both need them)."""
+        return np.hypot(*(self.points[1:] - self.points[:-1]).T)
+
+    @cached_property
     def length(self) -> float:
         """Printed length, mm (once: the rewrite and the block's report both ask)."""
-        return float(np.sum(np.hypot(*(self.points[1:] - self.points[:-1]).T)))
+        return float(np.sum(self.segments))
 
 
 @dataclass(frozen=True)

@@ -341,7 +341,7 @@ def _extrude_chain(
     total_len: float,
 ) -> tuple[int, float]:
     """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
-    seg = np.hypot(*(c.points[1:] - c.points[:-1]).T)
+    seg = c.segments
     cum = done_len + np.cumsum(seg)
     inserts: dict[int, list[str]] = {}
     while mi < len(m73) and m73[mi][0] * total_len <= cum[-1] + 1e-9:
