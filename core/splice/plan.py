@@ -585,10 +585,14 @@ def plan_block(
         chains_pts.append(pts)
         chains_fw.append(np.concatenate(seg_fw))
         chains_link.append(np.concatenate(seg_link))
-    lengths = [np.hypot(*(p[1:] - p[:-1]).T) for p in chains_pts]
+    # every segment's length in one np.hypot over the chains' points, the steps from one chain's
+    # last point to the next one's first left out (the same figures as chain by chain)
+    all_pts = np.concatenate(chains_pts)
+    step = np.ones(len(all_pts) - 1, dtype=bool)
+    step[np.cumsum([len(p) for p in chains_pts[:-1]], dtype=np.int64) - 1] = False
+    ln = np.hypot(*(all_pts[1:] - all_pts[:-1]).T)[step]
     fw = np.concatenate(chains_fw)
     link = np.concatenate(chains_link)
-    ln = np.concatenate(lengths)
 
     wmin, wmax = (r * options.nozzle_diameter for r in options.width_range)
     if flow_width is not None:  # the slicer's own width (e.g. Cura's combined sparse infill at double flow)
