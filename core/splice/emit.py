@@ -18,6 +18,12 @@ zero.  XYZ are written with 3 decimals, E with 5, F with up to 3.
 :class:`Writer` accumulates lines and tracks the machine state it leaves (position, E, feedrate,
 retraction).  E is written in the file's mode: relative values carry their rounding error to the next
 move, absolute values are the rounded running total, so the sum written equals the sum asked for.
+:meth:`Writer.extrude_many` keeps its chains (:class:`_Chains`) and works out only the state they
+leave; their E words, feedrate changes and text are made for all of a writer's chains at once
+when its lines are read (issue 17: per chain, numpy's fixed cost outweighed a chain's work).
+
+(Over 400 lines: the writer, its deferred chains and their one-pass text share the E and feedrate
+rules, which must stay the same figures call by call and in the one pass.)
 """
 
 from __future__ import annotations
