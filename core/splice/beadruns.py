@@ -338,14 +338,12 @@ def bead_runs(
     run_feed = np.minimum.reduceat(nfeed, rfirst)
     out_fil, out_w, out_f = dens[piece] * nseg, run_width[run], run_feed[run]
     # back into chains
-    n_per_chain = np.bincount(chain_v[ka], minlength=len(sizes))
-    bounds = np.cumsum(n_per_chain)[:-1]
-    kv_chain = np.split(kv, np.cumsum(np.bincount(chain_v[kv], minlength=len(sizes)))[:-1])
+    # (slices of the arrays where np.split cut them: the same views, without its per-piece calls)
+    segs = np.concatenate([[0], np.cumsum(np.bincount(chain_v[ka], minlength=len(sizes)))]).tolist()
+    verts = np.concatenate([[0], np.cumsum(np.bincount(chain_v[kv], minlength=len(sizes)))]).tolist()
     chains = tuple(
-        Chain(pts[v], f_, w_, e_)
-        for v, f_, w_, e_ in zip(
-            kv_chain, np.split(out_fil, bounds), np.split(out_w, bounds), np.split(out_f, bounds), strict=True
-        )
+        Chain(pts[kv[v0:v1]], out_fil[a:z], out_w[a:z], out_f[a:z])
+        for v0, v1, a, z in zip(verts[:-1], verts[1:], segs[:-1], segs[1:], strict=True)
     )
     stats = {
         **plan.stats,

@@ -18,17 +18,24 @@ zero.  XYZ are written with 3 decimals, E with 5, F with up to 3.
 :class:`Writer` accumulates lines and tracks the machine state it leaves (position, E, feedrate,
 retraction).  E is written in the file's mode: relative values carry their rounding error to the next
 move, absolute values are the rounded running total, so the sum written equals the sum asked for.
+:meth:`Writer.extrude_many` keeps its chains (:class:`_Chains`) and works out only the state they
+leave; their E words, feedrate changes and text are made for all of a writer's chains at once
+when its lines are read (issue 17: per chain, numpy's fixed cost outweighed a chain's work).
+
+(Over 400 lines: the writer, its deferred chains and their one-pass text share the E and feedrate
+rules, which must stay the same figures call by call and in the one pass.)
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from loadpath.splice import numtext as nt
 
-__all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_many"]
+__all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_few", "fmt_many"]
 
 
 def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
@@ -50,6 +57,17 @@ def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
         elif s.startswith("-0."):
             s = "-" + s[2:]
     return s
+
+
+@lru_cache(maxsize=1 << 16)
+def fmt_few(value: float, decimals: int, leading_zero: bool = False) -> str:
+    """:func:`fmt` remembered: for the words that take few values in a file (F, Z, ``;WIDTH:``).
+
+    The splice of the 1000-layer specimen formatted 1.5 million numbers one at a time, most of them
+    feedrates and widths seen before (issue 17).  Values that compare equal give the same text
+    (``0.0`` and ``-0.0`` both ``"0"``), so a remembered text is the one :func:`fmt` writes.
+    """
+    return fmt(value, decimals, leading_zero)
 
 
 def fmt_many(values, decimals: int, leading_zero: bool = False) -> list[str]:
@@ -149,8 +167,8 @@ class Writer:
         volumetric_area: float | None = None,
     ) -> None:
         self.style = style
-        self._lines: list = []  # str, or a _Span of extrusion lines formatted on first read
-        self._pending: list[tuple] = []  # extrude_many's moves not yet formatted
+        self._lines: list = []  # str, or a _Chain of extrusion lines made on first read
+        self._pending = _Chains(e_relative)  # extrude_many's moves not yet written
         self.x, self.y, self.z = x, y, z
         self.e = e  # logical E after the last line written (rounded as written)
         self._e_exact = e  # running total as asked for (absolute mode)
@@ -191,7 +209,7 @@ class Writer:
         if f is None or (not math.isnan(self.f) and abs(f - self.f) < 1e-9):
             return None
         self.f = f
-        return "F" + fmt(f, 3, True)
+        return "F" + fmt_few(f, 3, True)
 
     # ------------------------------------------------------------------ lines
 
@@ -278,60 +296,44 @@ class Writer:
             The segments' lengths, when the caller has them (else measured here).
         """
         pts = np.asarray(points, dtype=float)
-        de = np.asarray(de, dtype=float) * self.scale
+        de = np.asarray(de, dtype=float)
+        if self.scale != 1.0:
+            de = de * self.scale
         f = np.asarray(f, dtype=float)
         n = len(de)
         if n == 0:
             return
+        # E: only the state after the chain here; the E words of all the writer's chains are made
+        # in one pass when the lines are read (_Chains.e_words, the same figures)
+        cs = np.cumsum(de)
         if self.e_relative:
-            c = self._carry + np.cumsum(de)
+            e0, e_prev = self._carry, 0.0
+            c = self._carry + cs[-1:]
             r = np.round(c, 5)
-            written = np.concatenate([r[:1], r[1:] - r[:-1]])  # np.diff after a 0: the same figures
-            self._carry = float(c[-1] - r[-1])
-            self.e += float(r[-1])
-            e_vals = written
+            self._carry = float(c[0] - r[0])
+            self.e += float(r[0])
         else:
-            c = self._e_exact + np.cumsum(de)
-            e_vals = np.round(c, 5)
-            written = np.concatenate([e_vals[:1] - round(self.e, 5), e_vals[1:] - e_vals[:-1]])
-            self._e_exact = float(c[-1])
-            self.e = float(e_vals[-1])
-        has_e = np.abs(written) > 0
-        # events before a segment: a width marker (with hysteresis) and/or a feedrate change
-        events: dict[int, list[str]] = {}
+            e0, e_prev = self._e_exact, round(self.e, 5)
+            c = self._e_exact + cs[-1:]
+            r = np.round(c, 5)
+            self._e_exact = float(c[0])
+            self.e = float(r[0])
+        # width markers (with hysteresis) before segments, at their place now: they set the state
         cur_w = self.width
+        marks: list[tuple[int, float]] = []
         if widths is not None and self.style.width:
             wq = np.round(np.asarray(widths, dtype=float) / width_marker_step) * width_marker_step
-            for k, cur_w in _width_changes(wq, cur_w, width_hysteresis):
-                events[k] = [f"{self.style.width}{fmt(cur_w, 6, True)}"]
+            marks = _width_changes(wq, cur_w, width_hysteresis)
+            if marks:
+                cur_w = marks[-1][1]
         fcur = self.f
-        steps = np.concatenate([f[:1] - (fcur if np.isfinite(fcur) else -1.0), f[1:] - f[:-1]])  # np.diff's
-        change = np.flatnonzero(steps != 0)
-        self._pending.append((pts[1:], e_vals, has_e, f, change))
-        pid = len(self._pending) - 1
-        if self.style.feed_line:
-            for k in change.tolist():
-                events.setdefault(k, []).append("G1 F" + fmt(float(f[k]), 3, True))
-        if len(f):
-            fcur = float(f[-1])
-        for k, extra in (inserts or {}).items():
-            if k + 1 < n:
-                events.setdefault(k + 1, []).extend(extra)
-        lines = self._lines
-        prev = 0
-        for k in sorted(events):
-            if k > prev:
-                lines.append(_Span(pid, prev, k))
-            lines.extend(events[k])
-            prev = k
-        lines.append(_Span(pid, prev, n))
-        if inserts and n - 1 in inserts:
-            lines.extend(inserts[n - 1])
+        self._pending.add(pts[1:], de, cs, e0, e_prev, f, fcur if np.isfinite(fcur) else -1.0)
+        self._lines.append(_Chain(len(self._pending.sizes) - 1, marks, inserts))
         if seg is None:
             seg = np.hypot(*(pts[1:] - pts[:-1]).T)
         self.seconds += float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
         self.width = cur_w
-        self.f = fcur
+        self.f = float(f[-1])
         self.x, self.y = float(pts[-1, 0]), float(pts[-1, 1])
         self.filament += float(np.sum(de)) / self.scale
         self.retracted = 0.0
@@ -346,6 +348,31 @@ class Writer:
         self.x, self.y = x, y
         self.retracted += de
 
+    def wipe_many(self, points, de) -> None:
+        """:meth:`wipe` to each of ``points`` in turn, pulling ``de[k]`` on the way to the k-th.
+
+        The same lines and state as one :meth:`wipe` call per point, with the coordinates formatted
+        in one pass (:func:`fmt_many`); E, time and retraction accumulate point by point as there.
+
+        Parameters
+        ----------
+        points : (k, 2) float, mm
+        de : (k,) float, mm of filament (> 0)
+        """
+        pts = np.asarray(points, dtype=float)
+        lz = self.style.leading_zero
+        xs, ys = pts[:, 0].tolist(), pts[:, 1].tolist()
+        words = zip(fmt_many(xs, 3, lz), fmt_many(ys, 3, lz), strict=True)
+        lines = self._lines
+        for x, y, d, (xw, yw) in zip(xs, ys, np.asarray(de, dtype=float).tolist(), words, strict=True):
+            ew = self._e_word(-d)
+            lines.append(f"G1 X{xw} Y{yw} {ew}" if ew is not None else f"G1 X{xw} Y{yw}")
+            dist = math.hypot(x - self.x, y - self.y)
+            if dist > 0 and self.f > 0:
+                self.seconds += dist / self.f * 60.0
+            self.x, self.y = x, y
+            self.retracted += d
+
     def e_move(self, de: float, f: float) -> None:
         """Retract (``de`` < 0) or unretract (``de`` > 0) without moving."""
         ew = self._e_word(de)
@@ -356,7 +383,7 @@ class Writer:
 
     def z_move(self, z: float, f: float) -> None:
         """Lift or lower to ``z``."""
-        self._move("G1", [f"Z{self._n(z)}"], f, abs(z - self.z))
+        self._move("G1", [f"Z{fmt_few(z, 3, self.style.leading_zero)}"], f, abs(z - self.z))
         self.z = z
 
     def set_e(self, e: float) -> None:
@@ -369,28 +396,42 @@ class Writer:
     def lines(self) -> list[str]:
         """The lines written so far.
 
-        The moves of :meth:`extrude_many` are formatted here, all those of the writer in one numpy
-        pass (:func:`_move_lines`): per call, the fixed cost of the passes outweighed a chain's few
-        dozen lines.
+        The moves of :meth:`extrude_many` are made here, all those of the writer in one numpy pass
+        (their E words, :meth:`_Chains.e_words`; their text, :func:`_move_lines`): per call, the
+        fixed cost of the passes outweighed a chain's few dozen lines.
         """
-        if self._pending:
-            pend, self._pending = self._pending, []
-            base = np.cumsum([0] + [len(t[0]) for t in pend])
-            head = _move_lines(
-                self.style,
-                np.concatenate([t[0] for t in pend]),
-                np.concatenate([t[1] for t in pend]),
-                np.concatenate([t[2] for t in pend]),
-                np.concatenate([t[3] for t in pend]),
-                np.concatenate([t[4] + b for t, b in zip(pend, base[:-1].tolist(), strict=True)]),
-            )
+        if self._pending.sizes:
+            pend, self._pending = self._pending, _Chains(self.e_relative)
+            to, e_vals, has_e, f, change = pend.moves()
+            head = _move_lines(self.style, to, e_vals, has_e, f, change)
+            feed_at = change.tolist() if self.style.feed_line else []
+            base = np.cumsum([0, *pend.sizes]).tolist()
             out: list[str] = []
+            fi = 0
             for item in self._lines:
-                if type(item) is _Span:
-                    b = int(base[item.call])
-                    out.extend(head[b + item.start : b + item.stop])
-                else:
+                if type(item) is not _Chain:
                     out.append(item)
+                    continue
+                a, n = base[item.call], pend.sizes[item.call]
+                # events before a segment: a width marker and/or a feedrate line, then M73 lines
+                events = {k: [f"{self.style.width}{fmt_few(w, 6, True)}"] for k, w in item.marks}
+                while fi < len(feed_at) and feed_at[fi] < a + n:
+                    k = feed_at[fi]
+                    events.setdefault(k - a, []).append("G1 F" + fmt_few(float(f[k]), 3, True))
+                    fi += 1
+                inserts = item.inserts or {}
+                for k, extra in inserts.items():
+                    if k + 1 < n:
+                        events.setdefault(k + 1, []).extend(extra)
+                prev = 0
+                for k in sorted(events):
+                    if k > prev:
+                        out.extend(head[a + prev : a + k])
+                    out.extend(events[k])
+                    prev = k
+                out.extend(head[a + prev : a + n])
+                if n - 1 in inserts:
+                    out.extend(inserts[n - 1])
             self._lines = out
         return self._lines
 
@@ -400,13 +441,69 @@ class Writer:
         return newline.join(lines) + newline if lines else ""
 
 
-class _Span:
-    """Lines ``[start, stop)`` of the moves of the ``call``-th pending :meth:`Writer.extrude_many`."""
+class _Chain:
+    """Place of the ``call``-th :meth:`Writer.extrude_many` among the lines: its width markers
+    ``(segment, width)`` and its inserted lines (``{segment: lines}``, written after it)."""
 
-    __slots__ = ("call", "start", "stop")
+    __slots__ = ("call", "marks", "inserts")
 
-    def __init__(self, call: int, start: int, stop: int) -> None:
-        self.call, self.start, self.stop = call, start, stop
+    def __init__(self, call: int, marks: list[tuple[int, float]], inserts: dict | None) -> None:
+        self.call, self.marks, self.inserts = call, marks, inserts
+
+
+class _Chains:
+    """The moves of a writer's :meth:`Writer.extrude_many` calls not yet written.
+
+    Per call: the end points ``(n, 2)``, the filament ``de`` (file units) and its running sum ``cs``
+    (``np.cumsum(de)``), the E state the call started from (``e0``: the rounding carry, relative
+    E, or the exact running total, absolute E; ``e_prev``: the E last written, rounded, absolute
+    E), the feedrates ``f`` and the feedrate in effect before (``f0``, -1 when unknown).
+    """
+
+    def __init__(self, e_relative: bool) -> None:
+        self.e_relative = e_relative
+        self.sizes: list[int] = []
+        self.to: list[np.ndarray] = []
+        self.cs: list[np.ndarray] = []
+        self.f: list[np.ndarray] = []
+        self.e0: list[float] = []
+        self.e_prev: list[float] = []
+        self.f0: list[float] = []
+
+    def add(self, to, de, cs, e0: float, e_prev: float, f, f0: float) -> None:
+        """Keep one call's moves (``de`` is not kept: ``cs`` holds what the E words need)."""
+        self.sizes.append(len(de))
+        self.to.append(to)
+        self.cs.append(cs)
+        self.f.append(f)
+        self.e0.append(e0)
+        self.e_prev.append(e_prev)
+        self.f0.append(f0)
+
+    def moves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """All the calls' moves as :func:`_move_lines` takes them: ``to, e_vals, has_e, f, change``.
+
+        Each call's E words as one call alone made them: ``c = e0 + cs`` rounded to 5 decimals, the
+        words the differences of the rounded values (relative E; the first one the rounded value
+        itself), or the rounded values (absolute E; written where they differ from the one before,
+        the first from ``e_prev``); a feedrate change where ``f`` differs from the one before (the
+        first from ``f0``).  Element by element the same operations, so the same figures.
+        """
+        sizes = np.array(self.sizes)
+        first = np.zeros(int(sizes.sum()), dtype=bool)
+        first[np.cumsum(sizes) - sizes] = True
+        c = np.repeat(np.array(self.e0), sizes) + np.concatenate(self.cs)
+        r = np.round(c, 5)
+        before = np.concatenate([[0.0], r[:-1]])
+        if self.e_relative:
+            written = np.where(first, r, r - before)
+            e_vals = written
+        else:
+            written = np.where(first, r - np.repeat(np.array(self.e_prev), sizes), r - before)
+            e_vals = r
+        f = np.concatenate(self.f)
+        steps = np.where(first, f - np.repeat(np.array(self.f0), sizes), f - np.concatenate([[0.0], f[:-1]]))
+        return np.concatenate(self.to), e_vals, np.abs(written) > 0, f, np.flatnonzero(steps != 0)
 
 
 def _width_changes(wq: np.ndarray, current: float, hysteresis: float) -> list[tuple[int, float]]:
@@ -414,10 +511,17 @@ def _width_changes(wq: np.ndarray, current: float, hysteresis: float) -> list[tu
 
     A marker is written where the quantized width ``wq`` (mm, per segment) moved ``hysteresis`` mm or
     more from the last one stated (``current`` before the first segment, NaN: none).  Sequential by
-    nature; plain floats over a chain's few dozen segments cost less than numpy's passes would.
+    nature; plain floats over the segments where the width changes.
     """
     out = []
-    for k, w in enumerate(wq.tolist()):
+    at: list[int] | range = range(len(wq))
+    if hysteresis > 0 and len(wq) > 1:
+        # a segment as wide as the one before adds no marker: that one left the stated width within
+        # the hysteresis of it, or stated it (runs of one width: a few changes per chain)
+        at = np.flatnonzero(np.concatenate([[True], wq[1:] != wq[:-1]])).tolist()
+    ws = wq.tolist()
+    for k in at:
+        w = ws[k]
         if not abs(w - current) < hysteresis:
             current = w
             out.append((k, current))

@@ -143,9 +143,14 @@ class Chain:
     feedrate: Floats
 
     @cached_property
+    def segments(self) -> Floats:
+        """Length of each segment, ``(n - 1,)`` mm (once: the length and the rewrite both need them)."""
+        return np.hypot(*(self.points[1:] - self.points[:-1]).T)
+
+    @cached_property
     def length(self) -> float:
         """Printed length, mm (once: the rewrite and the block's report both ask)."""
-        return float(np.sum(np.hypot(*(self.points[1:] - self.points[:-1]).T)))
+        return float(np.sum(self.segments))
 
 
 @dataclass(frozen=True)
@@ -433,36 +438,42 @@ def _two_opt(
     """2-opt on an open tour of oriented paths from a fixed start (see :func:`order_paths`).
 
     Each step tries every reversal ``[i, j]`` for one ``i`` at once.  Where each path starts and ends
-    (``s_pt``, ``e_pt``, ``(m, 2)`` mm) and the cost of the travel after each one (``link``, ``(m - 1,)``)
-    are kept between steps and changed only where a reversal changed them: the same figures as when
-    they were rebuilt at every step, without the ``O(m)`` rebuild (issue 17: the 2-opt was a third of
-    the plan's time on the 100-layer specimen).
+    (``s_id``, ``e_id``: rows of a table of the ``2m + 1`` ends' travel costs, made once) and the cost
+    of the travel after each one (``link``, ``(m - 1,)``) are kept between steps and changed only where
+    a reversal changed them: the same figures as when they were rebuilt at every step, without the
+    ``O(m)`` rebuild (issue 17: the 2-opt was a third of the plan's time on the 100-layer specimen),
+    and looked up instead of measured again (a step's distances and costs were most of its calls).
     """
     cost = cost or (lambda d: d)
     idx = np.array([k for k, _ in seq])
     rev = np.array([r for _, r in seq])
     m = len(idx)
-    s_pt = np.where(rev[:, None], tails[idx], heads[idx])  # where each path starts
-    e_pt = np.where(rev[:, None], heads[idx], tails[idx])  # and ends
-    link = np.append(cost(np.hypot(*(s_pt[1:] - e_pt[:-1]).T)), 0.0)  # travel after each path
+    # every travel's cost from a table of all the ends (heads 0..m-1, tails m..2m-1, the start 2m):
+    # c[a, b] = cost(hypot(p[a] - p[b])), the figures the steps computed from the points before
+    # (symmetric: p[a] - p[b] is exactly -(p[b] - p[a]))
+    p = np.concatenate([heads, tails, np.asarray(start, dtype=float)[None]])
+    c = cost(np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1]))
+    s_id = np.where(rev, idx + m, idx)  # the end each path starts from
+    e_id = np.where(rev, idx, idx + m)  # and the one it ends at
+    link = np.append(c[s_id[1:], e_id[:-1]], 0.0)  # travel after each path
     for _ in range(passes):
         improved = False
         for i in range(m - 1):
             # reversing [i, j] for every j > i: the travel into i and the one after j change
-            before = start if i == 0 else e_pt[i - 1]
-            old = cost(np.hypot(*(s_pt[i] - before))) + link[i + 1 :]
-            after = np.append(cost(np.hypot(*(s_pt[i + 2 :] - s_pt[i]).T)), 0.0)  # none after the last
-            new = cost(np.hypot(*(e_pt[i + 1 :] - before).T)) + after
+            before = c[2 * m if i == 0 else e_id[i - 1]]
+            old = before[s_id[i]] + link[i + 1 :]
+            new = before[e_id[i + 1 :]]
+            new[:-1] += c[s_id[i], s_id[i + 2 :]]  # none after the last
             gain = old - new
             best = int(np.argmax(gain))
             if gain[best] > 1e-6:
                 jj = i + 1 + best
                 idx[i : jj + 1] = idx[i : jj + 1][::-1]
                 rev[i : jj + 1] = ~rev[i : jj + 1][::-1]
-                turned = e_pt[i : jj + 1][::-1].copy(), s_pt[i : jj + 1][::-1].copy()
-                s_pt[i : jj + 1], e_pt[i : jj + 1] = turned
+                turned = e_id[i : jj + 1][::-1].copy(), s_id[i : jj + 1][::-1].copy()
+                s_id[i : jj + 1], e_id[i : jj + 1] = turned
                 lo, hi = max(i - 1, 0), min(jj + 1, m - 1)  # the travels that changed
-                link[lo:hi] = cost(np.hypot(*(s_pt[lo + 1 : hi + 1] - e_pt[lo:hi]).T))
+                link[lo:hi] = c[s_id[lo + 1 : hi + 1], e_id[lo:hi]]
                 improved = True
         if not improved:
             break
@@ -574,10 +585,14 @@ def plan_block(
         chains_pts.append(pts)
         chains_fw.append(np.concatenate(seg_fw))
         chains_link.append(np.concatenate(seg_link))
-    lengths = [np.hypot(*(p[1:] - p[:-1]).T) for p in chains_pts]
+    # every segment's length in one np.hypot over the chains' points, the steps from one chain's
+    # last point to the next one's first left out (the same figures as chain by chain)
+    all_pts = np.concatenate(chains_pts)
+    step = np.ones(len(all_pts) - 1, dtype=bool)
+    step[np.cumsum([len(p) for p in chains_pts[:-1]], dtype=np.int64) - 1] = False
+    ln = np.hypot(*(all_pts[1:] - all_pts[:-1]).T)[step]
     fw = np.concatenate(chains_fw)
     link = np.concatenate(chains_link)
-    ln = np.concatenate(lengths)
 
     wmin, wmax = (r * options.nozzle_diameter for r in options.width_range)
     if flow_width is not None:  # the slicer's own width (e.g. Cura's combined sparse infill at double flow)

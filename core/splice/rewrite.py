@@ -39,7 +39,7 @@ from loadpath.gcode.rowindex import move_rows
 from loadpath.gcode.words import G, M, T
 from loadpath.splice.emit import Style, Writer, fmt
 from loadpath.splice.plan import BlockPlan, Chain
-from loadpath.splice.travel import Motion, TravelState, travel, unretract, wipe_back
+from loadpath.splice.travel import Motion, TravelState, cover_travels, travel, unretract, wipe_back
 
 __all__ = ["Rewritten", "rewrite_block", "refusal"]
 
@@ -293,9 +293,12 @@ def rewrite_block(
     m73.sort(key=lambda t: t[0])
     mi = 0
     last: Points2 | None = None
+    if len(chains) > 1:  # the travels between chains, from one's end to the next one's start
+        ends = np.array([c.points[-1] for c in chains[:-1]])
+        cover_travels(st, ends, np.array([c.points[0] for c in chains[1:]]))
     for ci, c in enumerate(chains):
         if ci > 0:
-            travel(w, st, c.points[0], last)
+            travel(w, st, c.points[0], last, last_length=chains[ci - 1].length)
             if w.retracted > 1e-9 or st.fw:
                 unretract(w, st)
         mi, done_len = _extrude_chain(w, c, style, m73, mi, done_len, total_len)
@@ -338,7 +341,7 @@ def _extrude_chain(
     total_len: float,
 ) -> tuple[int, float]:
     """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
-    seg = np.hypot(*(c.points[1:] - c.points[:-1]).T)
+    seg = c.segments
     cum = done_len + np.cumsum(seg)
     inserts: dict[int, list[str]] = {}
     while mi < len(m73) and m73[mi][0] * total_len <= cum[-1] + 1e-9:

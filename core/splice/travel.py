@@ -52,6 +52,7 @@ __all__ = [
     "wipe_back",
     "wipe_points",
     "route",
+    "cover_travels",
 ]
 
 
@@ -144,6 +145,7 @@ class TravelState:
         self.n_retracts = 0
         self._rings: list | None = None
         self.cache: dict = {}
+        self.covered: dict[tuple[float, float, float, float], bool] = {}  # cover_travels' answers
 
     @property
     def rings(self) -> list:
@@ -157,7 +159,29 @@ class TravelState:
 def _inside(st: TravelState, a: Points2, b: Points2) -> bool:
     if st.region is None:
         return True
+    got = st.covered.get((float(a[0]), float(a[1]), float(b[0]), float(b[1])))
+    if got is not None:
+        return got
     return bool(st.region.covers(LineString([a, b])))
+
+
+def cover_travels(st: TravelState, starts: Points2, ends: Points2) -> None:
+    """Test in one call whether the region covers each straight travel ``starts[k] -> ends[k]``.
+
+    :func:`travel` then looks the answer up instead of building a LineString per travel (issue 17:
+    one shapely object per path was a tenth of the rewrite).  The same prepared region and the same
+    predicate on the same two points, so the same answer.
+
+    Parameters
+    ----------
+    starts, ends : (k, 2) float, mm
+    """
+    if st.region is None or not len(starts):
+        return
+    segs = shapely.linestrings(np.stack([starts, ends], axis=1))
+    ok = np.asarray(shapely.covers(st.region, segs), dtype=bool).tolist()
+    keys = np.concatenate([starts, ends], axis=1).tolist()
+    st.covered.update(zip(map(tuple, keys), ok, strict=True))
 
 
 def route(st: TravelState, a: Points2, b: Points2, reach: float = 0.35) -> Points2 | None:
@@ -231,11 +255,20 @@ def _near_region(st: TravelState, reach: float):
     return st.cache[key]
 
 
-def wipe_points(chain_pts: Points2, distance: float) -> Points2:
-    """Points of a wipe that retraces ``chain_pts`` backwards from its end for ``distance`` mm."""
-    back = chain_pts[::-1]
+def wipe_points(chain_pts: Points2, distance: float, tail: int = 16) -> Points2:
+    """Points of a wipe that retraces ``chain_pts`` backwards from its end for ``distance`` mm.
+
+    Only the last ``tail`` points are measured when they reach ``distance`` (a wipe is a few mm; a
+    chain may be thousands of points): the lengths summed from the end are the same numbers either
+    way, so the points are too.
+    """
+    back = chain_pts[: -tail - 1 : -1] if len(chain_pts) > tail else chain_pts[::-1]
     seg = np.hypot(*(back[1:] - back[:-1]).T)
     cum = np.concatenate([[0.0], np.cumsum(seg)])
+    if len(back) < len(chain_pts) and not cum[-1] >= distance:  # the tail is too short: all of it
+        back = chain_pts[::-1]
+        seg = np.hypot(*(back[1:] - back[:-1]).T)
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
     d = min(distance, float(cum[-1]))
     k = int(np.searchsorted(cum, d, side="left"))
     pts = back[1:k]
@@ -257,14 +290,15 @@ def wipe_back(w: Writer, chain_pts: Points2, distance: float, total: float) -> f
     seg = np.hypot(*(path[1:] - path[:-1]).T)
     if seg.sum() <= 0:
         return 0.0
-    share = total * seg / seg.sum()
-    for (x, y), de in zip(pts, share, strict=True):
-        w.wipe(float(x), float(y), float(de))
+    w.wipe_many(pts, total * seg / seg.sum())
     return total
 
 
-def retract(w: Writer, st: TravelState, last: Points2 | None) -> None:
-    """Retract (wipe first when the slicer does) and lift, as the slicer would before a travel."""
+def retract(w: Writer, st: TravelState, last: Points2 | None, last_length: float | None = None) -> None:
+    """Retract (wipe first when the slicer does) and lift, as the slicer would before a travel.
+
+    ``last_length``: the length of ``last`` (mm) when the caller has it (else measured here).
+    """
     r = st.motion.retraction
     st.n_retracts += 1
     if r.firmware:
@@ -281,7 +315,7 @@ def retract(w: Writer, st: TravelState, last: Points2 | None) -> None:
             # speed, pulling 95 % of what is left; the rest is an E-only move (verified on 2.5 output).
             wipe_speed = 0.8 * st.motion.travel_speed
             dist = r.length / r.speed * wipe_speed
-            avail = float(np.sum(np.hypot(*(last[1:] - last[:-1]).T)))
+            avail = last_length if last_length is not None else _length(last)
             want = 0.95 * (r.length - done) * min(1.0, avail / dist) if dist > 0 else 0.0
             w.marker(w.style.wipe_start, "")
             w.feed(wipe_speed * 60.0)
@@ -291,6 +325,11 @@ def retract(w: Writer, st: TravelState, last: Points2 | None) -> None:
             w.e_move(-(r.length - done), r.speed * 60.0)
     if r.lift > 0:
         w.z_move(st.layer_z + r.lift, st.motion.lift_f)
+
+
+def _length(points: Points2) -> float:
+    """Length of a polyline ``(n, 2)``, mm (the sum :attr:`loadpath.splice.plan.Chain.length` makes)."""
+    return float(np.sum(np.hypot(*(points[1:] - points[:-1]).T)))
 
 
 def unretract(w: Writer, st: TravelState) -> None:
@@ -313,8 +352,13 @@ def travel(
     last: Points2 | None,
     f: float | None = None,
     z: float | None = None,
+    last_length: float | None = None,
 ) -> None:
-    """Travel to ``target``, retracting by the slicer's rules when primed; never leave the region primed."""
+    """Travel to ``target``, retracting by the slicer's rules when primed; never leave the region primed.
+
+    ``last``: the path just printed (a retraction wipes back along it), ``last_length`` its length
+    when the caller has it.
+    """
     here = np.array([w.x, w.y])
     d = float(np.hypot(*(target - here)))
     if d < 1e-9 and z is None:
@@ -337,7 +381,7 @@ def travel(
                 way, inside = routed, True
                 d = float(np.sum(np.hypot(*np.diff(np.vstack([here[None], way]), axis=0).T)))
         if primed and (not inside or (d > r.before_travel and not r.only_when_crossing)):
-            retract(w, st, last)
+            retract(w, st, last, last_length)
             own = True
     for k, (x, y) in enumerate(way):
         last_leg = k == len(way) - 1
