@@ -6,7 +6,11 @@ the whole job, as a user's file would be run.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
+import slicing
+from conftest import require_tool
 from pipeline_helpers import replaced_blocks, run, write_case
 
 
@@ -34,4 +38,49 @@ def test_cura_full_infill_of_crossing_line_families_is_replaced(sliced, case, tm
     for i in fill:  # the pitch of a full block is about its flow width, whatever its line families
         assert blocks[i].pitch == pytest.approx(blocks[i].flow_width, rel=0.1), (i, blocks[i].pitch)
     assert fill <= replaced_blocks(result), sorted(fill - replaced_blocks(result))
+    assert result.pipeline.check.problems == []
+
+
+def _tbeam_stl(folder: Path) -> Path:
+    """A T-beam cantilever in the bed plane (100 x 20 x 5 mm): a flange, a web, the root that is
+    clamped and ribs between them, so the sparse infill's regions are many narrow pieces."""
+    import manifold3d as mf
+
+    sq = mf.CrossSection.square
+    cs = sq((100, 4)).translate((0, 16)) + sq((6, 16)) + sq((100, 4)).translate((0, 6))
+    for x in range(15, 100, 15):
+        cs = cs + sq((3, 6)).translate((x, 10))
+    mesh = slicing._to_trimesh(mf.Manifold.extrude(cs, 5.0))
+    return slicing.write_stl(slicing._at_origin(mesh), folder / "tbeam.stl")
+
+
+TIP_LOAD = """version = 1
+frame = "part"
+[[supports]]
+name = "wall"
+where = { side = "x_min", within = 0.5 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "tip"
+where = { side = "x_max", within = 0.5 }
+force = [0.0, -150.0, 0.0]
+"""
+
+
+def test_stack_density_zones_of_a_ribbed_beam(tmp_path):
+    """The density field's zones on a ribbed T-beam (Cura 40 % tetrahedral, density "stack"): two
+    zone pieces that touched along an edge made a GeometryCollection, whose boundary is None, and
+    the run stopped with an internal error (AttributeError: 'NoneType' object has no attribute
+    'length')."""
+    require_tool("CuraEngine")
+    require_tool("cura")
+    gc = slicing.slice_cura(
+        _tbeam_stl(tmp_path), tmp_path / "tbeam.gcode",
+        **{**slicing.CURA_MIXED, "infill_sparse_density": "40", "infill_pattern": "tetrahedral",
+           "infill_line_distance": "2.0", "infill_sparse_thickness": "0.2"},
+    )
+    case = tmp_path / "tip.toml"
+    case.write_text(TIP_LOAD, encoding="utf-8")
+    program, result, out = run(gc, case, tmp_path / "out.gcode", replace=("sparse",), density="stack")
+    assert replaced_blocks(result)
     assert result.pipeline.check.problems == []
