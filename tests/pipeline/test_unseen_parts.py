@@ -84,3 +84,44 @@ def test_stack_density_zones_of_a_ribbed_beam(tmp_path):
     program, result, out = run(gc, case, tmp_path / "out.gcode", replace=("sparse",), density="stack")
     assert replaced_blocks(result)
     assert result.pipeline.check.problems == []
+
+
+def _block_stl(folder: Path, name: str, size: tuple[float, float, float]) -> Path:
+    box = slicing.trimesh.creation.box(extents=size)
+    return slicing.write_stl(slicing._at_origin(box), folder / name)
+
+
+PULL_A = """version = 1
+frame = "part"
+object = "block_a.stl"
+[[supports]]
+name = "clamp"
+where = { side = "x_min", within = 1.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "pull"
+where = { side = "x_max", within = 1.0 }
+force = [200.0, 0.0, 0.0]
+"""
+
+
+def test_cura_retraction_leaving_a_block_whose_plastic_changed(tmp_path):
+    """Absolute E (Cura): the retraction that leaves a replaced block for the next object was copied
+    verbatim (``G1 F1500 E143.21047``), an absolute target that is a retraction only from the
+    slicer's own end of the block.  The new paths of the block (Cura 100 % cross 3D, level sets)
+    ended 1.07 mm of filament short of it, within the volume tolerance, so the copied line pushed
+    0.27 mm of filament out instead of pulling 0.8 mm back, and the check refused the file
+    ("retraction differs after kept line 720")."""
+    require_tool("CuraEngine")
+    require_tool("cura")
+    stls = [_block_stl(tmp_path, "block_a.stl", (30.0, 20.0, 4.0)),
+            _block_stl(tmp_path, "block_b.stl", (25.0, 15.0, 5.0))]
+    gc = slicing.slice_cura(
+        stls, tmp_path / "blocks.gcode",
+        **{**slicing.CURA_SOLID, "infill_pattern": "cross_3d", "infill_sparse_thickness": "0.2"},
+    )
+    case = tmp_path / "pull_a.toml"
+    case.write_text(PULL_A, encoding="utf-8")
+    program, result, out = run(gc, case, tmp_path / "out.gcode", engine="levelset")
+    assert result.error is None and replaced_blocks(result)
+    assert result.pipeline.check.problems == []
