@@ -241,9 +241,11 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     except MemoryError:
         error, failed = "out of memory; close other programs or process a smaller file", InternalError
     except Exception as exc:  # a bug: still one line, saying what became of the files
+        if os.environ.get("LOADPATH_DEBUG", "") not in ("", "0"):
+            raise  # interface.md: LOADPATH_DEBUG=1 shows the traceback (the CLI's catch-all re-raises it)
         error = (
             f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); "
-            "please report this with the G-code and load case"
+            "please report this with the G-code and load case (LOADPATH_DEBUG=1 shows where)"
         )
         failed = InternalError
     keep = on_failure == "keep" or (result.settings is not None and result.settings.on_failure == "keep")

@@ -25,12 +25,19 @@ from loadpath import budget
 from loadpath.errors import BudgetError, GeometryError
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
-from loadpath.geometry.classify import classify, exposed_fraction
+from loadpath.geometry.classify import SOLID_DENSITY, classify, exposed_fraction
 from loadpath.geometry.flow import filament_diameter, flow_widths
 from loadpath.geometry.model import InfillBlock, Island, LayerGeometry, ObjectGeometry, PrintGeometry
 from loadpath.geometry.ops import EMPTY, as_region, polygons_of
 from loadpath.geometry.pitch import PitchEstimate, estimate_pitch
-from loadpath.geometry.regions import BlockLines, check_tolerance, footprints, outside_distance, regions
+from loadpath.geometry.regions import (
+    DENSE_PITCH,
+    BlockLines,
+    check_tolerance,
+    footprints,
+    outside_distance,
+    regions,
+)
 from loadpath.geometry.walls import walls
 
 __all__ = ["layer_geometry", "object_names", "MIN_STRAIGHT"]
@@ -291,6 +298,23 @@ def _full_pitch(bl: BlockLines, role: Role) -> BlockLines:
     return bl
 
 
+def _full_kind_pitch(b: InfillBlock, kind: str) -> float:
+    """The pitch of a block solid by its plastic: its flow width when its lines measure sparse.
+
+    :func:`_full_pitch` does this for the roles slicers always print solid; a block of a sparse role
+    is solid by its density alone (:data:`~.classify.SOLID_DENSITY`), known only once its region is.
+    Cura at 100 % with a pattern of several line families per layer (grid: two, triangles,
+    tri-hexagon, cubic: three) lays each family 2-3 flow widths apart, and the dominant family's
+    spacing (:func:`~.pitch.estimate_pitch`) is not the spacing of neighbouring beads: taken as the
+    new paths' pitch, it laid a third to a half of the slicer's volume, and every such block was kept.
+    """
+    if kind == "sparse" or not (np.isfinite(b.density) and b.density >= SOLID_DENSITY):
+        return b.pitch
+    if b.pitch <= DENSE_PITCH * b.flow_width:
+        return b.pitch
+    return b.flow_width
+
+
 def _classified(layers: list[LayerGeometry]) -> list[LayerGeometry]:
     """Set every block's kind from its density and its exposure to the object's neighbouring layers."""
     from dataclasses import replace
@@ -307,7 +331,8 @@ def _classified(layers: list[LayerGeometry]) -> list[LayerGeometry]:
                 down = exposed_fraction(b.region, below, b.bead_width) if i > 0 else 1.0
                 up = exposed_fraction(b.region, above, b.bead_width)
                 kind = classify(b.role, b.density, i == 0, down, up)
-                blocks.append(replace(b, kind=kind, exposed_down=down, exposed_up=up))
+                blocks.append(replace(b, kind=kind, exposed_down=down, exposed_up=up,
+                                      pitch=_full_kind_pitch(b, kind)))
             islands.append(replace(isl, blocks=tuple(blocks)))
         out.append(replace(g, islands=tuple(islands)))
     return out

@@ -39,7 +39,7 @@ from loadpath.gcode.parse import _HEAD, _print_end, _volumetric_area
 from loadpath.gcode.words import G, tokenize
 from loadpath.splice.lineview import EXTRUSION_DTYPE, FAMILIES, Carry, read_piece
 from loadpath.splice.splicer import SpliceResult
-from loadpath.splice.verify import SpliceCheck, first_difference, kept_state
+from loadpath.splice.verify import SpliceCheck, first_difference, kept_state, state_value
 
 __all__ = ["check_pieces", "PIECE_LINES"]
 
@@ -197,7 +197,7 @@ def check_pieces(
             if k is not None:
                 first_bad[name] = (
                     f"{name} differs after kept line {ik[k] + 1} ({original.line(int(ik[k]))!r}): "
-                    f"{a[k]!r} in the original, {b[k]!r} in the output"
+                    f"{state_value(a[k])} in the original, {state_value(b[k])} in the output"
                 )
 
         for name, a, b, tol, mask in kept_state(so, st, ik, jk, motion[sel]):

@@ -18,7 +18,8 @@ core (``start:stop``)
     slicer is set up to.
 leaving part (``stop:span_stop`` and the detached exit)
     Wipe moves are regenerated backwards along the new last chain, with the same total E (the same
-    retraction); retraction lines and markers are kept verbatim.
+    retraction); retraction lines and markers are kept verbatim (in absolute E mode after a ``G92 E``
+    that puts E where the original had it, when the new chains' plastic ended elsewhere).
 afterwards
     ``;WIDTH:``/``;HEIGHT:`` re-emitted as the original had them, Z and feedrate restored,
     ``G92 E<original>`` in absolute E mode, and a travel back to the original end point when the next
@@ -110,8 +111,17 @@ def _verbatim(w: Writer, st: TravelState, i: int) -> None:
     p = st.program
     s = p.state
     text = p.line(i)
-    w.raw(text)
     prev = i - 1
+    if (
+        prev >= 0
+        and not bool(s.e_relative[i])
+        and int(s.cmd[i]) in (G + 0, G + 1, G + 2, G + 3)
+        and round(w.e, 5) != round(float(s.e[prev]), 5)
+    ):
+        # absolute E: the copied line's E is a target that means the original's move (a retraction of
+        # 0.8 mm) only from the original's E; new paths whose plastic differs end elsewhere
+        w.set_e(float(s.e[prev]))
+    w.raw(text)
     dz = float(s.z[i] - (s.z[prev] if prev >= 0 else 0.0))
     de = float(s.e[i] - (s.e[prev] if prev >= 0 else 0.0))
     w.z += dz

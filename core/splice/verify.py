@@ -131,6 +131,12 @@ def first_difference(a: np.ndarray, b: np.ndarray, tol: float = 0.0, mask: np.nd
     return int(np.argmax(bad)) if bad.any() else None
 
 
+def state_value(x: object) -> str:
+    """A machine-state value as a problem line shows it: ``0.8``, ``True``, not ``np.float64(0.800001)``."""
+    v = x.item() if isinstance(x, np.generic) else x
+    return f"{v:.6g}" if isinstance(v, float) else repr(v)
+
+
 def kept_state(so, sn, i_k: np.ndarray, j_k: np.ndarray, motion: np.ndarray):
     """The machine state a kept line must see in the output as in the original, one field at a time.
 
@@ -212,7 +218,7 @@ def check_splice(
         if k is not None:
             problems.append(
                 f"{name} differs after kept line {i_k[k] + 1} ({original.line(int(i_k[k]))!r}): "
-                f"{a[k]!r} in the original, {b[k]!r} in the output"
+                f"{state_value(a[k])} in the original, {state_value(b[k])} in the output"
             )
 
     motion = np.isin(so.cmd[i_k], (G + 0, G + 1, G + 2, G + 3))

@@ -89,6 +89,29 @@ def test_unexpected_exception_is_one_line_and_debug_keeps_the_traceback(part, tm
     assert "Traceback" in r.stderr and "FloatingPointError" in r.stderr and "noisy" in r.stderr
 
 
+def test_unexpected_exception_in_run_is_one_line_and_debug_keeps_the_traceback(part, tmp_path):
+    """The same for ``run``, whose job catches a bug before the command's catch-all does: it said
+    one line, but LOADPATH_DEBUG=1 showed no traceback either (found diagnosing the hardening
+    campaign's zones crash, abf05c6)."""
+    g, case = part
+    mod = tmp_path / "sitecustomize.py"
+    mod.write_text(
+        "import loadpath.pipeline as p\n"
+        "def boom(*a, **k):\n"
+        "    raise AttributeError(\"'NoneType' object has no attribute 'length'\")\n"
+        "p.run = boom\n")
+    env = {"PYTHONPATH": f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    before = g.read_bytes()
+    r = _cli("run", g, "--loadcase", case, env=env)
+    err = _one_line(r)
+    assert r.returncode == 1 and "internal error (AttributeError" in err
+    assert "please report" in err and "LOADPATH_DEBUG=1" in err and "is untouched" in err
+    r = _cli("run", g, "--loadcase", case, env={**env, "LOADPATH_DEBUG": "1"})
+    assert r.returncode == 1
+    assert "Traceback" in r.stderr and "in boom" in r.stderr, r.stderr[-2000:]
+    assert g.read_bytes() == before and not g.with_suffix(".loadpath.gcode").exists()
+
+
 def test_memory_error_is_one_line(part, tmp_path):
     g, _ = part
     mod = tmp_path / "sitecustomize.py"
