@@ -20,14 +20,16 @@ def side_case(
     part_frame: bool = False,
     support: str = "clamp",
     load: str = "pull",
+    obj: str | None = None,
 ) -> str:
     """A load case holding the part (x, y, z fixed) within ``held_within`` mm of side ``held`` and
     loading it with ``force`` (N, x/y/z) within ``loaded_within`` mm of side ``loaded``.
 
     ``part_frame`` writes ``frame = "part"`` (coordinates of the part, not the bed); ``support`` and
-    ``load`` name the two entries as reports show them.
+    ``load`` name the two entries as reports show them; ``obj`` names the object the case is for
+    (``object =``, a plate with several).
     """
-    frame = 'frame = "part"\n' if part_frame else ""
+    frame = ('frame = "part"\n' if part_frame else "") + (f'object = "{obj}"\n' if obj else "")
     fx, fy, fz = (float(f) for f in force)
     return (
         f"version = 1\n{frame}"

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 import slicing
+from cases import side_case
 from conftest import require_tool
 from pipeline_helpers import replaced_blocks, run, write_case
 
@@ -54,17 +55,9 @@ def _tbeam_stl(folder: Path) -> Path:
     return slicing.write_stl(slicing._at_origin(mesh), folder / "tbeam.stl")
 
 
-TIP_LOAD = """version = 1
-frame = "part"
-[[supports]]
-name = "wall"
-where = { side = "x_min", within = 0.5 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "tip"
-where = { side = "x_max", within = 0.5 }
-force = [0.0, -150.0, 0.0]
-"""
+TIP_LOAD = side_case(
+    (0.0, -150.0, 0.0), held_within=0.5, loaded_within=0.5, part_frame=True, support="wall", load="tip"
+)
 
 
 def test_stack_density_zones_of_a_ribbed_beam(tmp_path):
@@ -91,18 +84,7 @@ def _block_stl(folder: Path, name: str, size: tuple[float, float, float]) -> Pat
     return slicing.write_stl(slicing._at_origin(box), folder / name)
 
 
-PULL_A = """version = 1
-frame = "part"
-object = "block_a.stl"
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 1.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 1.0 }
-force = [200.0, 0.0, 0.0]
-"""
+PULL_A = side_case((200.0, 0.0, 0.0), held_within=1.0, loaded_within=1.0, part_frame=True, obj="block_a.stl")
 
 
 def test_cura_retraction_leaving_a_block_whose_plastic_changed(tmp_path):
