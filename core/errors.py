@@ -23,6 +23,8 @@ Third-party failures (gmsh, OSQP, file I/O) are wrapped at the boundary into one
 
 from __future__ import annotations
 
+import os
+
 __all__ = [
     "LoadpathError",
     "GCodeParseError",
@@ -37,6 +39,7 @@ __all__ = [
     "BudgetError",
     "InternalError",
     "LoadpathWarning",
+    "showing_tracebacks",
 ]
 
 
@@ -143,3 +146,9 @@ class InternalError(LoadpathError):
 
 class LoadpathWarning(UserWarning):
     """Base class of loadpath's warnings (things passed through, estimates that went stale, ...)."""
+
+
+def showing_tracebacks() -> bool:
+    """Whether a bug keeps its traceback instead of becoming one line: ``LOADPATH_DEBUG`` set to
+    anything but empty or ``0`` (interface.md; the CLI's catch-all and a job's both ask here)."""
+    return os.environ.get("LOADPATH_DEBUG", "") not in ("", "0")

@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Sequence
 
 from loadpath import __version__
-from loadpath.errors import LoadpathError
+from loadpath.errors import LoadpathError, showing_tracebacks
 from loadpath.plugin import lifecycle
 
 __all__ = ["main", "COMMANDS"]
@@ -82,7 +82,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(command if command in COMMANDS else None)
     args = parser.parse_args(argv)
-    debug = os.environ.get("LOADPATH_DEBUG", "") not in ("", "0")
+    debug = showing_tracebacks()
     # quiet only for the command's duration: a caller in the same process (tests, a plugin) keeps
     # its own warning filters and hooks afterwards
     hook, options = sys.unraisablehook, list(sys.warnoptions)

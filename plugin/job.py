@@ -32,7 +32,7 @@ from typing import Any
 
 from loadpath import engines
 from loadpath.density import DensityOptions
-from loadpath.errors import InternalError, LoadpathError, SettingsError
+from loadpath.errors import InternalError, LoadpathError, SettingsError, showing_tracebacks
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
 from loadpath.plugin.density_choice import CANDIDATES, describe, judge, run_choosing
@@ -241,7 +241,7 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     except MemoryError:
         error, failed = "out of memory; close other programs or process a smaller file", InternalError
     except Exception as exc:  # a bug: still one line, saying what became of the files
-        if os.environ.get("LOADPATH_DEBUG", "") not in ("", "0"):
+        if showing_tracebacks():
             raise  # interface.md: LOADPATH_DEBUG=1 shows the traceback (the CLI's catch-all re-raises it)
         error = (
             f"internal error ({type(exc).__name__}: {' '.join(str(exc).split())}); "
