@@ -338,21 +338,11 @@ class Writer:
         self.filament += float(np.sum(de)) / self.scale
         self.retracted = 0.0
 
-    def wipe(self, x: float, y: float, de: float) -> None:
-        """Move to ``(x, y)`` while pulling ``de`` mm of filament back (``de`` > 0)."""
-        words = [f"X{self._n(x)}", f"Y{self._n(y)}"]
-        ew = self._e_word(-de)
-        if ew is not None:
-            words.append(ew)
-        self._move("G1", words, None, self._dist(x, y))
-        self.x, self.y = x, y
-        self.retracted += de
-
     def wipe_many(self, points, de) -> None:
-        """:meth:`wipe` to each of ``points`` in turn, pulling ``de[k]`` on the way to the k-th.
+        """Move to each of ``points`` in turn while pulling filament back, ``de[k]`` on the way to the k-th.
 
-        The same lines and state as one :meth:`wipe` call per point, with the coordinates formatted
-        in one pass (:func:`fmt_many`); E, time and retraction accumulate point by point as there.
+        One ``G1 X Y E`` line per point (no E word where the pull rounds to nothing), the coordinates
+        formatted in one pass (:func:`fmt_many`); E, time and retraction accumulate point by point.
 
         Parameters
         ----------
