@@ -22,7 +22,7 @@ def case(tmp_path_factory):
 
 def _blocks(result):
     geo = result.pipeline.geometry
-    return {b.block_index: b for o in geo.objects for lg in o.layers for i in lg.islands for b in i.blocks}
+    return {b.block_index: b for o in geo.objects for lg in o.layers for b in lg.blocks}
 
 
 @pytest.mark.parametrize("pattern, spacing", [("trihexagon", 1.2), ("grid", 0.8), ("cubic", 1.2)])
