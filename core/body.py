@@ -14,19 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Region
+from loadpath.areal import polygons_of
 from loadpath.errors import GeometryError
 from loadpath.tolerances import TOL
 from shapely.geometry import MultiPolygon, Polygon
 from shapely.geometry.polygon import orient
 
-__all__ = ["Slab", "Body", "merge_slabs", "cover_slabs", "outline_difference", "polygons_of"]
-
-
-def polygons_of(region: Region) -> list[Polygon]:
-    """Return the polygons of a Polygon or MultiPolygon (empty parts dropped)."""
-    if isinstance(region, Polygon):
-        return [] if region.is_empty else [region]
-    return [p for p in region.geoms if not p.is_empty]
+__all__ = ["Slab", "Body", "merge_slabs", "cover_slabs", "outline_difference"]
 
 
 def _clean(region: Region, where: str) -> Region:

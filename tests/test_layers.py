@@ -24,7 +24,8 @@ ROOTS = {
 }
 
 STACK: tuple[tuple[str, ...], ...] = (
-    ("loadpath", "loadpath._typing", "loadpath.errors", "loadpath.tolerances", "loadpath.budget", "loadpath.jit"),
+    ("loadpath", "loadpath._typing", "loadpath.errors", "loadpath.tolerances", "loadpath.budget", "loadpath.jit",
+     "loadpath.areal"),
     # the contracts between stages: stress field, engine input/output, body, engine registry,
     # toolpath options, metrics of paths in a field
     (

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Points2, Region
+from loadpath.areal import as_region
 from loadpath.density import DensityField
 
 __all__ = ["Zone", "zones"]
@@ -46,21 +47,6 @@ def _cells(mask: np.ndarray, origin: np.ndarray, cell: float) -> Region:
             xa, xb = origin[0] + (a - 0.5) * cell, origin[0] + (b - 0.5) * cell
             boxes.append(shapely.box(xa, y0, xb, y0 + cell))
     return shapely.union_all(boxes) if boxes else shapely.Polygon()
-
-
-def _areal(geom) -> Region:
-    """The polygons of a geometry (a Polygon or MultiPolygon, possibly empty).
-
-    An intersection or difference of two regions that touch along an edge or at a point is a
-    GeometryCollection holding that line or point besides the polygons; its ``boundary`` is None.
-    """
-    if geom.geom_type in ("Polygon", "MultiPolygon"):
-        return geom
-    polys = [p for p in shapely.get_parts(geom) if p.geom_type == "Polygon" and p.area > 0]
-    polys += [q for p in shapely.get_parts(geom) if p.geom_type == "MultiPolygon" for q in p.geoms]
-    if not polys:
-        return shapely.Polygon()
-    return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
 
 
 def zones(df: DensityField, region: Region, n_levels: int = 6) -> list[Zone]:
@@ -105,15 +91,15 @@ def zones(df: DensityField, region: Region, n_levels: int = 6) -> list[Zone]:
     # the cells' union does not follow the region's edge: the zones are the region split along the
     # cell boundaries between levels (each piece grown over the region's edge, then clipped)
     reach = 2.0 * df.cell
-    geoms = [_areal(shapely.intersection(region, p.buffer(reach, join_style="mitre"))) for p, _ in pieces]
+    geoms = [as_region(shapely.intersection(region, p.buffer(reach, join_style="mitre"))) for p, _ in pieces]
     claimed = shapely.Polygon()
     order = np.argsort([-g.area for g in geoms])
     taken: list[tuple[Region, int]] = []
     for i in order:
-        g = _areal(shapely.difference(geoms[i], claimed)) if not claimed.is_empty else geoms[i]
+        g = as_region(shapely.difference(geoms[i], claimed)) if not claimed.is_empty else geoms[i]
         claimed = shapely.union(claimed, g)
         taken.append((g, pieces[i][1]))
-    rest = _areal(shapely.difference(region, claimed))
+    rest = as_region(shapely.difference(region, claimed))
     # merge small pieces into the neighbour they share most boundary with
     items = [(g, k) for g, k in taken if not g.is_empty]
     changed = True
@@ -132,13 +118,13 @@ def zones(df: DensityField, region: Region, n_levels: int = 6) -> list[Zone]:
             if best < 0:
                 continue
             h, kb = items[best]
-            items[best] = (_areal(shapely.union(h, g)), kb)
+            items[best] = (as_region(shapely.union(h, g)), kb)
             items.pop(a)
             changed = True
             break
     if not rest.is_empty and items:
         g, k = max(items, key=lambda t: t[0].area)
-        items[items.index((g, k))] = (_areal(shapely.union(g, rest)), k)
+        items[items.index((g, k))] = (as_region(shapely.union(g, rest)), k)
     # one zone per level; its pitch lays the fill the field asks for on average over it
     out: list[Zone] = []
     for k in sorted({k for _, k in items}):

@@ -22,13 +22,13 @@ import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Region
 from loadpath import budget
+from loadpath.areal import EMPTY, as_region, polygons_of
 from loadpath.errors import BudgetError, GeometryError
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
 from loadpath.geometry.classify import SOLID_DENSITY, classify, exposed_fraction
 from loadpath.geometry.flow import filament_diameter, flow_widths
 from loadpath.geometry.model import InfillBlock, Island, LayerGeometry, ObjectGeometry, PrintGeometry
-from loadpath.geometry.ops import EMPTY, as_region, polygons_of
 from loadpath.geometry.pitch import PitchEstimate, estimate_pitch
 from loadpath.geometry.regions import (
     DENSE_PITCH,

@@ -12,9 +12,10 @@ from typing import TYPE_CHECKING
 
 import shapely
 from loadpath._typing import Region
+from loadpath.areal import EMPTY, as_region
 from loadpath.gcode.flavors import Dialect, Role
 from loadpath.geometry.classify import DEFAULT_REPLACE, REPLACEABLE
-from loadpath.geometry.ops import EMPTY, as_region, clean
+from loadpath.geometry.ops import clean
 
 if TYPE_CHECKING:  # the load case is optional here: imported when a body is asked for
     from loadpath.body import Body

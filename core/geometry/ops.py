@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Bools, Floats, Ints, Region
+from loadpath.areal import EMPTY, as_region, polygons_of
 from loadpath.tolerances import TOL
 from shapely.geometry import MultiPolygon, Polygon
 from shapely.geometry.base import BaseGeometry
@@ -24,17 +25,11 @@ __all__ = [
     "Chains",
     "chains",
     "bead_union",
-    "polygons_of",
-    "as_region",
     "clean",
     "closing",
     "opening",
     "region_difference",
-    "EMPTY",
 ]
-
-EMPTY = Polygon()
-"""The empty region."""
 
 _MITRE_LIMIT = 2.0  # mitre joins keep the slicer's sharp corners; spikes sharper than ~60 deg are cut
 
@@ -187,26 +182,6 @@ def bead_union(x0: Floats, y0: Floats, x1: Floats, y1: Floats, half: Floats, gro
             np.stack([np.column_stack([x0[rows], y0[rows]]), np.column_stack([x1[rows], y1[rows]])], axis=1))
         geoms.append(shapely.buffer(seg, half[rows] + grow, quad_segs=4))
     return as_region(shapely.union_all(np.concatenate(geoms)))
-
-
-def polygons_of(region: BaseGeometry) -> list[Polygon]:
-    """Return the non-empty polygons of a (Multi)Polygon or GeometryCollection."""
-    if region is None or region.is_empty:
-        return []
-    if isinstance(region, Polygon):
-        return [region]
-    out: list[Polygon] = []
-    for g in getattr(region, "geoms", []):
-        out.extend(polygons_of(g))
-    return out
-
-
-def as_region(geom: BaseGeometry) -> Region:
-    """Keep the areal part of a geometry: a Polygon, a MultiPolygon, or the empty Polygon."""
-    polys = [p for p in polygons_of(geom) if p.area > 0]
-    if not polys:
-        return EMPTY
-    return polys[0] if len(polys) == 1 else MultiPolygon(polys)
 
 
 def closing(region: Region, r: float) -> Region:

@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 from loadpath._typing import Region
+from loadpath.areal import polygons_of
 from loadpath.errors import ToolMissingError
 from loadpath.gcode.flavors import Role
 from loadpath.gcode.model import Program
 from loadpath.geometry.classify import DEFAULT_REPLACE
 from loadpath.geometry.model import LayerGeometry
-from loadpath.geometry.ops import polygons_of
 
 __all__ = ["draw_layer", "draw_selections", "draw_stress"]
 

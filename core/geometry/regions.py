@@ -32,7 +32,8 @@ import numpy as np
 import shapely
 from loadpath import budget
 from loadpath._typing import Floats, Region
-from loadpath.geometry.ops import EMPTY, as_region, bead_union, clean
+from loadpath.areal import EMPTY, as_region
+from loadpath.geometry.ops import bead_union, clean
 from loadpath.tolerances import TOL
 
 __all__ = ["BlockLines", "footprints", "regions", "nearest_split", "outside_distance", "check_tolerance",

@@ -10,11 +10,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from loadpath.areal import EMPTY, as_region
 from loadpath.gcode.model import Program
 from loadpath.geometry.classify import DEFAULT_REPLACE
 from loadpath.geometry.groups import group_regions
 from loadpath.geometry.model import LayerGeometry, PrintGeometry
-from loadpath.geometry.ops import EMPTY, as_region
 
 __all__ = ["LayerRow", "layer_rows", "format_layer_table", "distinct_file_layers", "describe_resolved"]
 

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Bools, Floats, Region
-from loadpath.geometry.ops import EMPTY, as_region, bead_union, polygons_of
+from loadpath.areal import EMPTY, as_region, polygons_of
+from loadpath.geometry.ops import bead_union
 from loadpath.tolerances import TOL
 from shapely.geometry import LinearRing, Polygon
 

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from loadpath.body import Body, polygons_of
+from loadpath.areal import polygons_of
+from loadpath.body import Body
 from loadpath.loadcase.model import BoxSelector, HoleSelector, Selector, SideSelector
 from loadpath.tolerances import TOL
 from shapely.geometry import LineString, MultiLineString, Point, Polygon

@@ -274,7 +274,7 @@ def _check_budget(
 
     Returns the estimate (triangles), which sets gmsh's time budget (:func:`_generate`).
     """
-    from loadpath.body import polygons_of
+    from loadpath.areal import polygons_of
     from loadpath.mesh.sizing import reentrant_corners
 
     holes = sum(r.length for o in (outline, *more) for p in polygons_of(o) for r in p.interiors)

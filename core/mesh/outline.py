@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from loadpath._typing import Points2
-from loadpath.body import polygons_of
+from loadpath.areal import polygons_of
 from loadpath.errors import MeshingError
 from loadpath.mesh.sizing import MeshSize, reentrant_corners
 from shapely.geometry import LineString, Point

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from loadpath._typing import Region
-from loadpath.body import polygons_of
+from loadpath.areal import polygons_of
 
 __all__ = ["MeshSize", "default_mesh_size", "reentrant_corners", "DEFAULT_PITCH", "DEFAULT_MAX_TETS"]
 

@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 import shapely
+from loadpath.areal import polygons_of
 from loadpath.errors import LoadpathError
 from loadpath.loadcase import Body, merge_slabs
-from loadpath.body import polygons_of
 from shapely.geometry import LineString, MultiLineString, Polygon
 
 __all__ = [

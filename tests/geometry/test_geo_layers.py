@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import shapely
 from loadpath import gcode, geometry
+from loadpath.areal import polygons_of
 from loadpath.errors import GeometryError
-from loadpath.geometry.ops import polygons_of
 from loadpath.geometry.regions import check_tolerance
 
 sliced_step = geometry_fixtures.sliced_step  # the stepped part, sliced for real
