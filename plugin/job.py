@@ -35,7 +35,7 @@ from loadpath.density import DensityOptions
 from loadpath.errors import InternalError, LoadpathError, SettingsError, showing_tracebacks
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
-from loadpath.plugin.density_choice import CANDIDATES, describe, judge, run_choosing
+from loadpath.plugin.density_choice import CANDIDATES, MASS_TOLERANCE, describe, judge, mass_change, run_choosing
 from loadpath.plugin.lifecycle import note_written
 from loadpath.plugin.job_record import already_processed, fate, log, own_warnings, with_header
 from loadpath.printability import verdict_counts
@@ -408,6 +408,12 @@ def _run(
     times.update(pres.times)
     result.warnings.extend(pres.warnings)
     result.changed = pres.changed
+    share = mass_change(pres) if "sparse" in s.replace and s.sparse_fill is None else None
+    if share is not None and abs(share) > MASS_TOLERANCE:  # a "stack" pair broken by a block kept as sliced
+        result.warnings.append(
+            f"the replaced infill has {share:+.0%} of the slicer's plastic, not its mass: blocks kept as "
+            "sliced left their partner layers' extra plastic in place; try --set density=energy"
+        )
 
     # the verdict (cheap but for the stiffness prediction) and the report are made before the
     # output is written: a failure of either costs nothing on disk

@@ -13,7 +13,14 @@ def test_no_loss_ranks_first_then_the_product():
     # the 3-point beam's: both keep, the larger product wins
     assert score(1.230, 1.879) > score(1.249, 1.310)
     assert score(None, None) < score(0.5, 0.5)
-    assert score(1.1, None) == (1, 1.1)
+    assert score(1.1, None) == (1, 1, 1.1)
+
+
+def test_a_candidate_off_the_slicers_mass_ranks_below_one_on_it():
+    # bench_printability --principal alternate, CuraEngine 40 % beam: "stack" kept its minor layers
+    # as sliced and laid +38 % plastic; its larger absolute ratios were bought with it
+    assert score(1.140, 1.238, keeps_mass=True) > score(1.243, 1.333, keeps_mass=False)
+    assert score(0.9, 0.9, keeps_mass=True) > score(2.0, 2.0, keeps_mass=False)
 
 
 def test_the_verdict_names_the_kept_criterion_and_the_figures_that_chose_it():
@@ -23,3 +30,5 @@ def test_the_verdict_names_the_kept_criterion_and_the_figures_that_chose_it():
     assert describe(Choice("energy", (("energy", None, None),))) == (
         "'energy' (auto: nothing to judge by, the first candidate kept)")
     assert "failure load not predicted" in describe(Choice("energy", (("energy", 1.2, None),)))
+    off = describe(Choice("energy", (("energy", 1.14, 1.238), ("stack", 1.243, 1.333)), (("stack", 0.38),)))
+    assert off.endswith("; stack laid +38% of the slicer's plastic (blocks kept as sliced), not its mass)")
