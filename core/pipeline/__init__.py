@@ -65,6 +65,7 @@ from loadpath.pipeline.paths import (
     plan_jobs,
     reuses,
     run_jobs,
+    short_runs,
     stagger,
     volume_scale,
 )
@@ -409,32 +410,40 @@ def run(
     copies = [
         Job(jobs[k].unit, jobs[k].principal, jobs[k].input, jobs[k].units, {"phase": 0.5}) for k in phased
     ]
-    keys = None
-    if cache is not None:
-        keys = [
-            job_key(
-                j,
-                options.engine,
-                options.engine_params,
-                _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
-                splice_options.plan.max_correction,
-            )
-            for j in jobs + copies
-        ]
-    results = run_jobs(
-        jobs + copies,
-        options.engine,
-        dict(options.engine_params),
-        options.workers,
-        lambda done, total: tell("paths", done, total),
-        length_retry=splice_options.plan.max_correction,
-        machine=Machine(
-            nozzle=splice_options.plan.nozzle_diameter,
-            width_range=tuple(float(w) for w in splice_options.plan.width_range),
-        ),
-        cache=cache,
-        keys=keys,
+    retry = splice_options.plan.max_correction
+    machine = Machine(
+        nozzle=splice_options.plan.nozzle_diameter,
+        width_range=tuple(float(w) for w in splice_options.plan.width_range),
     )
+
+    def engine_runs(todo: list[Job], factors: list[float]) -> list[tuple[Toolpaths, float]]:
+        keys = None
+        if cache is not None:
+            keys = [
+                job_key(
+                    j,
+                    options.engine,
+                    options.engine_params,
+                    _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
+                    retry,
+                    f,
+                )
+                for j, f in zip(todo, factors, strict=True)
+            ]
+        return run_jobs(
+            todo,
+            options.engine,
+            dict(options.engine_params),
+            options.workers,
+            lambda done, total: tell("paths", done, total),
+            length_retry=retry,
+            machine=machine,
+            cache=cache,
+            keys=keys,
+            pitch_factor=factors,
+        )
+
+    results = engine_runs(jobs + copies, [1.0] * (len(jobs) + len(copies)))
     shifted = {k: tp for k, (tp, _) in zip(phased, results[len(jobs) :], strict=True)}
     results = results[: len(jobs)]
     clock.lap("paths")
@@ -450,6 +459,30 @@ def run(
         units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
         field_ids=field_ids,
     )
+    # a sparse run whose linked layers still fall short of the slicer's plastic by more than the
+    # flow correction takes back would be kept as sliced: it is run again at a closer pitch, once
+    # (short_runs), and everything is linked again (the other jobs' links come from the cache)
+    printed = [
+        [sum(p.length for p in (er.printed or er.paths.paths))]
+        + ([sum(p.length for p in er.shifted)] if er.shifted else [])
+        for er in job_results
+    ]
+    again = short_runs(jobs, printed, retry)
+    if again:
+        idx = sorted(again)
+        redo = [jobs[i] for i in idx] + [copies[phased.index(i)] for i in idx if i in phased]
+        factors = [again[i] for i in idx] + [again[i] for i in idx if i in phased]
+        got = engine_runs(redo, factors)
+        for i, res in zip(idx, got[: len(idx)], strict=True):
+            res[0].stats["pitch_factor_after_links"] = again[i]
+            results[i] = res
+        for i, res in zip([i for i in idx if i in phased], got[len(idx) :], strict=True):
+            shifted[i] = res[0]
+        job_results, fills = _fills(
+            units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
+            field_ids=field_ids,
+        )
+        clock.lap("paths")
     sres = splice(program, fills, splice_options, workers=options.workers)
     for block, why in sres.skipped:
         b = program.block(block)

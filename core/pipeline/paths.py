@@ -19,9 +19,10 @@ Sparse infill keeps the slicer's bead width, so its plastic is its length: a run
 alone are longer than the slicer's extrusion by more than the splicer's flow correction can take
 back (``max_correction``; in a narrow region one path more is a fifth of the layer) is run once
 more at the pitch that scales its length onto the slicer's, and the closer of the two is kept
-(:func:`_run_one`).  A run that is too short
-is left alone: the printed links between path ends add length the paths do not show (on Cura's
-4 mm sparse pitch, links up to 8 mm long make up a short run).
+(:func:`_run_one`).  A run that is too short is not judged here: the printed links between path
+ends add length the paths do not show (on Cura's 4 mm sparse pitch, links up to 8 mm long make up a
+short run).  Once linked, a run still short by more than the flow correction is run again at a
+closer pitch (:func:`short_runs`, ``pitch_factor`` of :func:`run_jobs`).
 
 Engine runs go to worker processes (``fork``: the stress fields and regions are inherited, only the
 paths come back) when there are several and ``jobs > 1``; results are collected by index, so the
@@ -56,6 +57,7 @@ __all__ = [
     "Job",
     "plan_jobs",
     "run_jobs",
+    "short_runs",
     "lays_phase",
     "stagger",
     "assign",
@@ -212,8 +214,18 @@ _WORK: list[tuple[str, EngineInput, dict[str, Any], float | None, float, Machine
 
 _PITCH_STEP = (0.6, 1.6)  # bounds of the second run's pitch, as a factor of the first's
 
+SHORT_AIM = 0.5
+"""A linked run short of the slicer's length by more than the flow correction is run again aiming
+this share of the correction under that length (0.5: 7.5 % under at the default 0.15): its links,
+laid again, add length once more.  The streamline engine on CuraEngine's 40 % L-bracket
+(``benchmarks/bench_printability.py``) laid 72-74 % of the slicer's length and 79 % linked; the flow
+correction's 15 % left every block at 91 %, all kept as sliced.  Judged on the engine's length alone
+the same rule hit runs the links make up (the 40 % beam's streamlines, 73 % alone)."""
 
-def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float) -> str:
+
+def job_key(
+    job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float, pitch_factor: float = 1.0
+) -> str:
     """Key of one engine run's paths in the cache (:mod:`loadpath.cache`).
 
     Parameters
@@ -227,6 +239,8 @@ def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, len
         height it is cut at (or ``2d``) and the principal stress.
     length_retry : float
         As :func:`run_jobs` (a fixed-width job may be run again at another pitch).
+    pitch_factor : float
+        As :func:`run_jobs`: the engine ran at the job's pitch times this.
 
     The rest comes from the job: its region (to 1 µm), pitch (to 1 µm), load entry, seed, its
     density field (:func:`density_bytes`) and, for a fixed-width job, the slicer's extruded length
@@ -244,7 +258,7 @@ def job_key(job: Job, engine: str, params: Mapping[str, Any], field_id: str, len
             engine,
             repr(sorted((str(k), repr(v)) for k, v in merged.items())),
             field_id,
-            f"{inp.pitch:.6f} {inp.seed} {length_retry!r}",
+            f"{inp.pitch:.6f} {inp.seed} {length_retry!r}" + ("" if pitch_factor == 1.0 else f" x{pitch_factor!r}"),
             "none" if target is None else f"{target:.3f}",
             f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid",
             geometry_bytes(inp.region),
@@ -315,6 +329,34 @@ def _run_one(i: int) -> tuple[Toolpaths, float]:
     return tp, time.perf_counter() - t0
 
 
+def short_runs(jobs: Sequence[Job], printed: Sequence[Sequence[float]], retry: float) -> dict[int, float]:
+    """The fixed-width jobs whose linked runs fall short of the slicer's length by more than ``retry``.
+
+    Parameters
+    ----------
+    jobs : sequence of Job
+    printed : sequence of sequence of float, mm
+        Per job, the length of each of its linked layers (the runs with their links: its first
+        layer and its staggered copy).
+    retry : float
+        The share the splicer's flow correction takes back (``max_correction``).
+
+    Returns
+    -------
+    dict
+        Job index -> the factor on its pitch that lays :data:`SHORT_AIM` of ``retry`` under the
+        slicer's length (the shortest layer's length over that, in ``_PITCH_STEP``'s lower bound
+        .. 1).
+    """
+    out: dict[int, float] = {}
+    for i, (job, lengths) in enumerate(zip(jobs, printed, strict=True)):
+        target = length_target(job)
+        got = min(lengths) if len(lengths) else 0.0
+        if target and 0.0 < got < target * (1.0 - retry):
+            out[i] = float(np.clip(got / (target * (1.0 - SHORT_AIM * retry)), _PITCH_STEP[0], 1.0))
+    return out
+
+
 def default_workers() -> int:
     """Worker processes by default: the usable cores, at most 4."""
     try:
@@ -334,6 +376,7 @@ def run_jobs(
     machine: Machine | None = None,
     cache: Any = None,
     keys: Sequence[str] | None = None,
+    pitch_factor: Sequence[float] | None = None,
 ) -> list[tuple[Toolpaths, float]]:
     """Run every job's engine; ``(paths, seconds)`` per job, in job order.
 
@@ -357,11 +400,22 @@ def run_jobs(
         Where the paths of earlier runs are kept; with ``keys`` (one :func:`job_key` per job) the
         jobs found there are not run (their seconds are 0), the others are run and kept.
     keys : sequence of str, optional
+    pitch_factor : sequence of float, optional
+        Per job, the engine runs at the job's pitch times this (:func:`short_runs`); the job itself,
+        and so the length its paths match (:func:`length_target`), stays as it is.
     """
     global _WORK
+    factors = list(pitch_factor) if pitch_factor is not None else [1.0] * len(jobs)
     _WORK = [
-        (engine, j.input, {**params, **j.params}, length_target(j), length_retry, _machine_of(machine, j))
-        for j in jobs
+        (
+            engine,
+            j.input if f == 1.0 else replace(j.input, pitch=j.input.pitch * f),
+            {**params, **j.params},
+            length_target(j),
+            length_retry,
+            _machine_of(machine, j),
+        )
+        for j, f in zip(jobs, factors, strict=True)
     ]
     n = len(jobs)
     out: list[tuple[Toolpaths, float] | None] = [None] * n

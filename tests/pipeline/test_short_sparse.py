@@ -1,0 +1,54 @@
+"""A sparse run that links up short of the slicer's plastic is run again at a closer pitch (issue 15 / 19).
+
+Sparse infill keeps the slicer's bead width, so a run's plastic is its length, and the splicer's
+flow correction takes back 15 % at most.  The streamline engine on CuraEngine 4.13's 40 % L-bracket
+(``benchmarks/bench_printability.py``'s part: 50 x 36 mm, 12 mm legs, 2.4 mm thick, 5 mm bolt hole)
+laid 72-74 % of the slicer's line length at the slicer's 2 mm pitch; linked and corrected it stayed
+at 91 %, and every block was kept as sliced: nothing replaced.  Judged on the engine's length alone
+(before its links) the rule would also hit runs the links make up: it is applied to the linked runs
+(:func:`loadpath.pipeline.paths.short_runs`).
+"""
+
+from __future__ import annotations
+
+import pytest
+import slicing
+from loadpath.pipeline.paths import length_target
+from loadpath.plugin.job import JobRequest, run_job
+
+BRACKET = """version = 1
+[[supports]]
+name = "wall"
+where = { side = "y_max", within = 4.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "tip"
+where = { side = "x_max", within = 4.0 }
+force = [0.0, -300.0, 0.0]
+"""
+
+
+@pytest.mark.slow
+def test_short_streamline_runs_are_run_again_and_every_block_is_replaced(tmp_path):
+    stl = slicing.write_stl(slicing.bracket_mesh((50.0, 36.0), 12.0, 2.4, 5.0), tmp_path / "bracket.stl")
+    src = slicing.slice_cura(
+        stl, tmp_path / "bracket.gcode",
+        **{**slicing.CURA_MIXED, "infill_sparse_density": "40", "infill_line_distance": "2.0"},
+    )
+    case = tmp_path / "bracket.toml"
+    case.write_text(BRACKET, encoding="utf-8")
+    cli = {"engine": "streamlines", "replace": ("sparse",), "density": "uniform", "cache": False}
+    res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode", cli=cli))
+    assert res.written and res.error is None, res.error
+    pr = res.pipeline
+    assert pr.splice is not None and not pr.splice.skipped, pr.splice.skipped if pr.splice else None
+    assert pr.check is not None and not pr.check.problems
+    for b in pr.splice.blocks:  # each block at the slicer's plastic, within the splice's tolerance
+        assert b.filament_new / b.filament_old == pytest.approx(1.0, abs=0.03)
+    retried = [jr for jr in pr.jobs if "pitch_factor_after_links" in jr.paths.stats]
+    assert retried, "the runs linked up to the slicer's length at once: this part no longer shows the case"
+    for jr in retried:  # run again at a closer pitch, the linked layers now within the flow correction
+        assert 0.6 <= jr.paths.stats["pitch_factor_after_links"] < 1.0
+        linked = sum(p.length for p in jr.printed)
+        assert linked >= 0.85 * length_target(jr.job), (linked, length_target(jr.job))
+
