@@ -57,9 +57,8 @@ def test_a_bending_part_links_the_level_sets_that_reach_its_faces_at_a_few_degre
     slicer's retractions and 1.15x its print time, with it 7.8x and 1.11x (the swarm 20.9x, 1.57x)."""
     case = tmp_path / "bracket.toml"
     case.write_text(BRACKET_PIN, encoding="utf-8")
-    _, result, _ = run(
-        sliced("prusa", "bracket", "solid"), case, tmp_path / "out.gcode", engine="levelset", replace=("solid",)
-    )
+    gcode = sliced("prusa", "bracket", "solid")
+    _, result, _ = run(gcode, case, tmp_path / "out.gcode", engine="levelset", replace=("solid",))
     pres = result.pipeline
     assert pres is not None and pres.changed and pres.check.problems == []
     counts, why = verdict_counts(pres)
