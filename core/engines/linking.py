@@ -22,7 +22,8 @@ A link is accepted when
 * it is at most ``max_link`` pitches long;
 * it leaves each end at most ``max_turn`` degrees off the end's own direction;
 * it lies inside the region and keeps ``clearance`` pitches from every other path, and from its
-  own two paths except within a pitch of the ends it joins (sampled every quarter pitch; so it
+  own two paths except within a pitch of the ends it joins (further where a path meets the edge at
+  a shallow angle, :attr:`LinkOptions.wedge`) (sampled every quarter pitch; so it
   crosses nothing and never runs back along its own path), and from every link accepted before it;
 
 each end once, never closing a loop (union-find), so the result is chains.  The links are chosen
@@ -148,6 +149,16 @@ class LinkOptions:
         Length of a cut, in pitches (:func:`loadpath.engines.cuts.cut_paths`).
     cut_cross : int
         Most paths cut to pair two ends.
+    wedge : float, pitches
+        A path that meets the edge at a shallow angle ``a`` converges on a link along the edge from
+        its end: the link may run beside it for ``clearance / sin a`` and a pitch, at most this
+        many pitches (:func:`_own_reach`); 0 (the default): two pitches, as for any end.  The
+        level-set engine's paths reach a bending part's faces at a few degrees, their ends 5-20
+        pitches apart along the edge: it links with 24 (and ``max_edge_link`` 24;
+        :attr:`loadpath.engines.registry.Engine.linking`).  Bench (``benchmarks/bench_printability.py``,
+        PrusaSlicer 100 %, retractions): beam 245 -> 100, bracket 245 -> 149, bar 75 -> 50.  The
+        link's bead lies on the wedge between the path and the edge, as a slicer's zig-zag turn
+        lies on its line ends.
     """
 
     max_link: float = 3.0
@@ -168,6 +179,7 @@ class LinkOptions:
     cut_stress: float = 0.1
     cut_gap: float = 1.0
     cut_cross: int = 3
+    wedge: float = 0.0
 
     def __post_init__(self) -> None:
         lo, hi = LONE_AREA_RANGE
@@ -184,6 +196,30 @@ class LinkOptions:
 LONE_AREA_RANGE = (0.0, 25.0)
 """Bounds of :attr:`LinkOptions.lone_area`, square pitches (the one place they are set): at 25, a
 lone run five pitches long at five pitches wide, beyond any stub."""
+
+
+def _own_reach(
+    region: Region, e_pt: Points2, e_dir: Points2, edge_d: np.ndarray, pitch: float, options: LinkOptions
+) -> np.ndarray:
+    """How far along its own path a link from each end may come near that path, mm (2 n,).
+
+    Two pitches, and at an end that meets the edge at a shallow angle ``a`` as far as the link
+    along the edge stays within the clearance of the path converging on it (``clearance / sin a``
+    and a pitch), at most ``options.wedge`` pitches (0: two pitches everywhere).
+    """
+    own = np.full(len(e_pt), 2.0 * pitch)
+    if options.wedge <= 2.0:
+        return own
+    near = np.flatnonzero(edge_d <= options.edge_reach * pitch)
+    if not len(near):
+        return own
+    foot = shapely.get_coordinates(shapely.shortest_line(region.boundary, shapely.points(e_pt[near])))[0::2]
+    nrm = e_pt[near] - foot
+    nrm /= np.maximum(np.hypot(*nrm.T), 1e-12)[:, None]
+    sin_a = np.abs(np.einsum("ij,ij->i", nrm, e_dir[near]))
+    reach = (options.clearance / np.maximum(sin_a, 1e-3) + 1.0) * pitch
+    own[near] = np.clip(reach, 2.0 * pitch, options.wedge * pitch)
+    return own
 
 
 def _root(parent: list[int], i: int) -> int:
@@ -485,6 +521,7 @@ class _Layer:
     order: np.ndarray
     region_key: bytes
     tried: dict
+    e_own: np.ndarray | None = None
     straight_links: dict | None = None
     edge_links: dict | None = None
 
@@ -531,12 +568,13 @@ class _Layer:
         )
         p_len = np.array([float(np.sum(np.hypot(*np.diff(x, axis=0).T))) for x in samp])
         near_edge = (edge_d[a] <= options.edge_reach * pitch) & (edge_d[b] <= options.edge_reach * pitch)
+        e_own = _own_reach(region, e_pt, e_dir, edge_d, pitch, options)
         straight_dir &= gap <= limit
         candidates = np.flatnonzero((straight_dir & straight_in) | near_edge)
         order = candidates[np.argsort(gap[candidates], kind="stable")]
         return cls(
             ps, region, grown, pitch, options, e_pt, e_dir, e_w, edge_d, tree, s_pid, s_arc, p_len,
-            a, b, gap, straight_dir & straight_in, near_edge, order, shapely.to_wkb(region), {},
+            a, b, gap, straight_dir & straight_in, near_edge, order, shapely.to_wkb(region), {}, e_own,
         )
 
     def clear_of_paths(self, s: Points2, ea: int, eb: int) -> bool:
@@ -630,7 +668,7 @@ class _Layer:
         ``2 pitch`` of that end: a link may touch its own paths there."""
         pid = e // 2
         d = np.where(e % 2 == 0, self.s_arc[h], self.p_len[pid] - self.s_arc[h])
-        return (self.s_pid[h] == pid) & (d <= 2.0 * self.pitch)
+        return (self.s_pid[h] == pid) & (d <= self.e_own[e])
 
     def forward(self, pts: Points2, ea: int, eb: int) -> bool:
         """Whether a link leaves each end at most ``max_turn`` off its direction."""

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from loadpath.errors import SettingsError
@@ -83,6 +83,9 @@ class Engine:
     density : bool
         Whether it lays a density field itself (``inp.density``); otherwise :func:`generate` runs
         it once per zone of the field at the zone's pitch.
+    linking : mapping
+        :class:`loadpath.engines.linking.LinkOptions` fields its paths are linked with (the
+        shared linking stage's defaults otherwise).
     """
 
     name: str
@@ -94,6 +97,7 @@ class Engine:
     warm_up: str | None = None
     machine: tuple[str, ...] = ()
     density: bool = False
+    linking: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         unknown = set(self.machine) - {f.name for f in fields(Machine)}
@@ -259,6 +263,10 @@ register(
         phase=lambda options: True,
         density=True,
         machine=("flow_width",),
+        # level sets that leave a cut at 45 degrees reach the edge at a few degrees (a bending
+        # part's tension and compression faces): each end's link runs along the edge beside the
+        # path converging on it, for up to 24 pitches (``benchmarks/bench_printability.py``)
+        linking={"wedge": 24.0, "max_edge_link": 24.0},
     )
 )
 """The level-set engine (:mod:`loadpath.engines.levelset`): edge-to-edge paths that link into zig-zags."""

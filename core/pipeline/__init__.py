@@ -720,7 +720,14 @@ def _fills(
 
     shifted_paths = shifted_paths or {}
     kept = [0]
-    link_opts = LinkOptions(free_hop=free_hop) if math.isfinite(free_hop) else LinkOptions(cut_reach=0.0)
+    from loadpath.engines.registry import get as engine_named
+
+    # the engine's own linking options (its paths' geometry: loadpath.engines.registry.Engine.linking)
+    own = dict(engine_named(options.engine).linking)
+    if math.isfinite(free_hop):
+        link_opts = LinkOptions(free_hop=free_hop, **own)
+    else:
+        link_opts = LinkOptions(cut_reach=0.0, **own)
     tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
     task_fields: list[str | None] = []
 

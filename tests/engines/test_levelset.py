@@ -16,10 +16,11 @@ from loadpath import metrics as M
 from loadpath.density import DensityOptions, density_field
 from loadpath.engines import NAMES, generate
 from loadpath.engines.levelset import LevelSetOptions, fit
-from loadpath.engines.linking import link_paths
+from loadpath.engines.linking import LinkOptions, link_paths, pieces
+from loadpath.engines.registry import get as engine_named
 from loadpath.errors import GeometryError, SettingsError
 from loadpath.field import AnalyticField, kirsch_tensor
-from loadpath.toolpath import EngineInput
+from loadpath.toolpath import EngineInput, Toolpaths
 from shapely.geometry import MultiPolygon, Point, box
 
 PITCH = 0.45
@@ -192,3 +193,25 @@ def test_bad_options_and_regions_get_one_line():
     bowtie = shapely.Polygon([(0, 0), (10, 10), (10, 0), (0, 10)])
     with pytest.raises(GeometryError, match="buffer"):
         generate("levelset", EngineInput(bowtie, field, PITCH))
+
+
+@pytest.mark.parametrize("angle", [3.0, 6.0, 10.0])
+def test_level_sets_meeting_the_edge_at_a_few_degrees_link_along_it_into_one_zigzag(angle):
+    """A bending part's faces: the level sets reach the edge at a few degrees, their ends many
+    pitches apart along it, and a link along the edge runs beside the path converging on it.  With
+    the engine's own linking options (``Engine.linking``: the wedge beside that path allowed) they
+    print as one zig-zag, inside the region, crossing nothing, covering more than the runs apart."""
+    region = box(0, 0, 60, 6)
+    tp = generate("levelset", EngineInput(region, AnalyticField(uniform(angle), None), PITCH))
+    before, _ = link_paths(tp.paths, region, PITCH, LinkOptions())
+    runs, st = link_paths(tp.paths, region, PITCH, LinkOptions(**engine_named("levelset").linking))
+    assert len(runs) == 1 < len(before), (len(runs), len(before))
+    line = shapely.LineString(runs[0].points)
+    assert region.buffer(1e-3).covers(line) and line.is_simple
+    cov0 = M.coverage(Toolpaths(paths=before), region)
+    cov = M.coverage(Toolpaths(paths=runs), region)
+    assert cov.coverage >= max(0.97, cov0.coverage), (cov, cov0)
+    # each link a bead of its own: it lies on the wedge beside the path it enters, as a slicer's
+    # zig-zag turn lies on its line ends; bounded here
+    split = M.coverage(Toolpaths(paths=tuple(pieces(runs, st["links_at"]))), region)
+    assert split.overlap <= 0.10, split
