@@ -285,6 +285,38 @@ class Writer:
         self.filament += de
         self.retracted = 0.0
 
+    def arc(
+        self, x: float, y: float, centre, ccw: bool, de: float, f: float, width: float | None = None
+    ) -> None:
+        """Extrude ``de`` mm of filament along an arc to ``(x, y)`` about ``centre`` (``G3`` if ``ccw``).
+
+        ``G2``/``G3 X.. Y.. I.. J.. E..``, the centre as the offset from where the nozzle is
+        (:mod:`loadpath.splice.arcfit`); a width marker first where ``width`` (mm, to 0.001)
+        differs from the one stated; the feedrate as :meth:`extrude` writes it.  The time counts
+        the chord (the arc is a little longer).
+        """
+        if width is not None and self.style.width:
+            wq = round(width / 0.001) * 0.001
+            if not abs(wq - self.width) < 0.0005:
+                self._lines.append(f"{self.style.width}{fmt_few(wq, 6, True)}")
+                self.width = wq
+        words = [
+            f"X{self._n(x)}",
+            f"Y{self._n(y)}",
+            f"I{self._n(centre[0] - self.x)}",
+            f"J{self._n(centre[1] - self.y)}",
+        ]
+        ew = self._e_word(de)
+        if ew is not None:
+            words.append(ew)
+        if self.style.feed_line and not (not math.isnan(self.f) and abs(f - self.f) < 1e-9):
+            self.feed(f)
+            f = None
+        self._move("G3" if ccw else "G2", words, f, self._dist(x, y))
+        self.x, self.y = x, y
+        self.filament += de
+        self.retracted = 0.0
+
     def extrude_many(
         self,
         points,

@@ -34,6 +34,7 @@ from loadpath._typing import Region
 from loadpath.errors import SettingsError
 from loadpath.gcode.model import Block, Program
 from loadpath.gcode.rowindex import move_rows
+from loadpath.splice.arcfit import ArcOptions, arcs_allowed
 from loadpath.splice.beadruns import RunOptions, bead_runs
 from loadpath.splice.emit import STYLES, Style
 from loadpath.splice.flow import FlowModel
@@ -86,6 +87,10 @@ class SpliceOptions:
         Decimals of relative E words (the slicer writes 5).  At 4 the E resolution is 0.0001 mm
         of filament, a thirtieth of one step of a 280 step/mm extruder; each move's rounding is
         carried to the next, so a path's filament is exact to 0.00005 mm.  Absolute E keeps 5.
+    arcs : ArcOptions or None
+        Runs of segments on a circle written as ``G2``/``G3`` (:mod:`loadpath.splice.arcfit`), in
+        files whose settings allow arcs only (:func:`~loadpath.splice.arcfit.arcs_allowed`).
+        None: never.
     """
 
     flow: FlowModel
@@ -96,6 +101,7 @@ class SpliceOptions:
     volume_tol: float | None = 0.03
     xy_decimals: int = 2
     e_decimals: int = 4
+    arcs: ArcOptions | None = ArcOptions()
 
 
 @dataclass(frozen=True)
@@ -384,7 +390,10 @@ def _splice_block(
             "(the engine covered too little or too much of the region)",
         )
     style = replace(style, path_xy_decimals=options.xy_decimals, e_decimals=options.e_decimals)
-    rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area)
+    arcs = None
+    if options.arcs is not None and arcs_allowed(program.config):
+        arcs = replace(options.arcs, chord=max(runs.resolution * unit - options.plan.resolution, 0.0))
+    rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area, arcs)
     edits = [(b.span_start, b.span_stop, rw.span.encode("utf-8"))]
     old_rows = [move_rows(program, b.span_start, b.span_stop)]
     if rw.exit is not None:
