@@ -267,6 +267,38 @@ one run (the 1000-layer file one run in both)::
 Every target but the 1000-layer file's memory is still missed.  The floor for the small parts:
 ``python -c "import numpy, scipy.sparse.linalg, shapely, osqp"`` (the base dependencies alone)
 takes 0.33 s here, 1.8-2.5x PrusaSlicer's whole slicing of the example (0.13-0.18 s).
+
+Measured 2026-12-04 (issue 17, lean output: the new moves' X/Y to 2 decimals and relative E to 4,
+the bead runs simplified again with their starts fixed).  ``--repeats 1 --only
+example,specimen-100,gusset-100``, per engine, BEFORE = e3abbda (main) and AFTER = branch ``lean``
+run at the same time (load 5-7 on the 2 cores, shared with other jobs: compare ``out/in``, the
+times only loosely)::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    BEFORE swarm
+    example                      10     1.27    33.67   26.4      5.26    4.1      252    0.25   3.53     0.2     7.1     1.0
+    specimen-100                100     2.48    55.98   22.6     21.80    8.8      438    2.31   4.27     0.5    10.8     6.2
+    gusset-100                   40     1.99    36.34   18.2     16.55    8.3      317    0.64   5.91     0.6    14.1     6.7
+    AFTER swarm
+    example                      10     0.17     6.61   39.4      1.73   10.3      266    0.25   3.20     0.2     6.5     0.9
+    specimen-100                100     0.95    25.93   27.3      9.36    9.9      446    2.31   3.82     0.5    10.4     5.1
+    gusset-100                   40     0.78    14.07   18.1      8.78   11.3      329    0.64   5.46     0.5    10.9     5.7
+    BEFORE levelset
+    example                      10     0.54    22.91   42.2      2.22    4.1      381    0.25   2.59     0.2     9.0     0.7
+    specimen-100                100     1.49    18.46   12.4      6.55    4.4      400    2.31   3.10     0.6     8.3     4.4
+    gusset-100                   40     0.78    13.67   17.5     15.44   19.8      264    0.64   4.24     0.5    10.7    10.2
+    AFTER levelset
+    example                      10     0.30    13.61   44.8      0.78    2.6      400    0.25   2.33     0.2     8.7     0.7
+    specimen-100                100     0.91    14.55   15.9      6.18    6.8      419    2.31   2.75     0.6     9.3     4.1
+    gusset-100                   40     0.68    18.65   27.3      9.51   13.9      276    0.64   3.84     0.4    12.7     6.4
+
+``out/in`` 0.89-0.92x of BEFORE's on all six; the 1.5x target is still missed.  Where the bytes
+go (AFTER, swarm): the new infill's ``G1 X Y E`` lines are 76-80 % of the file (25 bytes each,
+28 before), at 0.20 (example, specimen) to 0.63 (gusset, curving round its holes) vertices per
+mm of bead against the slicer's 0.055-0.10 (long straight lines); ``;WIDTH:`` markers 6-7 %; the
+per-path travel, wipe, retraction, Z-hop and feedrate lines 10-23 % (gusset, swarm: 3670 travels).
+The vertex count is held by the linked runs' 10 % bound (``RunOptions.linked_resolution``) on
+curved paths: G2/G3 arcs, where the file's settings allow them, are what is left to cut it.
 """
 
 from __future__ import annotations

@@ -23,6 +23,10 @@ anyway, so the splicer prints a chain as **runs**:
    exactly the run's filament (so every chain, and every path in it, keeps its volume), at the
    slowest feedrate of its segments (the volumetric limit still holds: the run's cross-section is
    at most its widest segment's).  One ``;WIDTH:`` marker per run, and it is the width printed.
+5. Since a run prints each of its stretches at one extrusion per mm, the material test of step 2
+   held vertices for a placement along the path that step 4 does not keep: the chain is simplified
+   again from the plan's vertices, on position only, with the runs' first vertices fixed, and
+   steps 3-4 are made again (``RunOptions.refit``; issue 17: 2-3 % fewer moves on the example).
 """
 
 from __future__ import annotations
@@ -87,6 +91,9 @@ class RunOptions:
         Segments shorter than this many flow widths join the current run whatever their width.
     min_segment : float, mm
         Vertices closer than this to the previous kept one are dropped (ends kept).
+    refit : bool
+        Simplify again on position only, the runs' first vertices fixed (step 5 of
+        :func:`bead_runs`; issue 17).
 
     Notes
     -----
@@ -105,6 +112,7 @@ class RunOptions:
     short: float = 2.0
     min_segment: float = 0.05
     corridor: bool = False
+    refit: bool = True
 
 
 def runs_of_widths(
@@ -285,12 +293,61 @@ def bead_runs(
     if len(mid):
         d1, d2 = pts[mid] - pts[mid - 1], pts[mid + 1] - pts[mid]
         turn[mid[np.sum(d1 * d2, axis=1) < 0.0]] = True
-    at = np.flatnonzero(turn)
+    chain_v = np.repeat(np.arange(len(sizes)), sizes)
+    seg_of_v = np.cumsum(~is_last) - ~is_last  # segment index starting at vertex v
+    cum = np.concatenate([[0.0], np.cumsum(fil)])  # filament before each segment (block order)
+    ctx = (is_first, chain_v, seg_of_v, cum, feed0, stretch, flow, height, flow_width, options)
+    keep, pts_k = _simplified(pts, g, turn, is_last, tol, shift, options)
+    kv, ka, kb, nfil, nseg, run, rfirst, out_fil, out_w, out_f = _runs(pts_k, keep, *ctx)
+    if options.refit and tol > 0 and shift > 0 and len(rfirst) and not options.corridor:
+        # 5. again, the run starts fixed and on position only: a run prints its filament at one
+        #    density per stretch, so the material test held vertices for a placement along the path
+        #    the printed run does not keep (issue 17)
+        fixed = turn.copy()
+        fixed[ka[rfirst]] = True
+        keep2, pts2 = _simplified(pts, g, fixed, is_last, tol, np.inf, options)
+        if keep2.sum() < keep.sum():
+            keep, pts_k = keep2, pts2
+            kv, ka, kb, nfil, nseg, run, rfirst, out_fil, out_w, out_f = _runs(pts_k, keep, *ctx)
+    pts = pts_k
+    # back into chains
+    # (slices of the arrays where np.split cut them: the same views, without its per-piece calls)
+    segs = np.concatenate([[0], np.cumsum(np.bincount(chain_v[ka], minlength=len(sizes)))]).tolist()
+    verts = np.concatenate([[0], np.cumsum(np.bincount(chain_v[kv], minlength=len(sizes)))]).tolist()
+    chains = tuple(
+        Chain(pts[kv[v0:v1]], out_fil[a:z], out_w[a:z], out_f[a:z])
+        for v0, v1, a, z in zip(verts[:-1], verts[1:], segs[:-1], segs[1:], strict=True)
+    )
+    stats = {
+        **plan.stats,
+        "width_min": float(out_w.min()),
+        "width_max": float(out_w.max()),
+        "runs": len(rfirst),
+    }
+    return dataclasses.replace(plan, chains=chains, stats=stats)
+
+
+def _simplified(
+    pts: Points2,
+    g: Floats,
+    fixed: np.ndarray,
+    is_last: np.ndarray,
+    tol: float,
+    shift: float,
+    options: RunOptions,
+) -> tuple[np.ndarray, Points2]:
+    """Step 2 of :func:`bead_runs`: the vertices kept ``(N,) bool`` and where they go ``(N, 2)``, mm.
+
+    Each piece between two ``fixed`` vertices of one chain (``is_last``: chain ends) is simplified
+    within ``tol`` (mm) of position and ``shift`` (mm) of the cumulative extrusion ``g``
+    (``np.inf``: on position only).
+    """
+    at = np.flatnonzero(fixed)
     first_v, last_v = at[:-1], at[1:]
     inner = ~is_last[first_v]  # not from one chain's end to the next chain's start
     first_v, last_v = first_v[inner], last_v[inner]
     keep = np.zeros(len(pts), dtype=bool)
-    keep[turn] = True
+    keep[fixed] = True
     long = np.flatnonzero(last_v - first_v > 1)
     if tol <= 0 or shift <= 0:
         keep[:] = True
@@ -309,14 +366,22 @@ def bead_runs(
         at_p = np.arange(int(sizes_p.sum())) + np.repeat(offset, sizes_p)
         kept = simplify_mask(pts[at_p], g[at_p], sizes_p, tol, shift, options.min_segment)
         keep[np.searchsorted(g, g[at_p[kept]])] = True
+    return keep, pts
+
+
+def _runs(pts, keep, is_first, chain_v, seg_of_v, cum, feed0, stretch, flow, height, flow_width, options):
+    """Steps 3-4 of :func:`bead_runs` for the vertices ``keep`` (at ``pts``): the segments between
+    kept vertices of one chain, their runs, and what each segment prints.
+
+    Returns ``kv, ka, kb, nfil, nseg, run, rfirst, out_fil, out_w, out_f``: kept vertices; each new
+    segment's first and last vertex, filament (mm), length (mm) and run; each run's first segment;
+    the filament, width (mm) and feedrate (mm/min) printed on each new segment.
+    """
     kv = np.flatnonzero(keep)  # kept vertices, in order; chain ends among them
     # 3. segments between consecutive kept vertices of the same chain: the plan's filament between
     #    them, the slowest original feedrate in between
-    chain_v = np.repeat(np.arange(len(sizes)), sizes)
     same = chain_v[kv[1:]] == chain_v[kv[:-1]]
     ka, kb = kv[:-1][same], kv[1:][same]
-    cum = np.concatenate([[0.0], np.cumsum(fil)])  # filament before each segment (block order)
-    seg_of_v = np.cumsum(~is_last) - ~is_last  # segment index starting at vertex v
     nfil = cum[seg_of_v[kb - 1] + 1] - cum[seg_of_v[ka]]
     nfeed = np.minimum.reduceat(feed0, seg_of_v[ka]) if len(ka) else np.zeros(0)
     # (reduceat groups run to the next start: exactly the original segments of each new segment)
@@ -337,21 +402,7 @@ def bead_runs(
     run_width = _width(np.add.reduceat(nfil, rfirst), np.add.reduceat(nseg, rfirst), flow, height)
     run_feed = np.minimum.reduceat(nfeed, rfirst)
     out_fil, out_w, out_f = dens[piece] * nseg, run_width[run], run_feed[run]
-    # back into chains
-    # (slices of the arrays where np.split cut them: the same views, without its per-piece calls)
-    segs = np.concatenate([[0], np.cumsum(np.bincount(chain_v[ka], minlength=len(sizes)))]).tolist()
-    verts = np.concatenate([[0], np.cumsum(np.bincount(chain_v[kv], minlength=len(sizes)))]).tolist()
-    chains = tuple(
-        Chain(pts[kv[v0:v1]], out_fil[a:z], out_w[a:z], out_f[a:z])
-        for v0, v1, a, z in zip(verts[:-1], verts[1:], segs[:-1], segs[1:], strict=True)
-    )
-    stats = {
-        **plan.stats,
-        "width_min": float(out_w.min()),
-        "width_max": float(out_w.max()),
-        "runs": len(rfirst),
-    }
-    return dataclasses.replace(plan, chains=chains, stats=stats)
+    return kv, ka, kb, nfil, nseg, run, rfirst, out_fil, out_w, out_f
 
 
 def _as_complex(xy: np.ndarray) -> np.ndarray:

@@ -13,7 +13,9 @@ cura         ``G0 F7200 X.. Y..``  ``G1 F3600 X.. Y.. E..``    ``;TYPE:`` only
 ===========  ====================  ==========================  ===============================
 
 PrusaSlicer drops the leading zero (``Z.6``, ``E-.04``) and trailing zeros; Cura keeps the leading
-zero.  XYZ are written with 3 decimals, E with 5, F with up to 3.
+zero.  XYZ are written with 3 decimals, E with 5, F with up to 3; the new extrusion moves of a
+splice may take fewer (:attr:`Style.path_xy_decimals`, :attr:`Style.e_decimals`, issue 17: every
+vertex but a chain's last, every relative E word but a chain's last).
 
 :class:`Writer` accumulates lines and tracks the machine state it leaves (position, E, feedrate,
 retraction).  E is written in the file's mode: relative values carry their rounding error to the next
@@ -103,6 +105,12 @@ class Style:
     feature, width, height : str or None
         Marker prefixes (None: the family has no such marker).
     wipe_start, wipe_end : str or None
+    path_xy_decimals : int
+        Decimals of X and Y in the new extrusion moves (:meth:`Writer.extrude_many`); travels,
+        wipes and copied lines keep the slicer's 3.
+    e_decimals : int
+        Decimals of relative E words (absolute E keeps 5: the logical E a kept line sees must match
+        the slicer's to 2e-5 mm).
     """
 
     family: str
@@ -115,6 +123,8 @@ class Style:
     height: str | None
     wipe_start: str | None
     wipe_end: str | None
+    path_xy_decimals: int = 3
+    e_decimals: int = 5
 
 
 STYLES = {
@@ -168,7 +178,8 @@ class Writer:
     ) -> None:
         self.style = style
         self._lines: list = []  # str, or a _Chain of extrusion lines made on first read
-        self._pending = _Chains(e_relative)  # extrude_many's moves not yet written
+        # extrude_many's moves not yet written
+        self._pending = _Chains(e_relative, style.e_decimals if e_relative else 5)
         self.x, self.y, self.z = x, y, z
         self.e = e  # logical E after the last line written (rounded as written)
         self._e_exact = e  # running total as asked for (absolute mode)
@@ -181,23 +192,35 @@ class Writer:
         self.seconds = 0.0  # kinematic time of the moves written (distance / feedrate, no acceleration)
         self.width = math.nan  # ;WIDTH: in effect (as the viewer reads it)
         self.height = math.nan  # ;HEIGHT: in effect
+        # decimals of E words: the style's in relative mode, the slicer's 5 in absolute mode
+        self.e_dec = style.e_decimals if e_relative else 5
 
     # ------------------------------------------------------------------ numbers
 
     def _n(self, v: float, decimals: int = 3) -> str:
         return fmt(v, decimals, self.style.leading_zero)
 
-    def _e_word(self, de_filament: float) -> str | None:
-        """E word for ``de`` mm of filament; None when it rounds to nothing."""
+    def _e_word(self, de_filament: float, exact: bool = False) -> str | None:
+        """E word for ``de`` mm of filament; None when it rounds to nothing.
+
+        ``exact``: a retraction, wipe or prime in relative E, written to the slicer's 5 decimals and
+        kept out of the extrusions' rounding carry (what is pulled back is primed again exactly).
+        """
         de = de_filament * self.scale
+        if self.e_relative and exact and self.e_dec != 5:
+            val = round(de, 5)
+            if val == 0.0:
+                return None
+            self.e = self.e + val
+            return "E" + fmt(val, 5, self.style.leading_zero)
         if self.e_relative:
             self._carry += de
-            val = round(self._carry, 5)
+            val = round(self._carry, self.e_dec)
             if val == 0.0:
                 return None
             self._carry -= val
             self.e = self.e + val
-            return "E" + fmt(val, 5, self.style.leading_zero)
+            return "E" + fmt(val, self.e_dec, self.style.leading_zero)
         self._e_exact += de
         val = round(self._e_exact, 5)
         if val == round(self.e, 5):
@@ -262,6 +285,38 @@ class Writer:
         self.filament += de
         self.retracted = 0.0
 
+    def arc(
+        self, x: float, y: float, centre, ccw: bool, de: float, f: float, width: float | None = None
+    ) -> None:
+        """Extrude ``de`` mm of filament along an arc to ``(x, y)`` about ``centre`` (``G3`` if ``ccw``).
+
+        ``G2``/``G3 X.. Y.. I.. J.. E..``, the centre as the offset from where the nozzle is
+        (:mod:`loadpath.splice.arcfit`); a width marker first where ``width`` (mm, to 0.001)
+        differs from the one stated; the feedrate as :meth:`extrude` writes it.  The time counts
+        the chord (the arc is a little longer).
+        """
+        if width is not None and self.style.width:
+            wq = round(width / 0.001) * 0.001
+            if not abs(wq - self.width) < 0.0005:
+                self._lines.append(f"{self.style.width}{fmt_few(wq, 6, True)}")
+                self.width = wq
+        words = [
+            f"X{self._n(x)}",
+            f"Y{self._n(y)}",
+            f"I{self._n(centre[0] - self.x)}",
+            f"J{self._n(centre[1] - self.y)}",
+        ]
+        ew = self._e_word(de)
+        if ew is not None:
+            words.append(ew)
+        if self.style.feed_line and not (not math.isnan(self.f) and abs(f - self.f) < 1e-9):
+            self.feed(f)
+            f = None
+        self._move("G3" if ccw else "G2", words, f, self._dist(x, y))
+        self.x, self.y = x, y
+        self.filament += de
+        self.retracted = 0.0
+
     def extrude_many(
         self,
         points,
@@ -300,6 +355,10 @@ class Writer:
         if self.scale != 1.0:
             de = de * self.scale
         f = np.asarray(f, dtype=float)
+        if self.style.path_xy_decimals < 3 and len(de) > 1:
+            pts, de, f, widths, inserts, seg = _merge_unmoved(
+                pts, de, f, widths, inserts, seg, self.style.path_xy_decimals
+            )
         n = len(de)
         if n == 0:
             return
@@ -309,7 +368,7 @@ class Writer:
         if self.e_relative:
             e0, e_prev = self._carry, 0.0
             c = self._carry + cs[-1:]
-            r = np.round(c, 5)
+            r = np.round(c, 5)  # a chain's last E word to 5 decimals (_Chains.moves)
             self._carry = float(c[0] - r[0])
             self.e += float(r[0])
         else:
@@ -355,7 +414,7 @@ class Writer:
         words = zip(fmt_many(xs, 3, lz), fmt_many(ys, 3, lz), strict=True)
         lines = self._lines
         for x, y, d, (xw, yw) in zip(xs, ys, np.asarray(de, dtype=float).tolist(), words, strict=True):
-            ew = self._e_word(-d)
+            ew = self._e_word(-d, exact=True)
             lines.append(f"G1 X{xw} Y{yw} {ew}" if ew is not None else f"G1 X{xw} Y{yw}")
             dist = math.hypot(x - self.x, y - self.y)
             if dist > 0 and self.f > 0:
@@ -365,7 +424,7 @@ class Writer:
 
     def e_move(self, de: float, f: float) -> None:
         """Retract (``de`` < 0) or unretract (``de`` > 0) without moving."""
-        ew = self._e_word(de)
+        ew = self._e_word(de, exact=True)
         if ew is None:
             return
         self._move("G1", [ew], f, abs(de))
@@ -391,8 +450,16 @@ class Writer:
         fixed cost of the passes outweighed a chain's few dozen lines.
         """
         if self._pending.sizes:
-            pend, self._pending = self._pending, _Chains(self.e_relative)
+            pend, self._pending = self._pending, _Chains(self.e_relative, self.e_dec)
             to, e_vals, has_e, f, change = pend.moves()
+            if self.style.path_xy_decimals < 3:
+                # every vertex but a chain's last to the style's decimals: the travel after a chain
+                # starts where the travel planner put it (its retraction, its reach out of the region)
+                ends = np.cumsum(pend.sizes) - 1
+                inner = np.ones(len(to), dtype=bool)
+                inner[ends] = False
+                to = to.copy()
+                to[inner] = np.round(to[inner], self.style.path_xy_decimals)
             head = _move_lines(self.style, to, e_vals, has_e, f, change)
             feed_at = change.tolist() if self.style.feed_line else []
             base = np.cumsum([0, *pend.sizes]).tolist()
@@ -450,8 +517,9 @@ class _Chains:
     E), the feedrates ``f`` and the feedrate in effect before (``f0``, -1 when unknown).
     """
 
-    def __init__(self, e_relative: bool) -> None:
+    def __init__(self, e_relative: bool, e_decimals: int = 5) -> None:
         self.e_relative = e_relative
+        self.e_decimals = e_decimals
         self.sizes: list[int] = []
         self.to: list[np.ndarray] = []
         self.cs: list[np.ndarray] = []
@@ -483,7 +551,14 @@ class _Chains:
         first = np.zeros(int(sizes.sum()), dtype=bool)
         first[np.cumsum(sizes) - sizes] = True
         c = np.repeat(np.array(self.e0), sizes) + np.concatenate(self.cs)
-        r = np.round(c, 5)
+        r = np.round(c, self.e_decimals)
+        if self.e_decimals != 5:
+            # each chain's last word rounds its running total to the slicer's 5 decimals: what is
+            # left to carry after the chain is as small as with 5 decimals throughout (a block's
+            # last carry is not written, and Cura's end code switches to absolute E: the logical E
+            # there must be the slicer's to 2e-5 mm)
+            last = np.cumsum(sizes) - 1
+            r[last] = np.round(c[last], 5)
         before = np.concatenate([[0.0], r[:-1]])
         if self.e_relative:
             written = np.where(first, r, r - before)
@@ -494,6 +569,59 @@ class _Chains:
         f = np.concatenate(self.f)
         steps = np.where(first, f - np.repeat(np.array(self.f0), sizes), f - np.concatenate([[0.0], f[:-1]]))
         return np.concatenate(self.to), e_vals, np.abs(written) > 0, f, np.flatnonzero(steps != 0)
+
+
+def _merge_unmoved(pts, de, f, widths, inserts, seg, decimals: int):
+    """A chain without the vertices that do not move the nozzle once X and Y are written to ``decimals``.
+
+    Written, such a segment would be ``G1 X.. Y.. E..`` to where the nozzle already is: an E-only
+    move, which firmware and the splice check take for a prime.  An inner vertex is dropped where
+    it rounds to the vertex before it; the chain's last vertex is kept (it is written exactly,
+    :meth:`Writer.lines`), and the inner vertices before it that round to it are dropped instead.
+    A new segment extrudes the filament of the segments it spans, at the slowest of their
+    feedrates and the width of the last; lines inserted after a segment go after the new segment
+    that spans it.
+
+    Parameters
+    ----------
+    pts : (n + 1, 2) float, mm
+    de, f : (n,) float
+    widths, seg : (n,) float or None
+    inserts : dict of int -> list of str, or None
+    decimals : int
+
+    Returns
+    -------
+    The same six, for the vertices kept.
+    """
+    q = np.round(pts * 10.0**decimals)
+    same = np.all(q[1:] == q[:-1], axis=1)  # (n,) vertex i + 1 rounds to vertex i
+    if not same.any():
+        return pts, de, f, widths, inserts, seg
+    n = len(de)
+    keepv = np.ones(n + 1, dtype=bool)
+    keepv[1:n] = ~same[: n - 1]
+    j = n - 1
+    while j > 0 and bool(np.all(q[j] == q[n])):
+        keepv[j] = False
+        j -= 1
+    kv = np.flatnonzero(keepv)
+    if len(kv) < 2:
+        return pts, de, f, widths, inserts, seg
+    # new segment of every old one: the one that ends at the first kept vertex after its start
+    new_of = np.searchsorted(kv, np.arange(n), side="right") - 1
+    new_de = np.bincount(new_of, weights=de, minlength=len(kv) - 1)
+    starts = kv[:-1]
+    new_f = np.minimum.reduceat(f, starts)
+    new_w = None if widths is None else np.asarray(widths, dtype=float)[kv[1:] - 1]
+    new_pts = pts[kv]
+    new_ins = None
+    if inserts:
+        new_ins = {}
+        for k, extra in sorted(inserts.items()):
+            new_ins.setdefault(int(new_of[min(k, n - 1)]), []).extend(extra)
+    new_seg = None if seg is None else np.hypot(*(new_pts[1:] - new_pts[:-1]).T)
+    return new_pts, new_de, new_f, new_w, new_ins, new_seg
 
 
 def _width_changes(wq: np.ndarray, current: float, hysteresis: float) -> list[tuple[int, float]]:
@@ -519,7 +647,12 @@ def _width_changes(wq: np.ndarray, current: float, hysteresis: float) -> list[tu
 
 
 def _move_lines(
-    style: Style, to: np.ndarray, e_vals: np.ndarray, has_e: np.ndarray, f: np.ndarray, change: np.ndarray
+    style: Style,
+    to: np.ndarray,
+    e_vals: np.ndarray,
+    has_e: np.ndarray,
+    f: np.ndarray,
+    change: np.ndarray,
 ) -> list[str]:
     """The text of extrusion moves ``G1 X.. Y.. E..`` (E where ``has_e``), F words where ``change``.
 
@@ -538,11 +671,14 @@ def _move_lines(
     f : (n,) float, mm/min
     change : (m,) int
         Moves whose feedrate differs from the one before.
+    X and Y are written to 3 decimals, E to 5; values rounded coarser before (``Style.path_xy_decimals``
+    and ``Style.e_decimals``, :meth:`Writer.lines`) lose their trailing zeros.
     """
     n = len(to)
     lz = style.leading_zero
+    dxy, de = 3, 5
     in_line = len(change) and not style.feed_line  # F words inside the moves
-    if not (nt.writable(to, 3) and nt.writable(e_vals, 5) and nt.writable(f[change], 3)):
+    if not (nt.writable(to, dxy) and nt.writable(e_vals, de) and nt.writable(f[change], 3)):
         return _move_lines_plain(style, to, e_vals, has_e, f, change)
     f_word = None
     if in_line:
@@ -550,16 +686,16 @@ def _move_lines(
         at[change] = True
         f_word = [nt.text_column(" F", n, at), nt.number_column(np.where(at, f, 0.0), 3, True)]
         f_word[1].keep &= at[:, None]
-    e_col = nt.number_column(e_vals, 5, lz)
+    e_col = nt.number_column(e_vals, de, lz)
     e_col.keep &= has_e[:, None]
     cols = [nt.text_column("G1", n)]
     if f_word is not None and style.f_first:
         cols += f_word
     cols += [
         nt.text_column(" X", n),
-        nt.number_column(to[:, 0], 3, lz),
+        nt.number_column(to[:, 0], dxy, lz),
         nt.text_column(" Y", n),
-        nt.number_column(to[:, 1], 3, lz),
+        nt.number_column(to[:, 1], dxy, lz),
         nt.text_column(" E", n, has_e),
         e_col,
     ]
@@ -569,12 +705,18 @@ def _move_lines(
 
 
 def _move_lines_plain(
-    style: Style, to: np.ndarray, e_vals: np.ndarray, has_e: np.ndarray, f: np.ndarray, change: np.ndarray
+    style: Style,
+    to: np.ndarray,
+    e_vals: np.ndarray,
+    has_e: np.ndarray,
+    f: np.ndarray,
+    change: np.ndarray,
 ) -> list[str]:
     """:func:`_move_lines` one value at a time (:func:`fmt_many`): for values numpy cannot write
     (NaN, infinity), and the reference the tests hold the numpy pass to."""
     lz = style.leading_zero
-    xs, ys, es = fmt_many(to[:, 0], 3, lz), fmt_many(to[:, 1], 3, lz), fmt_many(e_vals, 5, lz)
+    dxy, de = 3, 5
+    xs, ys, es = fmt_many(to[:, 0], dxy, lz), fmt_many(to[:, 1], dxy, lz), fmt_many(e_vals, de, lz)
     head = [
         f"G1 X{x} Y{y} E{e}" if h else f"G1 X{x} Y{y}"
         for x, y, e, h in zip(xs, ys, es, has_e.tolist(), strict=True)

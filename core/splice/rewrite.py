@@ -38,6 +38,7 @@ from loadpath.gcode.blocks import BARRIER, NEUTRAL, TRAVEL, WIPE
 from loadpath.gcode.model import Block, Program
 from loadpath.gcode.rowindex import move_rows
 from loadpath.gcode.words import G, M, T
+from loadpath.splice.arcfit import ArcOptions, fit_arcs
 from loadpath.splice.emit import Style, Writer, fmt
 from loadpath.splice.plan import BlockPlan, Chain
 from loadpath.splice.travel import Motion, TravelState, cover_travels, travel, unretract, wipe_back
@@ -224,6 +225,7 @@ def rewrite_block(
     motion: Motion,
     style: Style,
     volumetric_area: float | None,
+    arcs: ArcOptions | None = None,
 ) -> Rewritten:
     """Write the new text of one block (see the module docstring).
 
@@ -239,6 +241,9 @@ def rewrite_block(
     style : Style
     volumetric_area : float or None
         Filament cross-section when E words are mm^3.
+    arcs : ArcOptions or None
+        Write runs of segments that lie on a circle as ``G2``/``G3`` (:mod:`loadpath.splice.arcfit`;
+        only where the file allows arcs).
     """
     p = program
     s = p.state
@@ -311,7 +316,7 @@ def rewrite_block(
             travel(w, st, c.points[0], last, last_length=chains[ci - 1].length)
             if w.retracted > 1e-9 or st.fw:
                 unretract(w, st)
-        mi, done_len = _extrude_chain(w, c, style, m73, mi, done_len, total_len)
+        mi, done_len = _extrude_chain(w, c, style, m73, mi, done_len, total_len, arcs)
         last = c.points
     for _, text in m73[mi:]:
         w.raw(text)
@@ -349,6 +354,7 @@ def _extrude_chain(
     mi: int,
     done_len: float,
     total_len: float,
+    arcs: ArcOptions | None = None,
 ) -> tuple[int, float]:
     """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
     seg = c.segments
@@ -359,5 +365,29 @@ def _extrude_chain(
         inserts.setdefault(min(k, len(seg) - 1), []).append(m73[mi][1])
         mi += 1
     # runs have one width each (loadpath.splice.beadruns): a marker at every change, to 0.001 mm
-    w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts, seg=seg)
+    found = fit_arcs(c.points, c.filament, c.width, c.feedrate, arcs) if arcs is not None else []
+    if not found:
+        w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts, seg=seg)
+        return mi, float(cum[-1])
+    # lines between the arcs as one chain each, the arcs one move each; M73 lines after the piece
+    # holding their segment
+    at = 0
+    for arc in [*found, None]:
+        stop = arc.first if arc is not None else len(seg)
+        if stop > at:
+            sub = {k - at: v for k, v in inserts.items() if at <= k < stop}
+            w.extrude_many(
+                c.points[at : stop + 1], c.filament[at:stop], c.feedrate[at:stop], c.width[at:stop],
+                0.001, 0.0005, inserts=sub, seg=seg[at:stop],
+            )
+        if arc is None:
+            break
+        a, z = arc.first, arc.stop
+        x, y = (float(v) for v in c.points[z])
+        de = float(np.sum(c.filament[a:z]))
+        w.arc(x, y, arc.centre, arc.ccw, de, float(c.feedrate[a]), float(c.width[a]))
+        for k in range(a, z):
+            for line in inserts.get(k, ()):
+                w.raw(line)
+        at = z
     return mi, float(cum[-1])

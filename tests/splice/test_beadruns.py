@@ -44,12 +44,12 @@ def _per_path_filament(chain, ends):
     return np.bincount(group, weights=chain.filament)
 
 
-@pytest.mark.parametrize("corridor", [False, True])
-def test_runs_keep_every_paths_material_and_stay_close(corridor):
+@pytest.mark.parametrize("corridor, refit", [(False, False), (False, True), (True, False)])
+def test_runs_keep_every_paths_material_and_stay_close(corridor, refit):
     paths = _paths()
     plan = _plan(paths)
     ends = np.array([p.points[i] for p in paths for i in (0, -1)])
-    opts = RunOptions(corridor=corridor)
+    opts = RunOptions(corridor=corridor, refit=refit)
     out = bead_runs(plan, FLOW, H, PITCH, PlanOptions().resolution, ends, opts)
     assert len(out.chains) == len(plan.chains) and plan.n_links > 0
     for c0, c1 in zip(plan.chains, out.chains, strict=True):
@@ -71,6 +71,25 @@ def test_runs_keep_every_paths_material_and_stay_close(corridor):
     mid = np.abs(0.5 * (c.points[:-1, 0] + c.points[1:, 0]) - 30) < 3
     far = np.abs(0.5 * (c.points[:-1, 0] + c.points[1:, 0]) - 30) > 20
     assert c.width[mid].mean() > 1.1 * c.width[far].mean()
+
+
+def test_refit_drops_vertices_the_runs_do_not_need():
+    """The second pass (runs' first vertices fixed, position only) keeps fewer vertices, within the
+    same bound, each path's filament exact, and each run still printed at one width per marker."""
+    paths = _paths(seed=2)
+    plan = _plan(paths)
+    ends = np.array([p.points[i] for p in paths for i in (0, -1)])
+    done = PlanOptions().resolution
+    once = bead_runs(plan, FLOW, H, PITCH, done, ends, RunOptions(refit=False))
+    twice = bead_runs(plan, FLOW, H, PITCH, done, ends, RunOptions(refit=True))
+    n1 = sum(len(c.points) for c in once.chains)
+    n2 = sum(len(c.points) for c in twice.chains)
+    assert n2 < n1
+    assert twice.stats["runs"] <= 1.1 * once.stats["runs"]
+    for c0, c2 in zip(plan.chains, twice.chains, strict=True):
+        np.testing.assert_allclose(_per_path_filament(c2, ends), _per_path_filament(c0, ends), rtol=1e-9)
+        dev = shapely.hausdorff_distance(LineString(c0.points), LineString(c2.points))
+        assert dev <= RunOptions().resolution * PITCH - done + 1e-9
 
 
 def test_markers_say_the_width_printed_on_long_segments():

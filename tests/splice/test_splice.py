@@ -17,7 +17,7 @@ from loadpath import gcode
 from loadpath.gcode.blocks import EXTRUDE, RETRACT, TRAVEL, UNRETRACT, WIPE
 from loadpath.gcode.flavors import Role
 from loadpath.plugin import settings as S
-from loadpath.splice import splice
+from loadpath.splice import SpliceOptions, splice
 from loadpath.splice.verify import layer_features
 from loadpath.toolpath import Path as ToolPath
 from shapely.geometry import LineString
@@ -242,7 +242,10 @@ def test_wipe_is_regenerated_along_the_new_last_path(sliced):
         w0 = new[new["wipe"]][0]
         assert (w0["x0"], w0["y0"]) == pytest.approx((last_ext["x1"], last_ext["y1"]), abs=1e-3)
         seg = LineString([(last_ext["x0"], last_ext["y0"]), (last_ext["x1"], last_ext["y1"])])
-        assert seg.distance(shapely.Point(w0["x1"], w0["y1"])) < 2e-3
+        # the wipe follows the planned path; the last extrusion starts where its first vertex was
+        # written, to SpliceOptions.xy_decimals (issue 17: 2, up to 0.0071 mm from the plan)
+        rounding = 0.5 * 10.0 ** -SpliceOptions.xy_decimals * 2**0.5
+        assert seg.distance(shapely.Point(w0["x1"], w0["y1"])) < 2e-3 + rounding
 
 
 @pytest.mark.parametrize("slicer,settings,width", [("prusa", "solid", None), ("cura", "solid", 0.4)])
@@ -308,7 +311,8 @@ def test_variable_width_follows_pitch_and_is_clamped(sliced):
     # (one pitch long) print their own flow under the run's marker, so they are left out
     seg = np.hypot(m["x1"] - m["x0"], m["y1"] - m["y0"])[sel]
     epm = m["e"][sel] / seg
-    ok = seg > 2 * 0.41
+    # (links here are up to 0.82 mm: written to SpliceOptions.xy_decimals, 2, one may measure 0.82)
+    ok = seg > 2 * 0.41 + 0.02
     assert np.corrcoef(w[ok], epm[ok])[0, 1] > 0.99
 
 
