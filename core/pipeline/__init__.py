@@ -320,7 +320,7 @@ def run(
         )
 
     tell("geometry", 0, 1)
-    geo = geometry.layer_geometry(program, check=False, cache=cache)  # blocks failing the check: kept, below
+    geo = geometry.layer_geometry(program, check=False, cache=cache, workers=options.workers)  # failing blocks: kept, below
     clock.lap("geometry")
     resolved = resolve(loadcase, geo.bodies())
     names = [rb.name for rb in resolved]
