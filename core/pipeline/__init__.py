@@ -345,7 +345,7 @@ def run(
             )
     units = select_units(geo, names, options.replace, options.pitch, exclude=purges | set(unsure))
     if options.overlap:
-        units = with_overlap(units, program, geo)
+        units = with_overlap(units, program, geo, options.workers)
     check_engine_budget(units)  # before the FEA: a unit too big for the engines stops the run now
     clock.lap("loadcase")
     if not units:
