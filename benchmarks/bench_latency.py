@@ -299,6 +299,37 @@ mm of bead against the slicer's 0.055-0.10 (long straight lines); ``;WIDTH:`` ma
 per-path travel, wipe, retraction, Z-hop and feedrate lines 10-23 % (gusset, swarm: 3670 travels).
 The vertex count is held by the linked runs' 10 % bound (``RunOptions.linked_resolution``) on
 curved paths: G2/G3 arcs, where the file's settings allow them, are what is left to cut it.
+
+Measured 2026-12-04 19:45-19:57 UTC (issue 17, branch ``fast1000``: the cold geometry's islands and the
+units' overlap regions made in the worker processes, the same bytes).  ``--repeats 1 --only
+specimen-100,specimen-1000``, BEFORE = main c606cf6 (its code for these parts is e3abbda's) and AFTER
+one after the other, swarm then level sets, at load 4.5-8.7 on the 2 cores (four jobs sharing them)::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    swarm BEFORE (load 5.6)
+    specimen-100                100     1.17    19.73   16.8     14.99   12.8      438    2.31   4.27     0.5     9.8     7.4
+    specimen-1000              1000     9.67   125.21   12.9     64.97    6.7      770   22.95   4.35     4.7    61.4    37.7
+    swarm AFTER (load 8.1)
+    specimen-100                100     0.81    15.53   19.1     18.71   23.0      461    2.31   4.27     0.6    10.6     9.7
+    specimen-1000              1000     8.62    85.95   10.0     49.08    5.7      753   22.95   4.35     4.4    53.2    32.5
+    levelset BEFORE (load 6.1)
+    specimen-100                100     0.90    13.75   15.2      4.63    5.1      400    2.31   3.10     0.6     9.3     4.3
+    specimen-1000              1000     3.14    32.86   10.5     26.70    8.5      635   22.95   3.16     4.0    32.0    25.7
+    levelset AFTER (load 4.4)
+    specimen-100                100     0.53    11.90   22.6      5.20    9.9      411    2.31   3.10     0.5     8.2     3.5
+    specimen-1000              1000     6.42    53.23    8.3     22.53    3.5      636   22.95   3.15     4.3    35.3    22.5
+
+At this load the wall times measure the other jobs (the slicer's own 1000-layer slicing took 3.1-9.7 s);
+the CPU columns are comparable and did not change beyond noise: the change moves about 6-8 s of one
+core's work (the 1000-layer file's cold islands 4.7-5.2 s of CPU, its 998 units' overlap 1.4-2.8 s) off
+the main process, a gain only where a core is free.  In process (``plugin.job.run_job``, fresh cache,
+one run each): at load 1.8-2.2, BEFORE geometry 5.46 s and load case 1.46 s (run 35.6 s), AFTER 2.75 s and
+0.89 s (run 28.0 s); at load 5-6, alternated twice, geometry 5.51 / 6.39 -> 5.25 / 5.16 s: no free core, no
+gain.  Where the 1000-layer file's cold run goes (in process, load 1.8-2.2, main): parse 1.6 s, geometry
+5.5, load case 1.5 (the overlap), FEA 0.6, engine 2.3, linking and splice 19.6 (the splice about 20 s of
+CPU in two workers: rewrite 60 %, bead runs 25 %, plan 11 %), check 3.9 (one process, piece by piece),
+verdict 0.3, write 0.3.  Output byte-identical to e3abbda's (but the verdict line) on the 1000-layer
+file's first and repeated runs with both engines and the 100-layer specimen's with the swarm.
 """
 
 from __future__ import annotations

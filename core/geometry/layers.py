@@ -62,7 +62,7 @@ def object_names(labels: Iterable[str]) -> list[str]:
     return [s if short.count(s) == 1 else lb for s, lb in zip(short, labels, strict=True)]
 
 
-def layer_geometry(program: Program, check: bool = True, cache: Any = None) -> PrintGeometry:
+def layer_geometry(program: Program, check: bool = True, cache: Any = None, workers: int = 1) -> PrintGeometry:
     """Derive the layer geometry of every object of a program.
 
     Parameters
@@ -76,6 +76,11 @@ def layer_geometry(program: Program, check: bool = True, cache: Any = None) -> P
         from): a re-export finds those of every layer it extrudes the same (PrusaSlicer at other
         speeds: 22 of the gusset's 40 layers, 8 of the example's 10).  The classification across
         layers and the check are made again.
+    workers : int
+        Processes for the islands the cache does not hold (:func:`loadpath.procs.fork_map`: forked,
+        they inherit the program; each layer's islands depend on that layer alone, so they are the
+        same whatever the number of workers).  The 1000-layer specimen's islands took 6-10 s of one
+        core's time.
 
     Returns
     -------
@@ -102,6 +107,8 @@ def layer_geometry(program: Program, check: bool = True, cache: Any = None) -> P
     names = object_names([program.objects[c] if c >= 0 else "part" for c in codes])
     per_object: dict[int, list[LayerGeometry]] = {c: [] for c in codes}
     kept = False
+    todo: list[tuple[int, Ints, Ints, str]] = []  # (index in made, perimeter rows, inside rows, where)
+    made: list[tuple[int, int, float, str, Any, tuple[str, int] | None]] = []  # (code, layer, height, name, islands, key)
     layer_rows = np.split(rows, np.searchsorted(m["layer"][rows], np.arange(1, len(program.layers))))
     for li, lr in enumerate(layer_rows):
         if len(lr) == 0:
@@ -122,13 +129,28 @@ def layer_geometry(program: Program, check: bool = True, cache: Any = None) -> P
                 key = islands_key(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
             islands = _rebased(cache.get("islands", key[0]), key[1]) if key else None
             if islands is None:
-                try:
-                    islands = _islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program)
-                except BudgetError as exc:
-                    raise exc.at(where) from None
-                if key:
-                    kept = cache.put("islands", key[0], _rebased(islands, -key[1]), evict=False) or kept
-            per_object[code].append(LayerGeometry(li, float(layer.z), height, name, islands))
+                todo.append((len(made), p_rows, i_rows, where))
+            made.append((code, li, height, name, islands, key))
+
+    global _WORK
+    _WORK = [(m, fw_all, bead_all, block_of, program, todo)]
+    try:
+        from loadpath.procs import fork_map, forks
+
+        # contiguous batches: one round trip per few dozen layers, not per layer
+        n = min(len(todo), 4 * workers) if forks(workers, len(todo)) else 1
+        cuts = [round(k * len(todo) / max(n, 1)) for k in range(n + 1)]
+        found = [isl for got in fork_map(_islands_batch, list(zip(cuts[:-1], cuts[1:], strict=True)), workers)
+                 for isl in got]
+    finally:
+        _WORK = []
+    for (k, _, _, _), islands in zip(todo, found, strict=True):
+        code, li, height, name, _, key = made[k]
+        made[k] = (code, li, height, name, islands, key)
+        if key:
+            kept = cache.put("islands", key[0], _rebased(islands, -key[1]), evict=False) or kept
+    for code, li, height, name, islands, _ in made:
+        per_object[code].append(LayerGeometry(li, float(program.layers[li].z), height, name, islands))
 
     if kept:
         cache.evict()
@@ -139,6 +161,23 @@ def layer_geometry(program: Program, check: bool = True, cache: Any = None) -> P
             _check(layers, program)
         objects.append(ObjectGeometry(name, program.objects[code] if code >= 0 else "", code, tuple(layers)))
     return PrintGeometry(tuple(objects), program.dialect, len(program.layers), diameter, source)
+
+
+_WORK: list[tuple] = []
+"""What :func:`layer_geometry` hands to :func:`_islands_batch` (inherited by forked workers, not
+pickled): ``(moves, flow widths, bead widths, block of each move, program, todo)``."""
+
+
+def _islands_batch(span: tuple[int, int]) -> list[tuple[Island, ...]]:
+    """:func:`_islands` of the layers ``todo[a:z]`` of :data:`_WORK`, a budget error naming its layer."""
+    m, fw_all, bead_all, block_of, program, todo = _WORK[0]
+    out = []
+    for _, p_rows, i_rows, where in todo[span[0] : span[1]]:
+        try:
+            out.append(_islands(m, p_rows, i_rows, fw_all, bead_all, block_of, program))
+        except BudgetError as exc:
+            raise exc.at(where) from None
+    return out
 
 
 _ISLAND_MOVES = ("x0", "y0", "x1", "y1", "e", "width", "height", "role", "feature")

@@ -321,7 +321,7 @@ def run(
         )
 
     tell("geometry", 0, 1)
-    geo = geometry.layer_geometry(program, check=False, cache=cache)  # blocks failing the check: kept, below
+    geo = geometry.layer_geometry(program, check=False, cache=cache, workers=options.workers)  # failing blocks: kept, below
     clock.lap("geometry")
     resolved = resolve(loadcase, geo.bodies())
     names = [rb.name for rb in resolved]
@@ -346,7 +346,7 @@ def run(
             )
     units = select_units(geo, names, options.replace, options.pitch, exclude=purges | set(unsure))
     if options.overlap:
-        units = with_overlap(units, program, geo)
+        units = with_overlap(units, program, geo, options.workers)
     check_engine_budget(units)  # before the FEA: a unit too big for the engines stops the run now
     clock.lap("loadcase")
     if not units:

@@ -15,6 +15,7 @@ island, its pitch the slicer's (the median over its blocks) unless the user set 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -319,34 +320,58 @@ def slicer_overlap(program, unit: Unit) -> float:
     return float(np.clip(0.5 * w - np.median(d[near]), 0.0, 0.5 * w))
 
 
-def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry) -> list[Unit]:
+def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry, workers: int = 1) -> list[Unit]:
     """Units whose engine region reaches as far into the perimeters as the slicer's own beads did.
 
     The region is grown by :func:`slicer_overlap` towards the walls only (not into the blocks that
     are kept), so the engine's outermost beads and path ends meet the perimeters as the slicer's
     did instead of stopping at the perimeters' flow edge.  Fixed-width (sparse) units are left as
-    they are.
+    they are.  ``workers``: processes for the units (:func:`loadpath.procs.fork_map`, contiguous
+    batches; each unit's region depends on that unit alone: the same regions; the 1000-layer
+    specimen's 998 units took 1.4-2.8 s of one core).
     """
+    global _WORK
     domains = {
         (obj.name, lg.layer_index, isl.index): isl.domain
         for obj in geo.objects
         for lg in obj.layers
         for isl in lg.islands
     }
-    out = []
-    for u in units:
-        o = 0.0 if u.fixed_width else slicer_overlap(program, u)
-        if o <= 0:
-            out.append(u)
-            continue
-        grown = u.region.buffer(o, join_style="mitre", mitre_limit=2.0)
-        domain = domains.get((u.object, u.layer, u.island))
-        if domain is not None:
-            kept = domain.difference(u.region)
-            grown = grown.difference(kept) if not kept.is_empty else grown
-            grown = grown.intersection(domain.buffer(o, join_style="mitre", mitre_limit=2.0))
-        grown = shapely.make_valid(grown) if not grown.is_valid else grown
-        parts = [g for g in shapely.get_parts(grown) if g.geom_type == "Polygon" and g.area > 0]
-        region = shapely.union_all(parts) if parts else u.region
-        out.append(replace(u, overlap=o, engine_region=region))
-    return out
+    from loadpath.procs import fork_map, forks
+
+    _WORK = [(units, program, domains)]
+    try:
+        n = min(len(units), 4 * workers) if forks(workers, len(units)) else 1
+        cuts = [round(k * len(units) / max(n, 1)) for k in range(n + 1)]
+        grown = [g for got in fork_map(_overlap_batch, list(zip(cuts[:-1], cuts[1:], strict=True)), workers)
+                 for g in got]
+    finally:
+        _WORK = []
+    return [u if g is None else replace(u, overlap=g[0], engine_region=g[1]) for u, g in zip(units, grown, strict=True)]
+
+
+_WORK: list[tuple] = []
+"""What :func:`with_overlap` hands to :func:`_overlap_batch` (inherited by forked workers, not
+pickled): ``(units, program, island domains)``."""
+
+
+def _overlap_batch(span: tuple[int, int]) -> list[tuple[float, Any] | None]:
+    """:func:`_grown` of the units ``[a, z)`` of :data:`_WORK`."""
+    units, program, domains = _WORK[0]
+    return [_grown(u, program, domains) for u in units[span[0] : span[1]]]
+
+
+def _grown(u: Unit, program, domains: dict) -> tuple[float, Any] | None:
+    """``(overlap, engine region)`` of one unit (:func:`with_overlap`), None when it stays as it is."""
+    o = 0.0 if u.fixed_width else slicer_overlap(program, u)
+    if o <= 0:
+        return None
+    grown = u.region.buffer(o, join_style="mitre", mitre_limit=2.0)
+    domain = domains.get((u.object, u.layer, u.island))
+    if domain is not None:
+        kept = domain.difference(u.region)
+        grown = grown.difference(kept) if not kept.is_empty else grown
+        grown = grown.intersection(domain.buffer(o, join_style="mitre", mitre_limit=2.0))
+    grown = shapely.make_valid(grown) if not grown.is_valid else grown
+    parts = [g for g in shapely.get_parts(grown) if g.geom_type == "Polygon" and g.area > 0]
+    return o, (shapely.union_all(parts) if parts else u.region)

@@ -102,3 +102,18 @@ def test_blocks_numbered_from_elsewhere_keep_their_islands(sliced, tmp_path):
     numbers = [b.block_index for layer in got.objects[0].layers for isl in layer.islands for b in isl.blocks]
     old = [b.block_index for layer in before.objects[0].layers for isl in layer.islands for b in isl.blocks]
     assert numbers == [k + 1 for k in old]
+
+
+def test_islands_made_in_worker_processes_are_those_made_in_one(sliced, tmp_path):
+    """``workers=2`` (the islands the cache lacks made in forked batches): field for field the same
+    geometry as one process makes, with and without a cache, and the cache holds the same entries."""
+    program = gcode.read(sliced("prusa", "ohs", "example"))
+    one = geometry.layer_geometry(program, check=False)
+    assert _differences(geometry.layer_geometry(program, check=False, workers=2), one) == []
+    cache = Cache(tmp_path / "cache")
+    assert _differences(geometry.layer_geometry(program, check=False, cache=cache, workers=2), one) == []
+    n = len(one.objects[0].layers)
+    assert cache.stats.misses == {"islands": n} and cache.count("islands") == n
+    again = Cache(tmp_path / "cache")  # what the workers made is found, and is the same
+    assert _differences(geometry.layer_geometry(program, check=False, cache=again, workers=2), one) == []
+    assert again.stats.hits == {"islands": n}

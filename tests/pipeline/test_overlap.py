@@ -114,3 +114,17 @@ def test_only_engines_with_boundary_or_load_seeds_lay_their_own_copy():
     assert lays_phase("streamlines", {}) and lays_phase("streamlines", {"mode": "default"})
     # faithful streamlines seed a lattice (or the element centroids): no phase, the paths are shifted
     assert not lays_phase("streamlines", {"mode": "faithful"})
+
+
+def test_overlap_in_worker_processes_gives_the_same_units(sliced):
+    """``with_overlap(..., workers=2)`` (the units in forked batches) gives every unit the overlap and
+    engine region one process gives, exactly (the regions compared by their WKB)."""
+    program = gcode.read(sliced("prusa", "ohs", "solid", infill_overlap="25%"))
+    geo = geometry.layer_geometry(program, check=False)
+    units = select_units(geo, [o.name for o in geo.objects], ("solid",))
+    assert len(units) > 1
+    one = with_overlap(units, program, geo)
+    two = with_overlap(units, program, geo, workers=2)
+    assert [u.overlap for u in two] == [u.overlap for u in one]
+    assert any(u.overlap > 0 for u in one)
+    assert [shapely.to_wkb(u.fill_region) for u in two] == [shapely.to_wkb(u.fill_region) for u in one]
