@@ -84,8 +84,8 @@ class Engine:
         Whether it lays a density field itself (``inp.density``); otherwise :func:`generate` runs
         it once per zone of the field at the zone's pitch.
     linking : mapping
-        :class:`loadpath.engines.linking.LinkOptions` fields its paths are linked with (the
-        shared linking stage's defaults otherwise).
+        :class:`loadpath.engines.linking.LinkOptions` fields its solid-infill paths are linked with
+        (the shared linking stage's defaults otherwise, and always for sparse infill).
     """
 
     name: str
