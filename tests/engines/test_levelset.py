@@ -258,7 +258,7 @@ def test_where_the_stress_is_negligible_the_level_sets_run_straight_with_no_tiny
         return len(tp.paths), closed, turn
 
     noisy = generate("levelset", inp, relief=0.0)
-    calm = generate("levelset", inp)
+    calm = generate("levelset", inp, quiet=1.0)  # relieve every region, not only quiet ones
     n_noisy, closed_noisy, turn_noisy = measure(noisy)
     n_calm, closed_calm, turn_calm = measure(calm)
     # the noise, followed, lays closed loops and winding paths; relieved, none and straight ones
@@ -283,6 +283,33 @@ def test_where_the_stress_is_negligible_the_level_sets_run_straight_with_no_tiny
     lengths = np.hypot(*seg.T)
     cosang = np.abs(seg @ d) / lengths
     assert np.average(cosang, weights=lengths) > np.cos(np.radians(5.0))
+
+
+def test_a_layer_with_only_noise_stress_gets_straight_lines_at_the_pitch_by_default():
+    """The column loaded along its axis: every layer's in-plane stress is noise."""
+    region = box(0, 0, 16, 12)
+    field = AnalyticField(half_quiet(30.0, -1.0), region, scale=10.0)
+    inp = EngineInput(region, field, PITCH)
+    tp = generate("levelset", inp)
+    noisy = generate("levelset", inp, relief=0.0)
+    inner = box(0.5, 0.5, 15.5, 11.5)
+    turns = [
+        _turning(c) / g.length
+        for p in tp.paths
+        for g in shapely.get_parts(shapely.intersection(shapely.LineString(p.points), inner))
+        if g.length > 1 and len(c := np.asarray(shapely.get_coordinates(g))) > 2
+    ]
+    assert not turns or np.median(turns) < 5.0, np.median(turns)
+    assert len(tp.paths) <= 2 * np.hypot(16, 12) / PITCH, (len(tp.paths), len(noisy.paths))
+    cov = M.coverage(tp, region)
+    assert cov.coverage >= 0.95 and cov.overlap <= 0.05, cov
+
+
+def test_a_stressed_region_is_not_relieved_by_default():
+    region, field = open_hole()
+    inp = EngineInput(region, field, PITCH)
+    a, b = fit(inp, LevelSetOptions()), fit(inp, LevelSetOptions(relief=0.0))
+    assert np.array_equal(a.phi, b.phi, equal_nan=True)
 
 
 def test_relief_options_are_checked():
