@@ -33,6 +33,12 @@ across a bending neutral axis turns by 90 degrees) no scalar field has both side
 fit is cut there (triangles whose corners differ by more than :data:`JUMP_DEG`), each side's level
 sets end on the cut, and no path runs along it.
 
+Negligible stress (issue 15).  Where ``|sigma|`` is below ``relief`` of the field's scale (a column
+loaded along its axis: the in-plane stress of every layer), its direction is noise, and following
+it laid tiny loops.  There the direction is blended with the region's stress-weighted mean
+direction, the alignment weighs less (down to ``relief_floor``) and ``phi``'s second differences are
+held near zero (``straight``): the level sets run straight and evenly spaced.
+
 Solid infill (flow from the pitch).  Each vertex's pitch is measured from its neighbours
 (:func:`loadpath.engines.finish.widths.local_pitch`), and where neighbouring level sets lie more
 than ``split`` pitches apart, wider than a bead can print, the level set half-way between them is
@@ -114,6 +120,21 @@ class LevelSetOptions:
         (0: never).
     pitch_range : (float, float), nominal pitches
         A vertex's pitch (``1 / |grad phi|``) is clipped to this range.
+    relief : float, share of the field's scale
+        Stress magnitude (``|sigma| / scale``, the sample's ``mass``) below which the alignment
+        weighs less, in proportion, down to ``relief_floor`` of its weight (0: alignment weighs the
+        same everywhere).  Where the stress is negligible its direction is noise (issue 15: a
+        column loaded along its axis); following it lays tiny loops.
+    relief_floor : float
+        Least share of the alignment weight (where the stress vanishes).
+    straight : float
+        Weight of ``phi``'s second differences (level sets straight and evenly spaced) where the
+        alignment is relieved, scaled by ``1 - share``: 0 where the stress is above ``relief``.
+    quiet : float, share of the field's scale
+        The relief applies only to a region whose 90th percentile of ``|sigma| / scale`` is below
+        this (a near-stress-free layer); a stressed region's low-stress corners keep following the
+        stress (relieving them there raised the 3-point-bend beam's retractions by half,
+        ``benchmarks/bench_sparse.py``).  1 or more: every region.
     """
 
     grid: float = 0.4
@@ -124,6 +145,10 @@ class LevelSetOptions:
     min_length: float = 2.0
     split: float = 1.8
     pitch_range: tuple[float, float] = (0.5, 2.5)
+    relief: float = 0.05
+    relief_floor: float = 0.05
+    straight: float = 10.0
+    quiet: float = 0.25
 
     def __post_init__(self) -> None:
         for name in ("grid", "align", "hold"):
@@ -134,6 +159,12 @@ class LevelSetOptions:
             raise SettingsError(f"split = {self.split!r}: use 0 (off) or more than 1 pitch")
         if not (np.isfinite(self.smooth) and self.smooth >= 0):
             raise SettingsError(f"smooth = {self.smooth!r}: use 0 or a positive weight")
+        for name in ("relief", "relief_floor", "straight", "quiet"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise SettingsError(f"{name} = {v!r}: use 0 (off) or a positive number")
+        if self.relief_floor > 1:
+            raise SettingsError(f"relief_floor = {self.relief_floor!r}: use a share between 0 and 1")
         lo, hi = self.pitch_range
         if not (0 < lo < 1 < hi):
             raise SettingsError(f"pitch_range = {self.pitch_range!r}: use (low, high) with 0 < low < 1 < high")
@@ -284,12 +315,30 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
     d = np.where(np.isfinite(smp.direction), smp.direction, 0.0)
     # the field's direction outside the part (nodes of the margin): the nearest inside node's
     q = np.stack([d[:, 0] ** 2 - d[:, 1] ** 2, 2 * d[:, 0] * d[:, 1]], axis=1) * smp.valid[:, None]
+    # share of the alignment weight kept: 1 where the stress is above ``relief`` of the field's
+    # scale, falling in proportion to ``relief_floor`` where it vanishes (its direction is noise)
+    mass = np.where(np.isfinite(smp.mass), smp.mass, 0.0)
+    loud = float(np.percentile(mass[smp.inside], 90)) if np.any(smp.inside) else 0.0
+    if options.relief > 0 and (options.quiet >= 1 or loud < options.quiet):
+        share = np.clip(mass / options.relief, options.relief_floor, 1.0)
+    else:
+        share = np.ones(len(nodes))
     inside = smp.inside.reshape(ny, nx)
     if np.any(inside) and not np.all(inside):
         from scipy import ndimage
 
         _, (iy, ix) = ndimage.distance_transform_edt(~inside, return_indices=True)
         q = q.reshape(ny, nx, 2)[iy, ix].reshape(-1, 2)
+        share = share.reshape(ny, nx)[iy, ix].ravel()
+    if options.relief > 0 and np.any(share < 1):
+        # where the stress is negligible its direction is noise: it is blended (by ``1 - share``)
+        # with the region's mean direction, weighted by the stress, so the level sets there run on
+        # straight (a region with no stress at all: the x axis, as a slicer's first layer)
+        wq = share * smp.valid
+        qbar = (q * wq[:, None]).sum(axis=0) / max(float(wq.sum()), 1e-300)
+        nb = float(np.hypot(*qbar))
+        qbar = qbar / nb if nb > 1e-3 else np.array([1.0, 0.0])
+        q = share[:, None] * q + (1.0 - share[:, None]) * qbar[None, :]
     qa = np.hypot(q[:, 0], q[:, 1])
     t = 0.5 * np.arctan2(q[:, 1], q[:, 0])
     dvec = np.stack([np.cos(t), np.sin(t)], axis=1)
@@ -315,6 +364,7 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
     signs = _orient(nvec[act], edges, m)
     n_act = nvec[act] * signs[:, None]
     qa_act = qa[act]
+    share_act = share[act]
 
     # two triangles per cell whose corners are all active: (a, b, c) with grad = ((b-a), (c-a)) / h
     # (lower: a = (i, j), b = (i+1, j), c = (i, j+1)); upper: a' = (i+1, j+1), with minus signs
@@ -358,7 +408,8 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
         cols = np.concatenate([gxp, gxm, gyp, gym])
         return sparse.coo_matrix((data, (np.tile(r, 4), cols)), shape=(nt, 2 * m))
 
-    wa = np.sqrt(options.align) * qt * agree
+    st = share_act[tri].mean(axis=1)
+    wa = np.sqrt(options.align) * qt * agree * st
     rows.append(grad_rows(dt_vec, wa))
     rhs.append(np.zeros(nt))
     ws = agree * np.maximum(qt, 0.2)
@@ -384,6 +435,26 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
             )
         )
         rhs.append(np.zeros(len(edges)))
+    # where the alignment is relieved, phi's second differences vanish: straight, even level sets
+    if options.straight > 0 and options.relief > 0:
+        for a3 in (
+            (grid_idx[:, :-2], grid_idx[:, 1:-1], grid_idx[:, 2:]),
+            (grid_idx[:-2, :], grid_idx[1:-1, :], grid_idx[2:, :]),
+        ):
+            i0, i1, i2 = (x.ravel() for x in a3)
+            ok = (i0 >= 0) & (i1 >= 0) & (i2 >= 0)
+            i0, i1, i2 = i0[ok], i1[ok], i2[ok]
+            wl = np.sqrt(options.straight) * (1.0 - share_act[i1]) * p0 / h
+            sel = wl > 0
+            i0, i1, i2, wl = i0[sel], i1[sel], i2[sel], wl[sel]
+            k = np.arange(len(wl))
+            rows.append(
+                sparse.coo_matrix(
+                    (np.concatenate([wl, -2 * wl, wl]), (np.tile(k, 3), np.concatenate([i0, i1, i2]))),
+                    shape=(len(wl), 2 * m),
+                )
+            )
+            rhs.append(np.zeros(len(wl)))
     # phi is defined up to a constant: a faint pull towards 0 fixes it
     rows.append(sparse.coo_matrix((np.full(m, 1e-6), (np.arange(m), np.arange(m))), shape=(m, 2 * m)))
     rhs.append(np.zeros(m))

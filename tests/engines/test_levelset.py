@@ -215,3 +215,107 @@ def test_level_sets_meeting_the_edge_at_a_few_degrees_link_along_it_into_one_zig
     # zig-zag turn lies on its line ends; bounded here
     split = M.coverage(Toolpaths(paths=tuple(pieces(runs, st["links_at"]))), region)
     assert split.overlap <= 0.10, split
+
+
+def half_quiet(angle_deg: float, quiet_from: float, level: float = 1e-2):
+    """Uniform stress (10 MPa along ``angle_deg``) for x < quiet_from; beyond, stress ``level``
+    times smaller whose direction turns every few tenths of a millimetre (numerical noise)."""
+    loud = uniform(angle_deg)
+
+    def f(p):
+        out = loud(p)
+        t = 40.0 * p[:, 0] + 57.0 * p[:, 1] + 13.0 * np.sin(7.0 * p[:, 0] * p[:, 1])
+        c, s = np.cos(t), np.sin(t)
+        noise = level * np.stack([10 * c * c, 10 * s * s, 10 * c * s], axis=1)
+        return np.where((p[:, 0] < quiet_from)[:, None], out, noise)
+
+    return f
+
+
+def _turning(points: np.ndarray) -> float:
+    """Total turning (degrees) along a polyline."""
+    seg = np.diff(points, axis=0)
+    seg = seg[np.hypot(*seg.T) > 1e-6]
+    ang = np.arctan2(seg[:, 1], seg[:, 0])
+    return float(np.degrees(np.abs(np.angle(np.exp(1j * np.diff(ang)))).sum()))
+
+
+def test_where_the_stress_is_negligible_the_level_sets_run_straight_with_no_tiny_loops():
+    """Issue 15 (a column loaded along its axis): where the in-plane stress is noise, following its
+    direction lays tiny loops; relieved, the level sets there run straight at the pitch, and where
+    the stress is not negligible they still follow it."""
+    region = box(0, 0, 30, 12)
+    field = AnalyticField(half_quiet(30.0, 12.0), region, scale=10.0)
+    inp = EngineInput(region, field, PITCH)
+    quiet = box(14, 0.5, 30, 11.5)  # away from the ends, which bend to reach the edge
+
+    def measure(tp):
+        pieces_ = [shapely.intersection(shapely.LineString(p.points), quiet) for p in tp.paths]
+        lines = [np.asarray(shapely.get_coordinates(g)) for piece in pieces_ for g in shapely.get_parts(piece)]
+        lines = [ln for ln in lines if len(ln) >= 2 and np.hypot(*(ln[-1] - ln[0])) > 0 or len(ln) > 2]
+        closed = sum(1 for p in tp.paths if np.hypot(*(p.points[-1] - p.points[0])) < PITCH and len(p.points) > 3)
+        turn = np.median([_turning(ln) / max(shapely.LineString(ln).length, 1e-9) for ln in lines if len(ln) > 2])
+        return len(tp.paths), closed, turn
+
+    noisy = generate("levelset", inp, relief=0.0)
+    calm = generate("levelset", inp, quiet=1.0)  # relieve every region, not only quiet ones
+    n_noisy, closed_noisy, turn_noisy = measure(noisy)
+    n_calm, closed_calm, turn_calm = measure(calm)
+    # the noise, followed, lays closed loops and winding paths; relieved, none and straight ones
+    assert closed_calm == 0, (closed_calm, closed_noisy)
+    # degrees per mm, median over the quiet pieces (the noise, followed: about 40)
+    assert turn_calm < 5.0 and turn_calm < 0.25 * turn_noisy, (turn_calm, turn_noisy)
+    # bounded path count: about one path per pitch across the region, as straight infill
+    assert n_calm <= 2 * np.hypot(30, 12) / PITCH, (n_calm, n_noisy)
+    cov = M.coverage(calm, region)
+    assert cov.coverage >= 0.95 and cov.overlap <= 0.05, cov
+    # the loud half still follows its stress
+    loud = box(0, 0, 10, 12)
+    d = np.array([np.cos(np.radians(30)), np.sin(np.radians(30))])
+    segs = []
+    for p in calm.paths:
+        for g in shapely.get_parts(shapely.intersection(shapely.LineString(p.points), loud)):
+            c = np.asarray(shapely.get_coordinates(g))
+            if len(c) >= 2:
+                segs.append(np.diff(c, axis=0))
+    seg = np.concatenate(segs)
+    seg = seg[np.hypot(*seg.T) > 1e-6]
+    lengths = np.hypot(*seg.T)
+    cosang = np.abs(seg @ d) / lengths
+    assert np.average(cosang, weights=lengths) > np.cos(np.radians(5.0))
+
+
+def test_a_layer_with_only_noise_stress_gets_straight_lines_at_the_pitch_by_default():
+    """The column loaded along its axis: every layer's in-plane stress is noise."""
+    region = box(0, 0, 16, 12)
+    field = AnalyticField(half_quiet(30.0, -1.0), region, scale=10.0)
+    inp = EngineInput(region, field, PITCH)
+    tp = generate("levelset", inp)
+    noisy = generate("levelset", inp, relief=0.0)
+    inner = box(0.5, 0.5, 15.5, 11.5)
+    turns = [
+        _turning(c) / g.length
+        for p in tp.paths
+        for g in shapely.get_parts(shapely.intersection(shapely.LineString(p.points), inner))
+        if g.length > 1 and len(c := np.asarray(shapely.get_coordinates(g))) > 2
+    ]
+    assert not turns or np.median(turns) < 5.0, np.median(turns)
+    assert len(tp.paths) <= 2 * np.hypot(16, 12) / PITCH, (len(tp.paths), len(noisy.paths))
+    cov = M.coverage(tp, region)
+    assert cov.coverage >= 0.95 and cov.overlap <= 0.05, cov
+
+
+def test_a_stressed_region_is_not_relieved_by_default():
+    region, field = open_hole()
+    inp = EngineInput(region, field, PITCH)
+    a, b = fit(inp, LevelSetOptions()), fit(inp, LevelSetOptions(relief=0.0))
+    assert np.array_equal(a.phi, b.phi, equal_nan=True)
+
+
+def test_relief_options_are_checked():
+    region = box(0, 0, 10, 10)
+    field = AnalyticField(uniform(0.0), None)
+    with pytest.raises(SettingsError, match="relief_floor"):
+        generate("levelset", EngineInput(region, field, PITCH), relief_floor=2.0)
+    with pytest.raises(SettingsError, match="straight"):
+        generate("levelset", EngineInput(region, field, PITCH), straight=-1.0)
