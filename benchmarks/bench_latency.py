@@ -330,6 +330,32 @@ gain.  Where the 1000-layer file's cold run goes (in process, load 1.8-2.2, main
 CPU in two workers: rewrite 60 %, bead runs 25 %, plan 11 %), check 3.9 (one process, piece by piece),
 verdict 0.3, write 0.3.  Output byte-identical to e3abbda's (but the verdict line) on the 1000-layer
 file's first and repeated runs with both engines and the 100-layer specimen's with the swarm.
+
+Measured 2026-12-04 20:44-20:54 UTC on main after the merges of the day (lean digits 2 / 4 still on,
+since set back to the slicer's 3 / 5: outputs about 9 % larger than the ``out/in`` here), load 1.0
+at the start, ``--repeats 3`` (swarm) and ``--repeats 1 --engine levelset``::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    swarm
+    example                      10     0.16     3.87   24.7     3.51   22.4      252    0.25   3.20     0.2     5.8     5.1
+    specimen-100                100     0.32     6.05   19.1     3.60   11.4      433    2.31   3.82     0.5     8.5     4.8
+    gusset-gyroid30              40     0.40     5.76   14.4     2.94    7.4      309    2.32   1.10     0.6     8.2     4.0
+    gusset-gyroid30-sparse       40     0.36    18.55   50.8    22.35   61.3      331    2.32   0.54     0.6    27.2    31.9
+    gusset-100                   40     0.44     8.35   19.2     5.47   12.6      316    0.64   5.46     0.6    13.1     8.2
+    specimen-1000              1000     2.44    36.73   15.0    29.39   12.0      704   22.95   3.89     4.5    53.3    44.0
+    levelset
+    example                      10     0.21     6.38   30.5     0.94    4.5      382    0.25   2.30     0.2    10.8     1.1
+    specimen-100                100     0.37     6.23   17.0     3.71   10.1      394    2.31   2.72     0.6     9.4     4.6
+    gusset-gyroid30              40     0.55     6.97   12.6     5.59   10.1      274    2.32   1.06     0.8    11.1     9.6
+    gusset-gyroid30-sparse       40     0.53    14.17   26.7    10.57   19.9      297    2.32   0.38     0.8    19.3    13.2
+    gusset-100                   40     0.32     7.59   23.7     4.53   14.1      265    0.64   3.80     0.5    12.7     6.5
+    specimen-1000              1000     2.20    22.72   10.3    18.25    8.3      630   22.95   2.76     4.0    35.3    27.2
+
+The swarm's example repeat (3.51 s, 5.1 s of CPU) is the re-slice at other speeds run against the
+shipped file's cache: its layers' engine runs and links are made again (the same two runs against
+a cache that has seen the re-slice: 0.84-1.06 s); the code before the day's merges (70446c6) gives
+the same on these two files (6.16 s, then 1.01 s). The gyroid gusset's sparse repeat takes longer
+than its first run (31.9 against 27.2 s of CPU): not explained here.
 """
 
 from __future__ import annotations
