@@ -13,19 +13,12 @@ from __future__ import annotations
 
 import pytest
 import slicing
+from cases import side_case
 from loadpath.pipeline.paths import length_target
 from loadpath.plugin.job import JobRequest, run_job
 
-BRACKET = """version = 1
-[[supports]]
-name = "wall"
-where = { side = "y_max", within = 4.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "tip"
-where = { side = "x_max", within = 4.0 }
-force = [0.0, -300.0, 0.0]
-"""
+BRACKET = side_case((0.0, -300.0, 0.0), held="y_max", held_within=4.0, support="wall", loaded_within=4.0, load="tip")
+"""The bench's L-bracket case: the wall at y_max held, 300 N down at the tip (x_max)."""
 
 
 @pytest.mark.slow
