@@ -48,14 +48,15 @@ the edge (:func:`loadpath.engines.finish.ends.extend_ends`) as the other engines
 
 Measured (``benchmarks/bench_printability.py``, real PrusaSlicer 2.5 slices, ``loadpath compare``'s
 model), retractions in the replaced blocks against the slicer's, level sets (swarm): 100 % solid
-bar 20 -> 50 (241), beam 10 -> 100 (555), bracket 25 -> 149 (488), two islands 20 -> 20 (125); 40 %
-sparse 16 -> 24, 8 -> 44, 20 -> 40, 16 -> 16; 30 % gyroid 30 -> 22 (66).  (On a bent part the level
-sets reach the faces at a few degrees: the linking joins them along the edge beside the path that
-converges on it, ``LinkOptions.wedge``, which this engine's registry entry sets.)  Predicted stiffness /
-failure load over the slicer's at 40 %: 1.354 / 2.653, 1.366 / 1.983, 1.312 / 1.771, 1.291 / 2.460
+bar 20 -> 50 (241), beam 10 -> 105 (555), bracket 25 -> 149 (488), two islands 20 -> 20 (125); 40 %
+sparse 16 -> 24, 8 -> 40, 20 -> 64, 16 -> 16; 30 % gyroid 30 -> 22 (66).  (On a bent part the level
+sets reach the faces at a few degrees: on solid infill the linking joins them along the edge beside
+the path that converges on it, ``LinkOptions.wedge``, which this engine's registry entry sets; not on
+sparse infill, where it cost the 3-point beam its failure load.)  Predicted stiffness /
+failure load over the slicer's at 40 %: 1.354 / 2.564, 1.367 / 1.983, 1.316 / 1.774, 1.291 / 2.460
 (the swarm's 1.321 / 1.662, 1.313 / 1.811, 1.249 / 1.516, 1.235 / 1.710); 30 % gyroid 1.283 / 1.862
-(1.250 / 1.207); at 100 % the failure load is lower than the swarm's on the bar (1.036 against
-1.047) and the bracket (0.926 against 0.956).
+(1.250 / 1.207); at 100 % the failure load is lower than the swarm's on the bar (1.035 against
+1.047) and the bracket (0.924 against 0.956).
 
 (Over 400 lines: the fit assembles four kinds of least-squares rows over one grid and its
 triangles; split, the grid's index arrays would be passed between modules.)
