@@ -159,6 +159,17 @@ def forks(workers: int, n: int) -> bool:
     return workers > 1 and n > 1 and "fork" in multiprocessing.get_all_start_methods()
 
 
+def spans(n: int, workers: int, per_worker: int) -> list[tuple[int, int]]:
+    """Contiguous index ranges ``[a, z)`` covering ``range(n)``: the batches of a :func:`fork_map`.
+
+    ``per_worker`` batches for each worker when :func:`forks` (one round trip per batch, not per
+    item, and still enough batches to even out their costs), else one batch; no empty range.
+    """
+    k = min(n, per_worker * workers) if forks(workers, n) else 1
+    cuts = [round(i * n / max(k, 1)) for i in range(k + 1)]
+    return [(a, z) for a, z in zip(cuts[:-1], cuts[1:], strict=True) if z > a]
+
+
 def fork_map(
     fn: Callable[[Any], Any],
     items: Sequence[Any],

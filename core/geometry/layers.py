@@ -135,13 +135,10 @@ def layer_geometry(program: Program, check: bool = True, cache: Any = None, work
     global _WORK
     _WORK = [(m, fw_all, bead_all, block_of, program, todo)]
     try:
-        from loadpath.procs import fork_map, forks
+        from loadpath.procs import fork_map, spans
 
         # contiguous batches: one round trip per few dozen layers, not per layer
-        n = min(len(todo), 4 * workers) if forks(workers, len(todo)) else 1
-        cuts = [round(k * len(todo) / max(n, 1)) for k in range(n + 1)]
-        found = [isl for got in fork_map(_islands_batch, list(zip(cuts[:-1], cuts[1:], strict=True)), workers)
-                 for isl in got]
+        found = [isl for got in fork_map(_islands_batch, spans(len(todo), workers, 4), workers) for isl in got]
     finally:
         _WORK = []
     for (k, _, _, _), islands in zip(todo, found, strict=True):

@@ -337,14 +337,11 @@ def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry, workers: in
         for lg in obj.layers
         for isl in lg.islands
     }
-    from loadpath.procs import fork_map, forks
+    from loadpath.procs import fork_map, spans
 
     _WORK = [(units, program, domains)]
     try:
-        n = min(len(units), 4 * workers) if forks(workers, len(units)) else 1
-        cuts = [round(k * len(units) / max(n, 1)) for k in range(n + 1)]
-        grown = [g for got in fork_map(_overlap_batch, list(zip(cuts[:-1], cuts[1:], strict=True)), workers)
-                 for g in got]
+        grown = [g for got in fork_map(_overlap_batch, spans(len(units), workers, 4), workers) for g in got]
     finally:
         _WORK = []
     return [u if g is None else replace(u, overlap=g[0], engine_region=g[1]) for u, g in zip(units, grown, strict=True)]

@@ -308,15 +308,12 @@ def splice(
         r = options.motion.retraction
         free = float("inf") if r.only_when_crossing else r.before_travel
         plan_options = replace(plan_options, free_travel=free)
-    from loadpath.procs import fork_map, forks
+    from loadpath.procs import fork_map, spans
 
     _WORK = [(program, fills, options, plan_options, style_of(program))]
     try:
         # contiguous batches: a few hundred kB of text per result instead of a round trip per block
-        n_batches = min(len(fills), 8 * workers) if forks(workers, len(fills)) else 1
-        cuts = [round(k * len(fills) / max(n_batches, 1)) for k in range(n_batches + 1)]
-        batches = [(a, z) for a, z in zip(cuts[:-1], cuts[1:], strict=True) if z > a]
-        done = fork_map(_splice_batch, batches, workers)
+        done = fork_map(_splice_batch, spans(len(fills), workers, 8), workers)
     finally:
         _WORK = []
     edits: list[tuple[int, int, bytes]] = []
