@@ -108,12 +108,16 @@ def own_paths_fill(program, i, flow_width):
     return BlockFill(i, out, None, flow_width=flow_width)
 
 
-def run_splice(program, fills, volume_tol=0.03, **overrides):
-    """Splice with the file's own settings; returns (result, output program, check)."""
+def run_splice(program, fills, volume_tol=0.03, options=None, **overrides):
+    """Splice with the file's own settings; returns (result, output program, check).
+
+    ``overrides``: settings (``--set`` keys); ``options``: :class:`loadpath.splice.SpliceOptions`
+    fields set on what the settings give (e.g. ``{"arcs": None}``).
+    """
     s = S.resolve(program)
     if overrides:
         s = s.with_values(overrides, "test")
-    opts = dataclasses.replace(S.splice_options(s), volume_tol=volume_tol)
+    opts = dataclasses.replace(S.splice_options(s), volume_tol=volume_tol, **(options or {}))
     result = splice(program, fills, opts)
     out = gcode.parse(result.data)
     regions = {f.block: f.region for f in fills if f.region is not None}

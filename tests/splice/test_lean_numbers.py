@@ -19,18 +19,7 @@ import re
 import numpy as np
 import pytest
 from loadpath import gcode
-from loadpath.plugin import settings as S
-from loadpath.splice import splice
-from loadpath.splice.verify import check_splice
-from splice_helpers import SLICED_CASES, infill_blocks, rectilinear_fills
-
-
-def _splice(program, fills, **kw):
-    opts = dataclasses.replace(S.splice_options(S.resolve(program)), **kw)
-    result = splice(program, fills, opts)
-    out = gcode.parse(result.data)
-    regions = {f.block: f.region for f in fills if f.region is not None}
-    return result, out, check_splice(program, out, result, regions=regions)
+from splice_helpers import SLICED_CASES, infill_blocks, rectilinear_fills, run_splice
 
 
 def _decimals(word: str) -> int:
@@ -43,10 +32,10 @@ def test_new_moves_are_written_lean_and_exact(sliced, case):
     program = gcode.read(sliced(slicer, part, settings, **overrides))
     fills = rectilinear_fills(program, infill_blocks(program)[:3])
     # tilted lines: their vertices are not on the slicer's grid, so the rounding is exercised
-    result, out, check = _splice(program, fills, xy_decimals=2, e_decimals=4)
+    result, out, check = run_splice(program, fills, options={"xy_decimals": 2, "e_decimals": 4})
     assert check.problems == []
     lean = len(result.data)
-    result3, _, check3 = _splice(program, fills)  # the default: the slicer's 3 and 5 decimals
+    result3, _, check3 = run_splice(program, fills)  # the default: the slicer's 3 and 5 decimals
     assert check3.problems == [] and lean < len(result3.data)
     lmap = result.line_map(program.n_lines)
     new = np.ones(out.n_lines, dtype=bool)

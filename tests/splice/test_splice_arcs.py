@@ -18,13 +18,10 @@ import numpy as np
 import pytest
 import shapely
 from loadpath import gcode
-from loadpath.plugin import settings as S
-from loadpath.splice import splice
 from loadpath.splice.arcfit import ArcOptions, arcs_allowed, fit_arcs
-from loadpath.splice.verify import check_splice
 from loadpath.toolpath import Path as ToolPath
 from shapely.geometry import LineString
-from splice_helpers import infill_blocks, rectilinear_fills
+from splice_helpers import infill_blocks, rectilinear_fills, run_splice
 
 DATA = Path(__file__).parent.parent / "data" / "current"
 ARC_FILE = DATA / "prusaslicer-2.9.2-calicat-mini-arcs-m486.gcode"
@@ -48,14 +45,6 @@ def _rings(fill):
     return dataclasses.replace(fill, paths=tuple(paths), nominal_pitch=PITCH)
 
 
-def _splice(program, fills, **kw):
-    opts = dataclasses.replace(S.splice_options(S.resolve(program)), **kw)
-    result = splice(program, fills, opts)
-    out = gcode.parse(result.data)
-    regions = {f.block: f.region for f in fills if f.region is not None}
-    return result, out, check_splice(program, out, result, regions=regions)
-
-
 def _new_moves(program, result, out):
     lmap = result.line_map(program.n_lines)
     new = np.ones(out.n_lines, dtype=bool)
@@ -68,7 +57,7 @@ def test_arcs_only_where_the_file_allows_them(sliced):
     program = gcode.read(sliced("prusa", "ohs", "solid"))
     assert not arcs_allowed(program.config)  # PrusaSlicer 2.5: no arc_fitting key
     fills = [_rings(f) for f in rectilinear_fills(program, infill_blocks(program)[:2])]
-    result, out, check = _splice(program, fills)
+    result, out, check = run_splice(program, fills)
     assert check.problems == []
     assert not re.search(rb"^G[23] ", result.data, re.M)
     assert not out.moves["arc"].any()
@@ -78,9 +67,9 @@ def test_arcs_follow_the_path_and_keep_the_filament():
     program = gcode.read(ARC_FILE)
     assert arcs_allowed(program.config)
     fills = [_rings(f) for f in rectilinear_fills(program, infill_blocks(program)[:4])]
-    result, out, check = _splice(program, fills)
+    result, out, check = run_splice(program, fills)
     assert check.problems == []
-    plain, _, check0 = _splice(program, fills, arcs=None)
+    plain, _, check0 = run_splice(program, fills, options={"arcs": None})
     assert check0.problems == []
     new = _new_moves(program, result, out)
     arcs = new[new["arc"] & new["extrude"]]
