@@ -411,8 +411,8 @@ def _run(
     share = mass_change(pres) if "sparse" in s.replace and s.sparse_fill is None else None
     if share is not None and abs(share) > MASS_TOLERANCE:  # a "stack" pair broken by a block kept as sliced
         result.warnings.append(
-            f"the replaced infill has {share:+.0%} of the slicer's plastic, not its mass: blocks kept as "
-            "sliced left their partner layers' extra plastic in place; try --set density=energy"
+            f"the replaced infill has {share:+.0%} of the slicer's plastic, not its mass "
+            f"({len(pres.splice.skipped)} of its blocks kept as sliced); try --set density=energy"
         )
 
     # the verdict (cheap but for the stiffness prediction) and the report are made before the
