@@ -321,6 +321,7 @@ def timing(folder: Path, engine: str, repeats: int = 3) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    global THICK  # --thickness: the part makers read it when they are called
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", nargs="?", default=None)
     ap.add_argument("--quick", action="store_true")
@@ -330,9 +331,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--configs", default=None, help="slicer-pattern-fill, comma-separated: prusa-gyroid-20")
     ap.add_argument("--variants", default=None, help="comma-separated subset of " + ",".join(VARIANTS))
     ap.add_argument("--skins", type=int, default=3, help="top and bottom solid layers of the slices")
+    ap.add_argument("--thickness", type=float, default=None,
+                    help=f"parts' thickness, mm (default {THICK:g}); the slices are named without it: use its own OUT_DIR")
     ap.add_argument("--timing", action="store_true", help="only the time budget: 40-layer 30 %% gyroid part")
     ap.add_argument("--repeats", type=int, default=3, help="--timing: runs of each (median)")
     args, _ = ap.parse_known_args(argv)
+    if args.thickness is not None:
+        THICK = float(args.thickness)
     folder = Path(args.out or tempfile.mkdtemp(prefix="bench_sparse_"))
     folder.mkdir(parents=True, exist_ok=True)
     if args.timing:
@@ -353,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
     head = (f"{'part':8} {'slice':16} {'variant':9} {'mass':>6} {'stiff':>6} {'st/m':>6} {'fail':>6} "
             f"{'fa/m':>6} {'fail N':>7} {'beta':>5} "
             f"{'trav':>6} {'travmx':>6} {'retr':>6} {'time':>5} {'size':>5} {'check':>6} {'run s':>6}")
-    print(f"engine {args.engine}; files in {folder}")
+    print(f"engine {args.engine}; parts {THICK:g} mm thick, {args.skins} top / bottom skins; files in {folder}")
     print(head)
     print("-" * len(head))
     for part in parts:

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_sparse_bound.py [OUT_DIR] [--parts beam,ohs] [--skins 3,0]
+    python benchmarks/bench_sparse_bound.py [OUT_DIR] [--parts beam,ohs] [--skins 3,0] [--thickness MM]
 
 The bound: in a linear elastic part under a given load, adding material never makes it softer
 (compliance under fixed loads falls or stays when any bead is added).  So no arrangement of a 20 %
@@ -53,6 +53,7 @@ import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_sparse  # noqa: E402
 from bench_sparse import CASES, PARTS, measure, slice_part  # noqa: E402
 from loadpath.errors import LoadpathError  # noqa: E402
 
@@ -62,7 +63,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("out", nargs="?", default=None)
     ap.add_argument("--parts", default=",".join(PARTS))
     ap.add_argument("--skins", default="3,0", help="top/bottom solid layers, comma-separated")
+    ap.add_argument("--thickness", type=float, default=None,
+                    help="parts' thickness, mm (default bench_sparse's 4 mm); use its own OUT_DIR")
     args = ap.parse_args(argv)
+    if args.thickness is not None:  # the slices are named without it: give each thickness its own folder
+        bench_sparse.THICK = float(args.thickness)
     folder = Path(args.out or tempfile.mkdtemp(prefix="bench_sparse_bound_"))
     folder.mkdir(parents=True, exist_ok=True)
     print(f"files in {folder}")
