@@ -80,7 +80,7 @@ def _prepare(name: str, folder: Path, engine: str) -> tuple[Path, Path]:
     if name == "example":
         gcode, case = REPO / "examples" / "ohs.gcode", REPO / "examples" / "ohs.toml"
     else:
-        layers = {"specimen-100": 100, "specimen-200": 200}[name]
+        layers = {"specimen-100": 100, "specimen-200": 200, "specimen-1000": 1000}[name]
         gcode, case = folder / f"{name}.gcode", folder / "grip_pull.toml"
         case.write_text(GRIP_PULL, encoding="utf-8")
         if not gcode.exists():
@@ -95,10 +95,10 @@ def _prepare(name: str, folder: Path, engine: str) -> tuple[Path, Path]:
     real = pipeline.splice
     args: list = []
 
-    def catch(program, fills, options):
+    def catch(program, fills, options, **kw):  # kw: the pipeline's workers
         fills = list(fills)
         args.append((fills, options))
-        return real(program, fills, options)
+        return real(program, fills, options, **kw)
 
     os.environ["LOADPATH_CACHE_DIR"] = str(folder / "cache")
     pipeline.splice = catch
