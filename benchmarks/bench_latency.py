@@ -356,6 +356,21 @@ shipped file's cache: its layers' engine runs and links are made again (the same
 a cache that has seen the re-slice: 0.84-1.06 s); the code before the day's merges (70446c6) gives
 the same on these two files (6.16 s, then 1.01 s). The gyroid gusset's sparse repeat takes longer
 than its first run (31.9 against 27.2 s of CPU): not explained here.
+
+Measured 2026-12-04 22:26-22:33 UTC (issue 17, the splice's second pass, ``bench_splice.py``: the
+1000-layer splice 19.3 -> 17.6 s of CPU, byte-identical), ``--repeats 1 --only specimen-1000``,
+BEFORE = 89dc3f2 (main's ``core`` on ``PYTHONPATH``) and AFTER = branch ``splicefast``, in the order
+BEFORE, AFTER, AFTER, BEFORE at load 2.2-5.1 on the 2 cores (other jobs; the first BEFORE ran as
+the load rose to 5 and is the outlier)::
+
+    part           slice s  first s      x repeat s      x  peak MB  out/in  cpu:sl  first  repeat
+    BEFORE         1.95      48.20   24.7     47.94   24.6      815    4.26     3.5   43.6    34.3
+    AFTER          5.29      41.39    7.8     30.53    5.8      775    4.26     3.5   39.3    29.4
+    AFTER          3.65      41.97   11.5     31.25    8.6      768    4.26     3.5   39.7    29.9
+    BEFORE         3.53      42.67   12.1     32.58    9.2      775    4.26     3.5   40.8    31.8
+
+The second pair, back to back: first run 42.7 -> 42.0 s (CPU 40.8 -> 39.7), repeated 32.6 -> 31.3 s
+(CPU 31.8 -> 29.9); the same output size; 15 s still missed by 2.8x.
 """
 
 from __future__ import annotations

@@ -50,6 +50,27 @@ chain's E and markers in ``extrude_many`` (16 %); per block, the plan's order (g
 14 %) and the bead runs with their Ramer-Douglas-Peucker passes (20 %).  The 1 M lines/s target is
 not met: what is left is Python per chain (4414 chains in 98 blocks: about 0.5 ms of the splice
 per chain), not per vertex.
+
+Measured 2026-12-04 22:25 UTC (issue 17, second splice pass: number digits from tables, the greedy
+order from the 2-opt's cost table, a block's wipes, width-marker candidates and chain times in one
+pass each), the same pickled fills, BEFORE = 89dc3f2 (main, its ``core`` as ``loadpath`` on
+``PYTHONPATH``) and AFTER = branch ``splicefast``, run alternately (``--profile 0``; specimen-100
+``--repeats 3`` four times each, specimen-1000 ``--repeats 1`` twice each) at load 2.6-3.5 on the
+2 cores (other jobs)::
+
+    part           out lines   splice s BEFORE        AFTER                lines/s BEFORE  AFTER
+    specimen-100      392269   1.97 2.31 2.01 2.17    1.85 2.04 1.78 1.75  170-199 k     192-225 k
+    specimen-1000    3968985   19.39 19.17            17.68 17.49          205-207 k     225-227 k
+
+Byte-identical outputs (sha256 of the splice's bytes; the 42 splice calls of ``tests/splice`` replayed
+on both versions from the same inputs).  The check is unchanged (3.3-3.4 s, 1.16-1.19 M lines/s on
+the 1000-layer file).  Where the 1000-layer splice's 17.9 s went after (one process, timers):
+bead runs 7.9 s (their two Ramer-Douglas-Peucker passes per block about 60 % of it: element-wise
+work over about 3 visits per vertex, 11-16 levels), the rewrite 7.3 s (the blocks' text 2.3, the
+travels between chains 1.5, the chains' extrusion 1.1), the plan 1.9 s.  The 1 M lines/s target is
+still missed by 4.4x: the numpy passes left are work, not per-call overhead (the RDP of 8 blocks
+batched into one call: 0.43 -> 0.36 s), and the sequential parts (runs of one width, the markers'
+hysteresis, the E carry through retractions) are plain-float loops already.
 """
 
 from __future__ import annotations
@@ -80,7 +101,7 @@ def _prepare(name: str, folder: Path, engine: str) -> tuple[Path, Path]:
     if name == "example":
         gcode, case = REPO / "examples" / "ohs.gcode", REPO / "examples" / "ohs.toml"
     else:
-        layers = {"specimen-100": 100, "specimen-200": 200}[name]
+        layers = {"specimen-100": 100, "specimen-200": 200, "specimen-1000": 1000}[name]
         gcode, case = folder / f"{name}.gcode", folder / "grip_pull.toml"
         case.write_text(GRIP_PULL, encoding="utf-8")
         if not gcode.exists():
@@ -95,10 +116,10 @@ def _prepare(name: str, folder: Path, engine: str) -> tuple[Path, Path]:
     real = pipeline.splice
     args: list = []
 
-    def catch(program, fills, options):
+    def catch(program, fills, options, **kw):  # kw: the pipeline's workers
         fills = list(fills)
         args.append((fills, options))
-        return real(program, fills, options)
+        return real(program, fills, options, **kw)
 
     os.environ["LOADPATH_CACHE_DIR"] = str(folder / "cache")
     pipeline.splice = catch

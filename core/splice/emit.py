@@ -37,7 +37,7 @@ from functools import lru_cache
 import numpy as np
 from loadpath.splice import numtext as nt
 
-__all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_few", "fmt_many"]
+__all__ = ["Style", "STYLES", "Writer", "fmt", "fmt_few", "fmt_many", "width_changes"]
 
 
 def fmt(value: float, decimals: int, leading_zero: bool = False) -> str:
@@ -327,6 +327,8 @@ class Writer:
         width_hysteresis: float = 0.0199,
         inserts: dict[int, list[str]] | None = None,
         seg=None,
+        changes: tuple[list[int], list[float]] | None = None,
+        seconds: float | None = None,
     ) -> None:
         """Extrude along a polyline in one go (the vectorized form of :meth:`extrude`).
 
@@ -349,6 +351,13 @@ class Writer:
             Lines written after segment ``k`` (``M73`` progress lines).
         seg : (n,) float, mm, optional
             The segments' lengths, when the caller has them (else measured here).
+        changes : (list of int, list of float), optional
+            Where the rounded width (``widths`` rounded to ``width_marker_step``) differs from the
+            segment before's (the first segment included) and that width, when the caller made them
+            for many chains at once (:func:`width_changes`); else made here.
+        seconds : float, s, optional
+            The moves' kinematic time, ``np.sum(seg / np.maximum(f, 1e-9)) * 60``, when the caller has
+            it.  Both are ignored where vertices are merged (``Style.path_xy_decimals`` below 3).
         """
         pts = np.asarray(points, dtype=float)
         de = np.asarray(de, dtype=float)
@@ -359,6 +368,7 @@ class Writer:
             pts, de, f, widths, inserts, seg = _merge_unmoved(
                 pts, de, f, widths, inserts, seg, self.style.path_xy_decimals
             )
+            changes = seconds = None
         n = len(de)
         if n == 0:
             return
@@ -381,16 +391,19 @@ class Writer:
         cur_w = self.width
         marks: list[tuple[int, float]] = []
         if widths is not None and self.style.width:
-            wq = np.round(np.asarray(widths, dtype=float) / width_marker_step) * width_marker_step
-            marks = _width_changes(wq, cur_w, width_hysteresis)
+            if changes is None:
+                changes = width_changes(widths, [len(de)], width_marker_step, width_hysteresis)[0]
+            marks = _width_marks(*changes, cur_w, width_hysteresis)
             if marks:
                 cur_w = marks[-1][1]
         fcur = self.f
         self._pending.add(pts[1:], de, cs, e0, e_prev, f, fcur if np.isfinite(fcur) else -1.0)
         self._lines.append(_Chain(len(self._pending.sizes) - 1, marks, inserts))
-        if seg is None:
-            seg = np.hypot(*(pts[1:] - pts[:-1]).T)
-        self.seconds += float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
+        if seconds is None:
+            if seg is None:
+                seg = np.hypot(*(pts[1:] - pts[:-1]).T)
+            seconds = float(np.sum(seg / np.maximum(f, 1e-9)) * 60.0)
+        self.seconds += seconds
         self.width = cur_w
         self.f = float(f[-1])
         self.x, self.y = float(pts[-1, 0]), float(pts[-1, 1])
@@ -411,11 +424,16 @@ class Writer:
         pts = np.asarray(points, dtype=float)
         lz = self.style.leading_zero
         xs, ys = pts[:, 0].tolist(), pts[:, 1].tolist()
-        words = zip(fmt_many(xs, 3, lz), fmt_many(ys, 3, lz), strict=True)
+        de_list = np.asarray(de, dtype=float).tolist()
+        self.wipe_lines(xs, ys, fmt_many(xs, 3, lz), fmt_many(ys, 3, lz), de_list)
+
+    def wipe_lines(self, xs: list, ys: list, xw: list, yw: list, de: list) -> None:
+        """:meth:`wipe_many` with its points' coordinates ``xs, ys`` (float) and their text ``xw, yw``
+        (:func:`fmt_many`, 3 decimals, the style's leading zero) given, ``de`` a list of floats."""
         lines = self._lines
-        for x, y, d, (xw, yw) in zip(xs, ys, np.asarray(de, dtype=float).tolist(), words, strict=True):
+        for x, y, d, xt, yt in zip(xs, ys, de, xw, yw, strict=True):
             ew = self._e_word(-d, exact=True)
-            lines.append(f"G1 X{xw} Y{yw} {ew}" if ew is not None else f"G1 X{xw} Y{yw}")
+            lines.append(f"G1 X{xt} Y{yt} {ew}" if ew is not None else f"G1 X{xt} Y{yt}")
             dist = math.hypot(x - self.x, y - self.y)
             if dist > 0 and self.f > 0:
                 self.seconds += dist / self.f * 60.0
@@ -624,22 +642,53 @@ def _merge_unmoved(pts, de, f, widths, inserts, seg, decimals: int):
     return new_pts, new_de, new_f, new_w, new_ins, new_seg
 
 
-def _width_changes(wq: np.ndarray, current: float, hysteresis: float) -> list[tuple[int, float]]:
+def width_changes(
+    widths, sizes: list[int], step: float, hysteresis: float
+) -> list[tuple[list[int], list[float]]]:
+    """Where each chain's rounded width may change, for many chains in one numpy pass.
+
+    Parameters
+    ----------
+    widths : (N,) float, mm
+        The segments' widths, chain after chain.
+    sizes : list of int
+        Segments per chain (each >= 1; they sum to N).
+    step, hysteresis : float, mm
+        As :meth:`Writer.extrude_many` takes them.
+
+    Returns
+    -------
+    list of (list of int, list of float)
+        Per chain: the segments a marker may go before (its first; with a hysteresis, those whose
+        rounded width differs from the segment before's: a segment as wide as the one before adds no
+        marker, since that one left the stated width within the hysteresis of it, or stated it; else
+        every one) and their rounded widths.  The rounding is element-wise, so the same figures as
+        chain by chain (issue 17: per chain, the numpy calls outweighed a chain's few segments).
+    """
+    wq = np.round(np.asarray(widths, dtype=float) / step) * step
+    first = np.cumsum([0, *sizes[:-1]], dtype=np.int64)
+    at = np.ones(len(wq), dtype=bool)
+    if hysteresis > 0:
+        at[1:] = wq[1:] != wq[:-1]
+        at[first] = True
+    where = np.flatnonzero(at)
+    bounds = np.searchsorted(where, np.append(first, len(wq))).tolist()
+    local = (where - np.repeat(first, np.diff(bounds))).tolist()
+    vals = wq[where].tolist()
+    return [(local[a:z], vals[a:z]) for a, z in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def _width_marks(
+    at: list[int], ws: list[float], current: float, hysteresis: float
+) -> list[tuple[int, float]]:
     """Segments where a width marker goes and the width it states: ``(k, width)`` in order.
 
-    A marker is written where the quantized width ``wq`` (mm, per segment) moved ``hysteresis`` mm or
-    more from the last one stated (``current`` before the first segment, NaN: none).  Sequential by
-    nature; plain floats over the segments where the width changes.
+    A marker is written where the quantized width ``ws[i]`` (mm, at segment ``at[i]``, from
+    :func:`width_changes`) moved ``hysteresis`` mm or more from the last one stated (``current``
+    before the first segment, NaN: none).  Sequential by nature; plain floats.
     """
     out = []
-    at: list[int] | range = range(len(wq))
-    if hysteresis > 0 and len(wq) > 1:
-        # a segment as wide as the one before adds no marker: that one left the stated width within
-        # the hysteresis of it, or stated it (runs of one width: a few changes per chain)
-        at = np.flatnonzero(np.concatenate([[True], wq[1:] != wq[:-1]])).tolist()
-    ws = wq.tolist()
-    for k in at:
-        w = ws[k]
+    for k, w in zip(at, ws, strict=True):
         if not abs(w - current) < hysteresis:
             current = w
             out.append((k, current))

@@ -15,6 +15,8 @@ half; those few values are formatted by Python and read back, so every digit wri
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 __all__ = ["Column", "writable", "number_column", "text_column", "lines"]
@@ -95,23 +97,64 @@ def number_column(values, decimals: int, leading_zero: bool = False) -> Column:
     keep[:, 0] = neg
     # integer digits, most significant first: kept from the first non-zero one; a lone zero when
     # the integer part is zero and the number is (leading_zero) or rounds to zero
-    power = 10 ** np.arange(width - 1, -1, -1, dtype=np.int64)
-    digits = (ip[:, None] // power[None, :]) % 10
-    chars[:, 1 : 1 + width] = digits + ord("0")
-    keep[:, 1 : 1 + width] = ip[:, None] >= power[None, :]
+    if width <= _INT_DIGITS:  # the usual case (below 1000): looked up, not divided
+        ich, ikeep = _digit_table(_INT_DIGITS, False)
+        chars[:, 1 : 1 + width] = ich[ip, _INT_DIGITS - width :]
+        keep[:, 1 : 1 + width] = ikeep[ip, _INT_DIGITS - width :]
+    else:
+        power = 10 ** np.arange(width - 1, -1, -1, dtype=np.int64)
+        digits = (ip[:, None] // power[None, :]) % 10
+        chars[:, 1 : 1 + width] = digits + ord("0")
+        keep[:, 1 : 1 + width] = ip[:, None] >= power[None, :]
     lone = (ip == 0) & ((a == 0) | leading_zero)
     keep[:, width] |= lone
     chars[:, 1 + width] = ord(".")
     keep[:, 1 + width] = fp != 0
     if decimals:
-        fpow = 10 ** np.arange(decimals - 1, -1, -1, dtype=np.int64)
-        fd = (fp[:, None] // fpow[None, :]) % 10
-        chars[:, 2 + width :] = fd + ord("0")
-        # kept up to the last non-zero digit
-        nz = fd != 0
-        last = decimals - 1 - np.argmax(nz[:, ::-1], axis=1)
-        keep[:, 2 + width :] = (np.arange(decimals)[None, :] <= last[:, None]) & (fp != 0)[:, None]
+        if decimals <= _FRACTION_DIGITS:
+            fch, fkeep = _digit_table(decimals, True)
+            chars[:, 2 + width :] = fch[fp]
+            keep[:, 2 + width :] = fkeep[fp]
+        else:
+            fpow = 10 ** np.arange(decimals - 1, -1, -1, dtype=np.int64)
+            fd = (fp[:, None] // fpow[None, :]) % 10
+            chars[:, 2 + width :] = fd + ord("0")
+            # kept up to the last non-zero digit
+            nz = fd != 0
+            last = decimals - 1 - np.argmax(nz[:, ::-1], axis=1)
+            keep[:, 2 + width :] = (np.arange(decimals)[None, :] <= last[:, None]) & (fp != 0)[:, None]
     return Column(chars, keep)
+
+
+_INT_DIGITS = 3
+"""Integer parts below ``10**_INT_DIGITS`` take their digits from a table (:func:`_digit_table`)."""
+
+_FRACTION_DIGITS = 5
+"""Fractions of up to this many decimals take their digits from a table (5: 100,000 rows, 1 MB)."""
+
+
+@lru_cache(maxsize=None)
+def _digit_table(digits: int, fraction: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The characters ``(10**digits, digits) uint8`` of every integer below ``10**digits``, zero-padded,
+    and which of them are written ``(10**digits, digits) bool``.
+
+    Integer parts (``fraction`` False): from the first non-zero digit on (none for 0).  Fractions
+    (``fraction`` True, the digits after the point): up to the last non-zero one (none for 0).
+    The digits :func:`number_column` divided out one column at a time, made once per process
+    (issue 17: the divisions were most of the column's time).
+    """
+    v = np.arange(10**digits, dtype=np.int64)
+    power = 10 ** np.arange(digits - 1, -1, -1, dtype=np.int64)
+    d = (v[:, None] // power[None, :]) % 10
+    chars = (d + ord("0")).astype(np.uint8)
+    if not fraction:
+        keep = v[:, None] >= power[None, :]
+    else:
+        last = digits - 1 - np.argmax((d != 0)[:, ::-1], axis=1)
+        keep = (np.arange(digits)[None, :] <= last[:, None]) & (v != 0)[:, None]
+    chars.setflags(write=False)
+    keep.setflags(write=False)
+    return chars, keep
 
 
 def text_column(text: str, n: int, keep=None) -> Column:

@@ -375,12 +375,33 @@ def _order(
     free_travel: float,
     retract_cost: float,
 ) -> list[tuple[int, bool]]:
-    """Make the order of :func:`order_paths` from the path ends: ``(path index, reversed)`` per path."""
+    """Make the order of :func:`order_paths` from the path ends: ``(path index, reversed)`` per path.
+
+    Orders the 2-opt takes (``max_2opt`` paths or fewer) read every travel's cost from one table of
+    all the ends (:func:`_cost_table`, which the 2-opt reads too): the greedy steps' costs are its
+    rows, the figures each step measured before (issue 17: the steps' distances and costs were most
+    of the order's time).  Longer ones, and ends that are not finite, keep the step-by-step order.
+    """
+    m = len(heads)
+    cost = _travel_cost(free_travel, retract_cost)
+    table = None
+    if m <= max_2opt:
+        table = _cost_table(heads, tails, np.asarray(start, dtype=float), cost)
+        if not np.all(np.isfinite(table)):  # argmin and the step's comparison treat NaN apart
+            table = None
+    seq = _greedy(heads, tails, start, cost) if table is None else _greedy_from_table(table, m)
+    if 2 < m <= max_2opt:
+        seq = _two_opt(seq, heads, tails, np.asarray(start, dtype=float), passes, cost, table)
+    return seq
+
+
+def _greedy(heads: Points2, tails: Points2, start: Points2, cost) -> list[tuple[int, bool]]:
+    """The greedy order of :func:`order_paths`, step by step: the cheapest free end from where the
+    nozzle is (a head on a tie)."""
     m = len(heads)
     free = np.ones(m, dtype=bool)
     pos = np.asarray(start, dtype=float)
     seq: list[tuple[int, bool]] = []
-    cost = _travel_cost(free_travel, retract_cost)
     for _ in range(m):
         dh = np.where(free, cost(np.hypot(*(heads - pos).T)), np.inf)
         dt = np.where(free, cost(np.hypot(*(tails - pos).T)), np.inf)
@@ -392,9 +413,34 @@ def _order(
         free[k] = False
         seq.append((k, rev))
         pos = heads[k] if rev else tails[k]
-    if 2 < m <= max_2opt:
-        seq = _two_opt(seq, heads, tails, np.asarray(start, dtype=float), passes, cost)
     return seq
+
+
+def _greedy_from_table(table: np.ndarray, m: int) -> list[tuple[int, bool]]:
+    """:func:`_greedy` from the :func:`_cost_table` of its ends (finite): the same order.
+
+    Row ``p`` of the table holds the costs from end ``p`` to every head (columns ``0..m-1``) and
+    tail (``m..2m-1``), the figures :func:`_greedy` computes from that end; the first smallest of a
+    row's free entries is the cheapest head, or the cheapest tail when it is strictly cheaper.
+    """
+    free = np.ones(2 * m, dtype=bool)
+    pos = 2 * m  # the start
+    seq: list[tuple[int, bool]] = []
+    for _ in range(m):
+        j = int(np.argmin(np.where(free, table[pos, : 2 * m], np.inf)))
+        k, rev = (j, False) if j < m else (j - m, True)
+        free[k] = free[k + m] = False
+        seq.append((k, rev))
+        pos = k if rev else k + m  # a reversed path ends at its head
+    return seq
+
+
+def _cost_table(heads: Points2, tails: Points2, start: Points2, cost) -> np.ndarray:
+    """Every travel's cost between the ends ``(2m + 1, 2m + 1)``: heads ``0..m-1``, tails ``m..2m-1``,
+    the start ``2m``; ``c[a, b] = cost(hypot(p[a] - p[b]))``, symmetric (``p[a] - p[b]`` is exactly
+    ``-(p[b] - p[a])``)."""
+    p = np.concatenate([heads, tails, np.asarray(start, dtype=float)[None]])
+    return cost(np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1]))
 
 
 def _travel_cost(free_travel: float, retract_cost: float):
@@ -433,7 +479,13 @@ def _order_by_island(
 
 
 def _two_opt(
-    seq: list[tuple[int, bool]], heads: Points2, tails: Points2, start: Points2, passes: int, cost=None
+    seq: list[tuple[int, bool]],
+    heads: Points2,
+    tails: Points2,
+    start: Points2,
+    passes: int,
+    cost=None,
+    table: np.ndarray | None = None,
 ) -> list[tuple[int, bool]]:
     """2-opt on an open tour of oriented paths from a fixed start (see :func:`order_paths`).
 
@@ -451,8 +503,7 @@ def _two_opt(
     # every travel's cost from a table of all the ends (heads 0..m-1, tails m..2m-1, the start 2m):
     # c[a, b] = cost(hypot(p[a] - p[b])), the figures the steps computed from the points before
     # (symmetric: p[a] - p[b] is exactly -(p[b] - p[a]))
-    p = np.concatenate([heads, tails, np.asarray(start, dtype=float)[None]])
-    c = cost(np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1]))
+    c = _cost_table(heads, tails, start, cost) if table is None else table
     s_id = np.where(rev, idx + m, idx)  # the end each path starts from
     e_id = np.where(rev, idx, idx + m)  # and the one it ends at
     link = np.append(c[s_id[1:], e_id[:-1]], 0.0)  # travel after each path

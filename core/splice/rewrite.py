@@ -39,9 +39,18 @@ from loadpath.gcode.model import Block, Program
 from loadpath.gcode.rowindex import move_rows
 from loadpath.gcode.words import G, M, T
 from loadpath.splice.arcfit import ArcOptions, fit_arcs
-from loadpath.splice.emit import Style, Writer, fmt
+from loadpath.splice.emit import Style, Writer, fmt, width_changes
 from loadpath.splice.plan import BlockPlan, Chain
-from loadpath.splice.travel import Motion, TravelState, cover_travels, travel, unretract, wipe_back
+from loadpath.splice.travel import (
+    Motion,
+    TravelState,
+    cover_travels,
+    prepare_wipes,
+    travel,
+    unretract,
+    wipe_back,
+    wipe_distance,
+)
 
 __all__ = ["Rewritten", "rewrite_block", "refusal"]
 
@@ -311,12 +320,27 @@ def rewrite_block(
     if len(chains) > 1:  # the travels between chains, from one's end to the next one's start
         ends = np.array([c.points[-1] for c in chains[:-1]])
         cover_travels(st, ends, np.array([c.points[0] for c in chains[1:]]))
+        r = motion.retraction
+        if r.wipe and not r.firmware and r.length > 0 and r.speed > 0:  # the wipes they may take
+            prepare_wipes(st, [c.points for c in chains[:-1]], wipe_distance(motion), style.leading_zero)
+    # the chains' width changes and times in one pass each (Writer.extrude_many's, the same figures)
+    changes: list = [None] * len(chains)
+    secs: list = [None] * len(chains)
+    if chains:
+        sizes = [len(c.width) for c in chains]
+        if style.width:
+            changes = width_changes(np.concatenate([c.width for c in chains]), sizes, 0.001, 0.0005)
+        ratio = np.concatenate([c.segments for c in chains]) / np.maximum(
+            np.concatenate([c.feedrate for c in chains]), 1e-9
+        )
+        bounds = np.cumsum([0, *sizes]).tolist()
+        secs = [float(np.sum(ratio[a:z]) * 60.0) for a, z in zip(bounds[:-1], bounds[1:], strict=True)]
     for ci, c in enumerate(chains):
         if ci > 0:
             travel(w, st, c.points[0], last, last_length=chains[ci - 1].length)
             if w.retracted > 1e-9 or st.fw:
                 unretract(w, st)
-        mi, done_len = _extrude_chain(w, c, style, m73, mi, done_len, total_len, arcs)
+        mi, done_len = _extrude_chain(w, c, style, m73, mi, done_len, total_len, arcs, changes[ci], secs[ci])
         last = c.points
     for _, text in m73[mi:]:
         w.raw(text)
@@ -355,8 +379,14 @@ def _extrude_chain(
     done_len: float,
     total_len: float,
     arcs: ArcOptions | None = None,
+    changes: tuple[list[int], list[float]] | None = None,
+    seconds: float | None = None,
 ) -> tuple[int, float]:
-    """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way."""
+    """Write one chain: width markers where the rounded width changes, feedrate, E; M73 lines on the way.
+
+    ``changes``, ``seconds``: the chain's width changes and time made for the block at once
+    (:meth:`Writer.extrude_many`'s), for a chain written in one piece.
+    """
     seg = c.segments
     cum = done_len + np.cumsum(seg)
     inserts: dict[int, list[str]] = {}
@@ -367,7 +397,10 @@ def _extrude_chain(
     # runs have one width each (loadpath.splice.beadruns): a marker at every change, to 0.001 mm
     found = fit_arcs(c.points, c.filament, c.width, c.feedrate, arcs) if arcs is not None else []
     if not found:
-        w.extrude_many(c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005, inserts=inserts, seg=seg)
+        w.extrude_many(
+            c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005,
+            inserts=inserts, seg=seg, changes=changes, seconds=seconds,
+        )
         return mi, float(cum[-1])
     # lines between the arcs as one chain each, the arcs one move each; M73 lines after the piece
     # holding their segment

@@ -46,3 +46,22 @@ def test_a_kept_order_is_the_fresh_one_with_the_new_paths_arrays():
     # another start is another order's key
     order_paths(again, np.array([30.0, 0.0]), free_travel=1.0, retract_cost=2.0)
     assert len(plan._ORDERS) == 2
+
+
+def test_the_greedy_order_from_the_cost_table_is_the_step_by_step_one():
+    """_greedy_from_table (issue 17) against _greedy, the step-by-step reference: the same order on
+    random ends, on ends on a grid (ties between heads and tails, and between paths) and with the
+    retraction's cost (steps in the costs)."""
+    rng = np.random.default_rng(11)
+    for trial in range(60):
+        m = int(rng.integers(1, 90))
+        if trial % 3 == 0:  # ties
+            heads = rng.integers(0, 5, (m, 2)).astype(float)
+            tails = rng.integers(0, 5, (m, 2)).astype(float)
+        else:
+            heads, tails = rng.uniform(0, 60, (m, 2)), rng.uniform(0, 60, (m, 2))
+        start = rng.uniform(-5, 65, 2)
+        for free, extra in ((0.0, 0.0), (1.0, 10.0), (3.0, 2.5)):
+            cost = plan._travel_cost(free, extra)
+            table = plan._cost_table(heads, tails, start, cost)
+            assert plan._greedy_from_table(table, m) == plan._greedy(heads, tails, start, cost)
