@@ -174,7 +174,7 @@ def prediction_key(
 
     def parts() -> Iterator[bytes | str]:  # a Stack's parts one at a time
         yield from head
-        for dep in deposits if isinstance(deposits, Stack) else (deposits,):
+        for dep in _parts(deposits):
             for name in ("start", "end", "z0", "height", "volume", "layer", "role"):
                 a = np.ascontiguousarray(getattr(dep, name))
                 yield f"{name} {a.dtype.str} {a.shape}"
