@@ -198,6 +198,7 @@ _NEAR_FIELDS = ("z0", "height", "layer", "role")
 
 
 def _parts(deposits: Deposits | Stack) -> Iterator[Deposits]:
+    """A :class:`Stack`'s parts one at a time (made as they are read), or the one :class:`Deposits`."""
     yield from (deposits if isinstance(deposits, Stack) else (deposits,))
 
 
