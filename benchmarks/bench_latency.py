@@ -371,6 +371,33 @@ the load rose to 5 and is the outlier)::
 
 The second pair, back to back: first run 42.7 -> 42.0 s (CPU 40.8 -> 39.7), repeated 32.6 -> 31.3 s
 (CPU 31.8 -> 29.9); the same output size; 15 s still missed by 2.8x.
+
+Measured 2026-12-04 22:43-22:50 UTC on ec0f5fb (the splice's second pass merged), load 1.3 at the
+start, nothing else of this project running but a one-minute edit of the verdict's cache (reverted
+before the gusset's sparse runs had all started; their figures may hold one run of it),
+``--repeats 3`` (swarm)::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    example                      10     0.13     3.73   28.6     2.16   16.5      252    0.25   3.47     0.1     5.7     3.6
+    specimen-100                100     0.36     5.97   16.4     5.73   15.7      442    2.31   4.18     0.6     8.2     7.9
+    gusset-gyroid30              40     0.33     5.18   15.8     2.11    6.5      309    2.32   1.11     0.5     7.4     3.4
+    gusset-gyroid30-sparse       40     0.33    18.36   55.6     8.38   25.4      330    2.32   0.53     0.5    23.2    10.0
+    gusset-100                   40     0.38     7.34   19.1     5.22   13.6      317    0.64   5.99     0.4     9.9     5.9
+    specimen-1000              1000     2.74    28.82   10.5    24.03    8.8      736   22.95   4.26     3.4    36.2    27.9
+
+Then on 62b4637 (the verdict's predictions also kept for beads within 0.1 mm, :func:`loadpath.stiffness.change.near_key`:
+PrusaSlicer's re-export at other speeds moves a few beads by hundredths of a millimetre), 22:53-22:56,
+``--repeats 3 --only example,specimen-100,gusset-gyroid30``, load 1.6::
+
+    example                      10     0.13     3.64   27.1     0.63    4.7      252    0.25   3.47     0.1     5.5     0.8
+    specimen-100                100     0.30     5.54   18.4     3.30   11.0      436    2.31   4.18     0.5     7.7     4.3
+    gusset-gyroid30              40     0.32     4.38   13.6     3.95   12.2      309    2.32   1.11     0.5     6.5     5.0
+
+The example's repeat 2.16 -> 0.63 s (CPU 3.6 -> 0.8): both predictions from the near match.  The
+gusset's re-slice changes its gyroid layers (other layers, roles and counts: no near match), so both
+predictions and two jobs' paths are made again as before; its repeat's 2.11 against 3.95 s between
+the two runs is PrusaSlicer's re-slice differing from run to run (in process on one pair of files:
+two of five engine jobs and both predictions made again, 2.46 s).
 """
 
 from __future__ import annotations
