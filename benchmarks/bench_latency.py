@@ -386,7 +386,7 @@ before the gusset's sparse runs had all started; their figures may hold one run 
     specimen-1000              1000     2.74    28.82   10.5    24.03    8.8      736   22.95   4.26     3.4    36.2    27.9
 
 Then on 62b4637 (the verdict's predictions also kept for beads within 0.1 mm, :func:`loadpath.stiffness.change.near_key`:
-PrusaSlicer's re-export at other speeds moves a few beads by hundredths of a millimetre), 22:53-22:56,
+PrusaSlicer's re-export at other speeds moves a few beads by hundredths of a millimetre), 22:50-22:53,
 ``--repeats 3 --only example,specimen-100,gusset-gyroid30``, load 1.6::
 
     example                      10     0.13     3.64   27.1     0.63    4.7      252    0.25   3.47     0.1     5.5     0.8
