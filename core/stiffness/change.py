@@ -172,15 +172,7 @@ def prediction_key(
     head: list[bytes | str] = ["prediction", code_stamp(), source_stamp("stiffness"), fea_key]
     head += [repr(options), repr(card)]
 
-    def parts() -> Iterator[bytes | str]:  # a Stack's parts one at a time
-        yield from head
-        for dep in _parts(deposits):
-            for name in ("start", "end", "z0", "height", "volume", "layer", "role"):
-                a = np.ascontiguousarray(getattr(dep, name))
-                yield f"{name} {a.dtype.str} {a.shape}"
-                yield a.tobytes()
-
-    return digest(parts())
+    return digest([*head, *_field_bytes(deposits, ("start", "end", "z0", "height", "volume", "layer", "role"))])
 
 
 NEAR_MM = 0.1
@@ -202,6 +194,15 @@ def _parts(deposits: Deposits | Stack) -> Iterator[Deposits]:
     yield from (deposits if isinstance(deposits, Stack) else (deposits,))
 
 
+def _field_bytes(deposits: Deposits | Stack, names: tuple[str, ...]) -> Iterator[bytes | str]:
+    """What a key reads of the beads, part by part: each named field's dtype, shape and bytes."""
+    for dep in _parts(deposits):
+        for name in names:
+            a = np.ascontiguousarray(getattr(dep, name))
+            yield f"{name} {a.dtype.str} {a.shape}"
+            yield a.tobytes()
+
+
 def near_key(
     fea_key: str, deposits: Deposits | Stack, options: StiffnessOptions, card: MaterialCard | None
 ) -> str:
@@ -210,15 +211,8 @@ def near_key(
     within :data:`NEAR_MM` and :data:`NEAR_VOLUME`, :func:`_near`)."""
     from loadpath.cache import code_stamp, digest, source_stamp
 
-    def parts() -> Iterator[bytes | str]:
-        yield from ["prediction near", code_stamp(), source_stamp("stiffness"), fea_key, repr(options), repr(card)]
-        for dep in _parts(deposits):
-            for name in _NEAR_FIELDS:
-                a = np.ascontiguousarray(getattr(dep, name))
-                yield f"{name} {a.dtype.str} {a.shape}"
-                yield a.tobytes()
-
-    return digest(parts())
+    head = ["prediction near", code_stamp(), source_stamp("stiffness"), fea_key, repr(options), repr(card)]
+    return digest([*head, *_field_bytes(deposits, _NEAR_FIELDS)])
 
 
 def _beads(deposits: Deposits | Stack) -> tuple[np.ndarray, np.ndarray]:
@@ -245,33 +239,37 @@ def _near(kept: tuple[np.ndarray, np.ndarray], beads: tuple[np.ndarray, np.ndarr
     return bool(np.all(np.abs(a1 - a0) <= NEAR_VOLUME * a0 + 1e-9))
 
 
-def _lookup(cache, key: str, deposits: Deposits | Stack, options: StiffnessOptions, card):  # type: ignore[no-untyped-def]
-    """The cache's prediction of these beads: under their exact :func:`prediction_key`, else the one kept
-    under their :func:`near_key` when its beads match (:func:`_near`); None if neither."""
-    hit = cache.get("prediction", prediction_key(key, deposits, options, card))
+def _keys(key: str, deposits: Deposits | Stack, options: StiffnessOptions, card) -> tuple[str, str]:  # type: ignore[no-untyped-def]
+    """The beads' :func:`prediction_key` and :func:`near_key` (made once for a lookup and the keep after it)."""
+    return prediction_key(key, deposits, options, card), near_key(key, deposits, options, card)
+
+
+def _lookup(cache, keys: tuple[str, str], deposits: Deposits | Stack):  # type: ignore[no-untyped-def]
+    """The cache's prediction of these beads: under their exact key (``keys``: :func:`_keys`), else the
+    one kept under their near key when its beads match (:func:`_near`); None if neither."""
+    hit = cache.get("prediction", keys[0])
     if isinstance(hit, _Predicted):
         return hit
-    rec = cache.get("near", near_key(key, deposits, options, card))
+    rec = cache.get("near", keys[1])
     if not (isinstance(rec, tuple) and len(rec) == 3 and _near((rec[1], rec[2]), _beads(deposits))):
         return None
     hit = cache.get("prediction", rec[0])
     return hit if isinstance(hit, _Predicted) else None
 
 
-def _keep(cache, key: str, deposits: Deposits | Stack, options: StiffnessOptions, card, value) -> None:  # type: ignore[no-untyped-def]
+def _keep(cache, keys: tuple[str, str], deposits: Deposits | Stack, value) -> None:  # type: ignore[no-untyped-def]
     """Keep a prediction under its exact key and, for a file of at most :data:`NEAR_BEADS` beads, its
-    beads under their :func:`near_key`."""
-    exact = prediction_key(key, deposits, options, card)
-    cache.put("prediction", exact, value)
+    beads under their near key (``keys``: :func:`_keys`)."""
+    cache.put("prediction", keys[0], value)
     if sum(len(d) for d in _parts(deposits)) <= NEAR_BEADS:
-        cache.put("near", near_key(key, deposits, options, card), (exact, *_beads(deposits)))
+        cache.put("near", keys[1], (keys[0], *_beads(deposits)))
 
 
 def _cached(deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> bool:  # type: ignore[no-untyped-def]
     """The cache holds this prediction (or one of beads near enough, :func:`_lookup`)."""
     if cache is None or not key:
         return False
-    return _lookup(cache, key, deposits, options, card) is not None
+    return _lookup(cache, _keys(key, deposits, options, card), deposits) is not None
 
 
 _PAIR: list = []
@@ -301,12 +299,12 @@ def _predict_pair(  # type: ignore[no-untyped-def]
     """
     from loadpath.procs import fork_map
 
-    keyed = cache is not None and bool(key)
+    keys = [_keys(key, dep, options, card) if cache is not None and key else None for dep in pair]
     out: list[_Predicted | None] = [None, None]
     todo: list[tuple[int, object]] = []
-    for i, dep in enumerate(pair):
-        if keyed:
-            hit = _lookup(cache, key, dep, options, card)
+    for i, (dep, k) in enumerate(zip(pair, keys, strict=True)):
+        if k is not None:
+            hit = _lookup(cache, k, dep)
             if isinstance(hit, _Predicted) and hit.mesh is not None:
                 meshes.setdefault(mesh_key(rb, options), hit.mesh)
                 out[i] = hit
@@ -319,8 +317,9 @@ def _predict_pair(  # type: ignore[no-untyped-def]
         _PAIR.clear()
     for (i, mesh), got in zip(todo, solved, strict=True):
         out[i] = _Predicted(*got, mesh)
-        if keyed:
-            _keep(cache, key, pair[i], options, card, out[i])
+        k = keys[i]
+        if k is not None:
+            _keep(cache, k, pair[i], out[i])
     return (out[0], out[1]), len(todo)
 
 
