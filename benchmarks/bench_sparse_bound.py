@@ -47,7 +47,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -56,6 +55,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_sparse  # noqa: E402
 from bench_sparse import CASES, PARTS, measure, slice_part  # noqa: E402
 from loadpath.errors import LoadpathError  # noqa: E402
+from loadpath.plugin.job import JobRequest, run_job  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -110,13 +110,10 @@ def main(argv: list[str] | None = None) -> int:
 def _aligned(solid: Path, case: Path) -> Path:
     """The 100 % file with its solid infill replaced by level sets along the stress (no cache)."""
     out = solid.with_name(solid.stem + ".aligned.gcode")
-    if not out.exists():
-        lp = Path(sys.executable).with_name("loadpath")
-        cmd = [str(lp), "run", str(solid), "--loadcase", str(case), "-o", str(out), "--engine", "levelset",
-               "--no-cache"]
-        done = subprocess.run(cmd, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise SystemExit(f"loadpath run failed on {solid.name}: {done.stderr.strip()[-300:]}")
+    if not out.exists():  # in process, as bench_sparse runs its variants
+        res = run_job(JobRequest(solid, case, output=out, cli={"engine": "levelset", "cache": False}))
+        if res.error or not res.written:
+            raise SystemExit(f"loadpath run failed on {solid.name}: {res.error}")
     return out
 
 
