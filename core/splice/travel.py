@@ -340,8 +340,8 @@ def _sum_as_numpy(values: list[float]) -> float:
 
 
 def wipe_distance(motion: Motion) -> float:
-    """How far a retraction wipes back, mm (:func:`retract`: as long as the retraction takes at
-    ``retract_speed``, at 0.8 x travel speed)."""
+    """How far a retraction wipes back, mm (:func:`retract` and :func:`prepare_wipes`: as long as the
+    retraction takes at ``retract_speed``, at 0.8 x travel speed)."""
     r = motion.retraction
     return r.length / r.speed * (0.8 * motion.travel_speed)
 
@@ -430,7 +430,7 @@ def retract(w: Writer, st: TravelState, last: Points2 | None, last_length: float
             # PrusaSlicer: wipe for the time the retraction takes at retract_speed, at 0.8 x travel
             # speed, pulling 95 % of what is left; the rest is an E-only move (verified on 2.5 output).
             wipe_speed = 0.8 * st.motion.travel_speed
-            dist = r.length / r.speed * wipe_speed
+            dist = wipe_distance(st.motion)  # the same figure prepare_wipes was given
             avail = last_length if last_length is not None else _length(last)
             want = 0.95 * (r.length - done) * min(1.0, avail / dist) if dist > 0 else 0.0
             w.marker(w.style.wipe_start, "")
