@@ -54,6 +54,12 @@ from loadpath.splice.travel import (
 
 __all__ = ["Rewritten", "rewrite_block", "refusal"]
 
+MARK_STEP, MARK_HYSTERESIS = 0.001, 0.0005
+"""Width markers of the new chains (mm): widths rounded to ``MARK_STEP`` and a marker at every change
+of at least ``MARK_HYSTERESIS`` (bead runs have one width each, :mod:`loadpath.splice.beadruns`); the
+block's precomputed :func:`~loadpath.splice.emit.width_changes` and :meth:`Writer.extrude_many` read
+the same two."""
+
 _MOTION_RE = re.compile(r"^\s*G([0-3])(?![0-9.])([^;]*)", re.I)
 _WORD_RE = re.compile(r"([XYZEF])\s*[-+.0-9]", re.I)
 _G92_E_ONLY = re.compile(r"^\s*G92(\s+E\s*[-+.0-9]+)?\s*(;.*)?$", re.I)
@@ -329,7 +335,8 @@ def rewrite_block(
     if chains:
         sizes = [len(c.width) for c in chains]
         if style.width:
-            changes = width_changes(np.concatenate([c.width for c in chains]), sizes, 0.001, 0.0005)
+            widths = np.concatenate([c.width for c in chains])
+            changes = width_changes(widths, sizes, MARK_STEP, MARK_HYSTERESIS)
         ratio = np.concatenate([c.segments for c in chains]) / np.maximum(
             np.concatenate([c.feedrate for c in chains]), 1e-9
         )
@@ -394,11 +401,11 @@ def _extrude_chain(
         k = int(np.searchsorted(cum, m73[mi][0] * total_len - 1e-9))
         inserts.setdefault(min(k, len(seg) - 1), []).append(m73[mi][1])
         mi += 1
-    # runs have one width each (loadpath.splice.beadruns): a marker at every change, to 0.001 mm
+    # runs have one width each (loadpath.splice.beadruns): a marker at every change (MARK_STEP)
     found = fit_arcs(c.points, c.filament, c.width, c.feedrate, arcs) if arcs is not None else []
     if not found:
         w.extrude_many(
-            c.points, c.filament, c.feedrate, c.width, 0.001, 0.0005,
+            c.points, c.filament, c.feedrate, c.width, MARK_STEP, MARK_HYSTERESIS,
             inserts=inserts, seg=seg, changes=changes, seconds=seconds,
         )
         return mi, float(cum[-1])
@@ -411,7 +418,7 @@ def _extrude_chain(
             sub = {k - at: v for k, v in inserts.items() if at <= k < stop}
             w.extrude_many(
                 c.points[at : stop + 1], c.filament[at:stop], c.feedrate[at:stop], c.width[at:stop],
-                0.001, 0.0005, inserts=sub, seg=seg[at:stop],
+                MARK_STEP, MARK_HYSTERESIS, inserts=sub, seg=seg[at:stop],
             )
         if arc is None:
             break
