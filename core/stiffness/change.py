@@ -22,8 +22,8 @@ re-export with other speeds or temperatures deposits nearly the same beads, not 
 0.005 mm³ (``benchmarks/bench_latency.py``'s re-slice), which missed both predictions and made the
 verdict 2.4 of the re-export's 2.9 s.  So each prediction is also kept under :func:`near_key`
 (everything but the beads' positions and volumes) with its beads, and a run whose beads match those
-bead for bead within :data:`NEAR_MM` (ends) and :data:`NEAR_VOLUME` (cross-section) uses it (``cache.stats`` counts a
-``near`` hit): its figures are those of beads within a tenth of a millimetre, far below what the
+bead for bead within :data:`NEAR_MM` (ends) and :data:`NEAR_VOLUME` (cross-section) uses it
+(``cache.stats`` counts a ``near`` hit): its figures are those of beads within a tenth of a millimetre, far below what the
 model resolves (its strength is averaged over two bead widths, its mesh is a millimetre).
 """
 
@@ -172,7 +172,8 @@ def prediction_key(
     head: list[bytes | str] = ["prediction", code_stamp(), source_stamp("stiffness"), fea_key]
     head += [repr(options), repr(card)]
 
-    return digest([*head, *_field_bytes(deposits, ("start", "end", "z0", "height", "volume", "layer", "role"))])
+    names = ("start", "end", "z0", "height", "volume", "layer", "role")
+    return digest([*head, *_field_bytes(deposits, names)])
 
 
 NEAR_MM = 0.1
@@ -183,7 +184,8 @@ NEAR_VOLUME = 0.05
 kept prediction is used."""
 
 NEAR_BEADS = 400_000
-"""Most beads whose positions are kept for a near match (26 bytes each; a larger file matches exactly only)."""
+"""Most beads whose positions are kept for a near match (20 bytes each; a larger file matches
+exactly only)."""
 
 _NEAR_FIELDS = ("z0", "height", "layer", "role")
 """What :func:`near_key` names exactly (the rest, positions and volumes, is matched within tolerances)."""
@@ -239,8 +241,11 @@ def _near(kept: tuple[np.ndarray, np.ndarray], beads: tuple[np.ndarray, np.ndarr
     return bool(np.all(np.abs(a1 - a0) <= NEAR_VOLUME * a0 + 1e-9))
 
 
-def _keys(key: str, deposits: Deposits | Stack, options: StiffnessOptions, card) -> tuple[str, str]:  # type: ignore[no-untyped-def]
-    """The beads' :func:`prediction_key` and :func:`near_key` (made once for a lookup and the keep after it)."""
+def _keys(  # type: ignore[no-untyped-def]
+    key: str, deposits: Deposits | Stack, options: StiffnessOptions, card
+) -> tuple[str, str]:
+    """The beads' :func:`prediction_key` and :func:`near_key` (made once for a lookup and the keep
+    after it)."""
     return prediction_key(key, deposits, options, card), near_key(key, deposits, options, card)
 
 
@@ -257,7 +262,9 @@ def _lookup(cache, keys: tuple[str, str], deposits: Deposits | Stack):  # type: 
     return hit if isinstance(hit, _Predicted) else None
 
 
-def _keep(cache, keys: tuple[str, str], deposits: Deposits | Stack, value) -> None:  # type: ignore[no-untyped-def]
+def _keep(  # type: ignore[no-untyped-def]
+    cache, keys: tuple[str, str], deposits: Deposits | Stack, value
+) -> None:
     """Keep a prediction under its exact key and, for a file of at most :data:`NEAR_BEADS` beads, its
     beads under their near key (``keys``: :func:`_keys`)."""
     cache.put("prediction", keys[0], value)
