@@ -332,7 +332,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variants", default=None, help="comma-separated subset of " + ",".join(VARIANTS))
     ap.add_argument("--skins", type=int, default=3, help="top and bottom solid layers of the slices")
     ap.add_argument("--thickness", type=float, default=None,
-                    help=f"parts' thickness, mm (default {THICK:g}); the slices are named without it: use its own OUT_DIR")
+                    help=f"parts' thickness, mm (default {THICK:g}); the slices are named without it: "
+                    "use its own OUT_DIR")
     ap.add_argument("--timing", action="store_true", help="only the time budget: 40-layer 30 %% gyroid part")
     ap.add_argument("--repeats", type=int, default=3, help="--timing: runs of each (median)")
     args, _ = ap.parse_known_args(argv)
@@ -358,7 +359,8 @@ def main(argv: list[str] | None = None) -> int:
     head = (f"{'part':8} {'slice':16} {'variant':9} {'mass':>6} {'stiff':>6} {'st/m':>6} {'fail':>6} "
             f"{'fa/m':>6} {'fail N':>7} {'beta':>5} "
             f"{'trav':>6} {'travmx':>6} {'retr':>6} {'time':>5} {'size':>5} {'check':>6} {'run s':>6}")
-    print(f"engine {args.engine}; parts {THICK:g} mm thick, {args.skins} top / bottom skins; files in {folder}")
+    print(f"engine {args.engine}; parts {THICK:g} mm thick, {args.skins} top / bottom skins; "
+          f"files in {folder}")
     print(head)
     print("-" * len(head))
     for part in parts:

@@ -72,7 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     print(f"files in {folder}")
     head = (f"{'part':8} {'skins':>5} {'sparse slice':14} {'mass':>6} {'ceiling stiff':>13} "
-            f"{'fail (indic.)':>13} {'walls+skins':>11} {'aligned':>8} {'share':>6} {'linear':>7} {'flange':>7}")
+            f"{'fail (indic.)':>13} {'walls+skins':>11} {'aligned':>8} {'share':>6} {'linear':>7} "
+            f"{'flange':>7}")
     print(head)
     print("-" * len(head))
     for part in args.parts.split(","):
@@ -89,13 +90,15 @@ def main(argv: list[str] | None = None) -> int:
                     r0, r1, rb, ra = measure([sparse, solid, bare, aligned], case)
                     share = (r0["mass"] - rb["mass"]) / (r1["mass"] - rb["mass"])
                     k0, top = rb["stiffness"], max(r1["stiffness"], ra["stiffness"])
-                    bounds = (f"{k0:11.3f} {ra['stiffness']:8.3f} {share:6.3f} {k0 + share * (top - k0):7.3f} "
-                              f"{k0 + (1.0 - (1.0 - share) ** 3) * (top - k0):7.3f}")
+                    linear = k0 + share * (top - k0)
+                    flange = k0 + (1.0 - (1.0 - share) ** 3) * (top - k0)
+                    bounds = f"{k0:11.3f} {ra['stiffness']:8.3f} {share:6.3f} {linear:7.3f} {flange:7.3f}"
                 except LoadpathError as exc:  # walls alone, no skins: nothing may tie them (a mechanism)
                     r0, r1 = measure([sparse, solid], case)
                     bounds = f"{'-':>11} {'-':>8} {'-':>6} {'-':>7} {'-':>7}  (0 % file: {str(exc)[:40]})"
                 print(f"{part:8} {skins:5d} {pattern + ' ' + str(fill) + ' %':14} "
-                      f"{r1['mass'] / r0['mass']:6.2f} {r1['stiffness']:13.3f} {r1['failure']:13.3f} {bounds}")
+                      f"{r1['mass'] / r0['mass']:6.2f} {r1['stiffness']:13.3f} {r1['failure']:13.3f} "
+                      f"{bounds}")
                 sys.stdout.flush()
     print("mass: the 100 % file's plastic over the sparse file's; ceiling stiff: the 100 % file's "
           "stiffness over the sparse file's, the most any layout of the sparse file's own plastic can "
