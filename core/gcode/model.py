@@ -354,10 +354,16 @@ class Program:
 
     # ------------------------------------------------------------------ moves and blocks
 
+    @cached_property
+    def _move_lines(self) -> Ints:
+        """``moves["line"]`` as one contiguous array: searching the structured array's strided field
+        copies it on every call (0.35 ms a call on a 100-layer file)."""
+        return np.ascontiguousarray(self.moves["line"])
+
     def move_rows(self, start: int, stop: int) -> slice:
         """Rows of :attr:`moves` produced by lines ``[start, stop)``."""
-        lines = self.moves["line"]
-        return slice(int(np.searchsorted(lines, start, "left")), int(np.searchsorted(lines, stop, "left")))
+        a, z = np.searchsorted(self._move_lines, (start, stop), "left")
+        return slice(int(a), int(z))
 
     def block(self, i: int) -> Block:
         """Row ``i`` of :attr:`blocks` with names resolved."""
