@@ -21,15 +21,23 @@ Safety:
   (the last rename wins; both wrote the same result);
 * an entry carries the SHA-256 of its payload: a torn, truncated or otherwise damaged one (or one
   that does not unpickle) is ignored, deleted and rebuilt by the caller;
-* the folder is bounded (``max_bytes``, default 1 GiB, ``$LOADPATH_CACHE_MAX_MB``): after each
-  write the least recently used entries (modification time, refreshed on every hit) are deleted
-  until it fits; temporary files of runs that died are deleted after an hour.
+* the folder is bounded (``max_bytes``, default 1 GiB, ``$LOADPATH_CACHE_MAX_MB``): a write that
+  takes it over deletes the least recently used entries (modification time, refreshed on every hit)
+  until it holds at most 90 % of the bound (:data:`LOW_WATER`, so the next runs' writes fit without
+  another round); temporary files of runs that died are deleted after an hour.  Finding them means
+  a ``stat`` of every entry (0.1-0.2 s for the 18 000 entries of a full 1 GiB folder), so a ledger
+  (``.usage``, under an ``flock``) keeps the folder's bytes as the last such scan found them plus
+  every write since; only a write that could take the folder over its bound scans it (and rewrites
+  the ledger with what it found).  Deletions the ledger does not hear of (a damaged entry, another
+  tool) only make it count high, which brings the next scan early.  Without ``fcntl`` (Windows),
+  or with a bound on the number of entries, every write scans as before.
 
 Entries are pickles, so the folder is created 0700: only the user's own runs write it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import pickle
@@ -57,6 +65,14 @@ DEFAULT_MAX_BYTES = 1 << 30
 _MAGIC = b"LPC1"
 _SUFFIX = ".entry"
 _STALE_TMP_S = 3600.0
+_LEDGER = ".usage"
+LOW_WATER = 0.9
+"""A folder found over its bound is cut to this share of it, so the next runs' writes fit without a scan."""
+
+try:
+    import fcntl
+except ImportError:  # Windows: no ledger, every write scans the folder
+    fcntl = None  # type: ignore[assignment]
 
 
 def default_folder(env: dict[str, str] | None = None) -> Path:
@@ -208,6 +224,7 @@ class Cache:
         self.max_bytes = int(max_bytes)
         self.max_entries = max_entries
         self.stats = CacheStats()
+        self._written = 0  # bytes this instance wrote that the ledger has not heard of yet
 
     def path(self, kind: str, key: str) -> Path:
         """Return the file of an entry."""
@@ -259,6 +276,7 @@ class Cache:
         except OSError:
             tmp.unlink(missing_ok=True)
             return False
+        self._written += len(blob)
         if evict:
             self.evict()
         return True
@@ -295,23 +313,81 @@ class Cache:
         return sum(1 for _, _, p in self.entries() if p.parent.name == kind)
 
     def evict(self) -> int:
-        """Delete least recently used entries beyond ``max_bytes`` and ``max_entries``; returns how many."""
+        """Delete least recently used entries beyond ``max_bytes`` (down to :data:`LOW_WATER` of it) and
+        ``max_entries``; returns how many.
+
+        The folder is scanned only when the ledger (module docstring) says the writes since its last
+        scan could have taken it over ``max_bytes``, when there is no usable ledger, or with
+        ``max_entries``.
+        """
+        with self._ledger() as ledger:
+            if ledger is not None and self.max_entries is None:
+                known = _read_ledger(ledger)
+                if known is not None and known + self._written <= self.max_bytes:
+                    _write_ledger(ledger, known + self._written)
+                    self._written = 0
+                    return 0
+            gone, total = self._scan_evict()
+            if ledger is not None:
+                _write_ledger(ledger, total)
+            self._written = 0
+            return gone
+
+    @contextlib.contextmanager
+    def _ledger(self):  # type: ignore[no-untyped-def]
+        """The ledger file, open and locked (None without ``fcntl`` or when it cannot be opened)."""
+        if fcntl is None:
+            yield None
+            return
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+            fh = open(self.folder / _LEDGER, "a+b")  # noqa: SIM115 - closed below, after the unlock
+        except OSError:
+            yield None
+            return
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            yield fh
+        finally:
+            fh.close()  # releases the lock
+
+    def _scan_evict(self) -> tuple[int, int]:
+        """Scan the folder and delete as :meth:`evict` says; ``(deleted, bytes left)``."""
         entries = self.entries()
         total = sum(s for _, s, _ in entries)
         per_kind: dict[str, int] = {}
         for _, _, p in entries:
             per_kind[p.parent.name] = per_kind.get(p.parent.name, 0) + 1
         gone = 0
+        bound = self.max_bytes if total <= self.max_bytes else int(LOW_WATER * self.max_bytes)
         for _, s, p in entries:
             kind = p.parent.name
             over_count = self.max_entries is not None and per_kind[kind] > self.max_entries
-            if total <= self.max_bytes and not over_count:
+            if total <= bound and not over_count:
                 continue
             p.unlink(missing_ok=True)
             total -= s
             per_kind[kind] -= 1
             gone += 1
-        return gone
+        return gone, total
+
+
+def _read_ledger(fh) -> int | None:  # type: ignore[no-untyped-def]
+    """The bytes the ledger holds, or None when it is empty or not a number (a new or damaged one)."""
+    fh.seek(0)
+    text = fh.read(64)
+    try:
+        n = int(text.decode("ascii").strip())
+    except (UnicodeDecodeError, ValueError):
+        return None
+    return n if n >= 0 else None
+
+
+def _write_ledger(fh, n: int) -> None:  # type: ignore[no-untyped-def]
+    fh.seek(0)
+    fh.truncate()
+    fh.write(str(int(n)).encode("ascii"))
+    fh.flush()
 
 
 def _decode(blob: bytes) -> Any | None:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from loadpath.cache import Cache, default_folder
+from loadpath.cache import LOW_WATER, Cache, default_folder
 from loadpath.plugin.job import JobRequest, run_job
 from fixtures import without_verdict
 from pipeline_helpers import write_case
@@ -176,7 +176,7 @@ def test_no_cache_neither_reads_nor_writes(sliced, tmp_path, monkeypatch):
 
 def test_least_recently_used_entries_are_evicted(tmp_path):
     value = np.arange(20_000, dtype=np.float64)  # 160 kB a piece
-    cache = Cache(tmp_path, max_bytes=3 * 170_000)
+    cache = Cache(tmp_path, max_bytes=int(3 * 170_000 / LOW_WATER))  # three fit in the low-water mark
     for k in "abc":
         assert cache.put("paths", k, value + ord(k))
     now = time.time()
@@ -186,11 +186,40 @@ def test_least_recently_used_entries_are_evicted(tmp_path):
     assert cache.put("paths", "d", value + ord("d"))
     assert not cache.path("paths", "b").exists()  # the least recently used
     assert {p.stem for _, _, p in cache.entries()} == {"a", "c", "d"}
-    assert cache.size() <= cache.max_bytes
+    assert cache.size() <= LOW_WATER * cache.max_bytes
     counted = Cache(tmp_path, max_entries=1)
     counted.put("fea", "x", 1)
     counted.put("fea", "y", 2)
     assert counted.count("fea") == 1 and counted.get("fea", "y") == 2
+
+
+def test_the_ledger_scans_only_when_the_bound_is_near(tmp_path):
+    """A write far below the bound does not scan the folder (a stale temporary file, which a scan
+    deletes, survives it); writes of several instances that reach the bound scan and evict; a damaged
+    ledger is rebuilt by a scan."""
+    value = np.arange(20_000, dtype=np.float64)  # 160 kB a piece
+    cache = Cache(tmp_path, max_bytes=3 * 170_000)
+    assert cache.put("paths", "a", value)
+    stale = tmp_path / "paths" / ".left-by-a-dead-run.tmp"
+    stale.write_bytes(b"x")
+    old = time.time() - 7200
+    os.utime(stale, (old, old))
+    assert Cache(tmp_path, max_bytes=3 * 170_000).put("paths", "b", value + 1)
+    assert stale.exists()  # 320 kB of 510 kB: no scan
+    assert int((tmp_path / ".usage").read_text()) == sum(
+        p.stat().st_size for p in (tmp_path / "paths").glob("*.entry")
+    )
+    assert Cache(tmp_path, max_bytes=3 * 170_000).put("paths", "c", value + 2)
+    assert stale.exists()
+    assert Cache(tmp_path, max_bytes=3 * 170_000).put("paths", "d", value + 3)  # over: scanned
+    assert not stale.exists() and not cache.path("paths", "a").exists()
+    assert cache.size() <= cache.max_bytes
+    assert int((tmp_path / ".usage").read_text()) == cache.size()
+    (tmp_path / ".usage").write_text("garbage")
+    stale.write_bytes(b"x")
+    os.utime(stale, (old, old))
+    assert cache.put("paths", "e", value + 4)
+    assert not stale.exists() and int((tmp_path / ".usage").read_text()) == cache.size()
 
 
 _WORKER = """
