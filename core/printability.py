@@ -40,6 +40,7 @@ __all__ = [
     "print_time",
     "replaced_blocks",
     "VERDICT_LINES",
+    "output_counts",
     "verdict_counts",
 ]
 
@@ -260,14 +261,38 @@ def replaced_blocks(program, output, splice) -> dict[str, dict[str, float]]:
     return {"slicer": s, "loadpath": n, "ratio": ratio, "accel_mm_s2": kin.accel, "jerk_mm_s": kin.jerk}
 
 
+def output_counts(program, data: bytes, splice) -> tuple[dict | None, str]:
+    """:func:`replaced_blocks` of an output's bytes, parsed here (:func:`verdict_counts`' figures).
+
+    Parameters
+    ----------
+    program : Program
+        The input.
+    data : bytes
+        The output, within :data:`VERDICT_LINES` lines.
+    splice : SpliceResult
+        What made it.
+
+    Returns
+    -------
+    counts : dict
+    why : str
+        Empty (the shape of :func:`verdict_counts`' answer).
+    """
+    from loadpath.gcode import parse
+
+    return replaced_blocks(program, parse(data, strict=False), splice), ""
+
+
 def verdict_counts(result) -> tuple[dict | None, str]:
     """:func:`replaced_blocks` of a run for its verdict, or why it is not counted.
 
     Parameters
     ----------
     result : loadpath.pipeline.PipelineResult
-        A run that replaced something.  Its parsed output (``result.output``, parsed once and kept)
-        is used when already parsed or when the output has at most :data:`VERDICT_LINES` lines.
+        A run that replaced something.  Its counts made beside the splice check
+        (``result.counts``) when it has them; else its parsed output (``result.output``, parsed once
+        and kept) when already parsed or when the output has at most :data:`VERDICT_LINES` lines.
 
     Returns
     -------
@@ -278,6 +303,8 @@ def verdict_counts(result) -> tuple[dict | None, str]:
     """
     if not result.changed:
         return None, ""
+    if getattr(result, "counts", None) is not None:  # made beside the check (pipeline._check_and_count)
+        return result.counts
     if "output" not in vars(result):
         lines = result.data.count(b"\n")
         if lines > VERDICT_LINES:

@@ -219,6 +219,9 @@ class PipelineResult:
     fea_keys : dict of str -> str
         Object name -> its analysis's key in the cache (:func:`loadpath.cache.fea_key`; empty
         without a cache): what the verdict's prediction is kept under.
+    counts : tuple or None
+        The verdict's counts of the replaced blocks (:func:`loadpath.printability.output_counts`),
+        when they were made beside the check (:func:`_check_and_count`); None: not made yet.
     """
 
     data: bytes
@@ -232,6 +235,7 @@ class PipelineResult:
     warnings: tuple[str, ...] = ()
     passthrough: str | None = None
     fea_keys: dict = field(default_factory=dict)
+    counts: tuple | None = None
 
     @property
     def changed(self) -> bool:
@@ -496,13 +500,16 @@ def run(
 
         trim()  # the splice's temporaries (each block's text, joined into the output) are freed
         regions = {f.block: f.region for f in fills if f.region is not None}
-        check = check_output(
-            program,
-            sres.data,
-            sres,
-            volume_tol=options.volume_tol,
-            regions=regions,
-            retract_length=splice_options.motion.retraction.length,
+        check, counts = _check_and_count(
+            program, sres, options.workers,
+            lambda: check_output(
+                program,
+                sres.data,
+                sres,
+                volume_tol=options.volume_tol,
+                regions=regions,
+                retract_length=splice_options.motion.retraction.length,
+            ),
         )
         trim()  # the pieces' arrays, before the verdict copies the output to put its line in
         if check.problems:
@@ -513,8 +520,40 @@ def run(
     clock.lap("check")
     return PipelineResult(
         sres.data, program, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings),
-        fea_keys={k: v for k, v in fea_keys.items() if v},
+        fea_keys={k: v for k, v in fea_keys.items() if v}, counts=counts,
     )
+
+
+_SIDE: list[Callable[[], Any]] = []
+"""What :func:`_side_nth` calls in a forked worker (set by :func:`_check_and_count` before it forks)."""
+
+
+def _side_nth(k: int) -> Any:
+    return _SIDE[k]()
+
+
+def _check_and_count(
+    program: Program, sres: SpliceResult, workers: int, check: Callable[[], SpliceCheck]
+) -> tuple[SpliceCheck, tuple | None]:
+    """The splice check, and beside it in a second process the verdict's counts of the replaced blocks.
+
+    The check reads the output on one core; the counts (:func:`loadpath.printability.output_counts`)
+    are mostly a parse of the whole output (0.4 s of a 100-layer file's repeated run), which the
+    verdict would otherwise make after the check.  Side by side when there are two workers, a block
+    was replaced and the output is within the verdict's line budget; else the check alone (the
+    verdict counts later, as before).  Only the check's problems and the counts cross processes.
+    """
+    from loadpath.printability import VERDICT_LINES, output_counts
+    from loadpath.procs import fork_map, forks
+
+    if not (forks(workers, 2) and sres.blocks and sres.data.count(b"\n") <= VERDICT_LINES):
+        return check(), None
+    _SIDE[:] = [check, lambda: output_counts(program, sres.data, sres)]
+    try:
+        got, counts = fork_map(_side_nth, [0, 1], 2)
+    finally:
+        _SIDE.clear()
+    return got, counts
 
 
 def _analysis(rb, pitch: float | None, analyze: Callable[..., Any], cache) -> tuple[Any, str]:
