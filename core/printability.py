@@ -40,7 +40,6 @@ __all__ = [
     "print_time",
     "replaced_blocks",
     "VERDICT_LINES",
-    "output_counts",
     "verdict_counts",
 ]
 
@@ -259,29 +258,6 @@ def replaced_blocks(program, output, splice) -> dict[str, dict[str, float]]:
     n = measure_lines(output, new, kin).as_dict()
     ratio = {k: (round(n[k] / s[k], 4) if s[k] else None) for k in s}
     return {"slicer": s, "loadpath": n, "ratio": ratio, "accel_mm_s2": kin.accel, "jerk_mm_s": kin.jerk}
-
-
-def output_counts(program, data: bytes, splice) -> tuple[dict | None, str]:
-    """:func:`replaced_blocks` of an output's bytes, parsed here (:func:`verdict_counts`' figures).
-
-    Parameters
-    ----------
-    program : Program
-        The input.
-    data : bytes
-        The output, within :data:`VERDICT_LINES` lines.
-    splice : SpliceResult
-        What made it.
-
-    Returns
-    -------
-    counts : dict
-    why : str
-        Empty (the shape of :func:`verdict_counts`' answer).
-    """
-    from loadpath.gcode import parse
-
-    return replaced_blocks(program, parse(data, strict=False), splice), ""
 
 
 def verdict_counts(result) -> tuple[dict | None, str]:

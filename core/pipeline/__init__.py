@@ -220,8 +220,8 @@ class PipelineResult:
         Object name -> its analysis's key in the cache (:func:`loadpath.cache.fea_key`; empty
         without a cache): what the verdict's prediction is kept under.
     counts : tuple or None
-        The verdict's counts of the replaced blocks (:func:`loadpath.printability.output_counts`),
-        when they were made beside the check (:func:`_check_and_count`); None: not made yet.
+        The verdict's counts of the replaced blocks (:func:`loadpath.printability.verdict_counts`'
+        answer), when they were made beside the check (:func:`_check_and_count`); None: not made yet.
     """
 
     data: bytes
@@ -537,18 +537,18 @@ def _check_and_count(
 ) -> tuple[SpliceCheck, tuple | None]:
     """The splice check, and beside it in a second process the verdict's counts of the replaced blocks.
 
-    The check reads the output on one core; the counts (:func:`loadpath.printability.output_counts`)
+    The check reads the output on one core; the counts (:func:`loadpath.printability.replaced_blocks`)
     are mostly a parse of the whole output (0.4 s of a 100-layer file's repeated run), which the
     verdict would otherwise make after the check.  Side by side when there are two workers, a block
     was replaced and the output is within the verdict's line budget; else the check alone (the
     verdict counts later, as before).  Only the check's problems and the counts cross processes.
     """
-    from loadpath.printability import VERDICT_LINES, output_counts
+    from loadpath.printability import VERDICT_LINES, replaced_blocks
     from loadpath.procs import fork_map, forks
 
     if not (forks(workers, 2) and sres.blocks and sres.data.count(b"\n") <= VERDICT_LINES):
         return check(), None
-    _SIDE[:] = [check, lambda: output_counts(program, sres.data, sres)]
+    _SIDE[:] = [check, lambda: (replaced_blocks(program, parse(sres.data, strict=False), sres), "")]
     try:
         got, counts = fork_map(_side_nth, [0, 1], 2)
     finally:
