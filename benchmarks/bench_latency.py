@@ -400,6 +400,47 @@ gusset's re-slice changes its gyroid layers (other layers, roles and counts: no 
 predictions and two jobs' paths are made again as before; its repeat's 2.11 against 3.95 s between
 the two runs is PrusaSlicer's re-slice differing from run to run (in process on one pair of files:
 two of five engine jobs and both predictions made again, 2.46 s).
+
+2026-12-05, 00:12-00:17 (main 809800a, load 0.2) and 00:47-00:56 (after this stop's changes, load
+0.6), ``--repeats 3``::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    BEFORE (809800a)
+    example                      10     0.12     3.50   28.2     0.60    4.8      251    0.25   3.47     0.1     5.3     0.8
+    specimen-100                100     0.29     5.49   19.0     3.60   12.5      435    2.31   4.18     0.5     7.7     4.7
+    gusset-gyroid30              40     0.32     4.96   15.7     2.15    6.8      309    2.32   1.11     0.5     7.1     3.4
+    gusset-gyroid30-sparse       40     0.31    15.81   50.4     9.61   30.7      332    2.32   0.53     0.5    22.4    12.3
+    gusset-100                   40     0.27     5.70   21.5     3.26   12.3      316    0.64   5.89     0.4     9.2     5.3
+    specimen-1000              1000     1.81    21.45   11.8    17.22    9.5      741   22.95   4.26     3.4    33.6    26.1
+    AFTER
+    example                      10     0.12     3.47   27.8     0.59    4.7      251    0.25   3.47     0.1     5.4     0.8
+    specimen-100                100     0.29     4.75   16.4     4.26   14.7      327    2.31   4.29     0.5     7.6     6.8
+    gusset-gyroid30              40     0.33     5.23   16.0     2.81    8.6      309    2.32   1.11     0.5     7.6     4.3
+    gusset-gyroid30-sparse       40     0.33    15.67   48.1    12.47   38.3      331    2.32   0.60     0.5    23.0    18.6
+    gusset-100                   40     0.27     5.66   21.3     4.82   18.1      316    0.64   5.89     0.4     9.4     7.5
+    specimen-1000              1000     1.84    22.84   12.4    18.85   10.3      734   22.95   4.26     3.4    35.8    28.8
+
+What changed: the verdict's counts of the replaced blocks are made beside the splice check in a
+second process (they were a parse of the whole output after it), their print times from two
+running minima instead of two Python loops, ``Program.move_rows`` without a copy of the line column
+per call, and the cache's eviction reads a ledger instead of listing the folder after every write.
+The rows above mix that with PrusaSlicer's own variance: it slices the same STL differently from
+run to run (the skirt's start, a few perimeter vertices: 6686 diff lines between two slices of the
+100-layer specimen a few minutes apart), so a run's paths, and whether a repeat finds them, move
+with it (the 100-layer specimen's output 4.18 -> 4.29x the input, its repeat re-laid).  On fixed
+files (the same slices for both, each version run three times in turn, medians; outputs and verdict
+lines identical): example first 3.39 -> 3.52 s, repeat 0.59 -> 0.59 s; 100-layer specimen first
+5.42 -> 4.39 s (peak 444 -> 330 MB), repeat 3.20 -> 2.17 s (in process: verdict 1.13 -> 0.04 s);
+gusset 100 % first 5.99 -> 5.83 s, repeat 5.05 -> 4.74 s.  The 1000-layer file is over the
+verdict's line budget (no counts), so none of it applies there; its 1.4-1.6 s between the two runs
+is the machine.  With the user's own cache full (1 GiB, 17 600 entries here), each eviction listed
+every entry: 0.12 s a scan, four a run.
+
+Tried and not kept: reusing a block's plan and bead runs for later blocks of the same paths (53 %
+of the 1000-layer splice's CPU).  Keyed on everything they read, 914 of its 1016 blocks are
+distinct: the regions found from PrusaSlicer's perimeters differ in the last digits on 812 of
+them, the slicer's filament per block takes 473 values, and the start point 172; a key within a
+tolerance would make a block's bytes depend on which block a worker laid first.
 """
 
 from __future__ import annotations
