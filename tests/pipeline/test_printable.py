@@ -115,6 +115,55 @@ def test_counts_match_the_files_own_lines(sliced):
     assert abs(m.print_s / secs - 1) < 0.05, (m.print_s, secs)
 
 
+def test_counts_made_beside_the_check_are_the_verdicts_own(sliced, prusa_run):
+    """With two workers the check and the counts run side by side (pipeline._check_and_count): the
+    same output bytes as one worker, a clean check, and the counts of the parsed output."""
+    program, one = prusa_run
+    assert one.counts is None  # one worker: the verdict counts later, from the parsed output
+    s = settings_mod.resolve(program)
+    opts = PipelineOptions(engine="swarm", engine_params={"K": s.K}, workers=2)
+    two = run(program, loadcase.parse(GRIP_PULL), opts, settings_mod.splice_options(s))
+    assert two.data == one.data
+    assert two.check is not None and not two.check.problems
+    counts, why = two.counts
+    assert why == "" and counts == replaced_blocks(program, two.output, two.splice)
+
+
+def _planner_by_loops(moves, kin):
+    """print_time's planner written move by move (the reference its running minima must match)."""
+    d = np.sqrt(sum((moves[k + "1"] - moves[k + "0"]) ** 2 for k in "xyz"))
+    ok = (d > 1e-9) & np.isfinite(moves["f"]) & (moves["f"] > 0)
+    d, v = d[ok], moves["f"][ok] / 60.0
+    u = np.column_stack([moves[k + "1"][ok] - moves[k + "0"][ok] for k in "xyz"]) / d[:, None]
+    n, a, j = len(d), kin.accel, kin.jerk
+    entry = [min(j / 2.0, v[0])]
+    for i in range(1, n):
+        du = float(np.linalg.norm(u[i] - u[i - 1]))
+        vj = min(v[i], v[i - 1], j / max(du, 1e-9))
+        entry.append(max(vj, min(j / 2.0, v[i], v[i - 1])))
+    entry.append(min(j / 2.0, v[-1]))
+    for i in range(n):
+        entry[i + 1] = min(entry[i + 1], (entry[i] ** 2 + 2 * a * d[i]) ** 0.5)
+    for i in range(n - 1, -1, -1):
+        entry[i] = min(entry[i], (entry[i + 1] ** 2 + 2 * a * d[i]) ** 0.5)
+    t = 0.0
+    for i in range(n):
+        v0, v1 = entry[i], entry[i + 1]
+        vp = min(v[i], ((2 * a * d[i] + v0**2 + v1**2) / 2.0) ** 0.5)
+        s_acc, s_dec = (vp**2 - v0**2) / (2 * a), (vp**2 - v1**2) / (2 * a)
+        t += (vp - v0) / a + (vp - v1) / a + max(d[i] - s_acc - s_dec, 0.0) / max(vp, 1e-9)
+    return t
+
+
+def test_print_time_matches_the_planner_move_by_move(sliced):
+    program = gcode.read(sliced("prusa", "bracket", "solid"))
+    kin = Kinematics(accel=1250.0, jerk=8.0)
+    for layer in (1, len(program.layers) // 2):
+        mv = program.moves[(program.moves["layer"] == layer) & ~program.moves["retract"]]
+        mv = mv[np.hypot(mv["x1"] - mv["x0"], mv["y1"] - mv["y0"]) > 1e-9]
+        assert print_time(mv, kin) == pytest.approx(_planner_by_loops(mv, kin), rel=1e-9)
+
+
 def test_print_time_of_one_move_is_a_trapezoid():
     mv = np.zeros(1, dtype=gcode.MOVE_DTYPE)
     mv["x1"], mv["f"] = 100.0, 6000.0  # 100 mm at 100 mm/s
