@@ -502,13 +502,14 @@ def run(
         regions = {f.block: f.region for f in fills if f.region is not None}
         check, counts = _check_and_count(
             program, sres, options.workers,
-            lambda: check_output(
+            lambda workers: check_output(
                 program,
                 sres.data,
                 sres,
                 volume_tol=options.volume_tol,
                 regions=regions,
                 retract_length=splice_options.motion.retraction.length,
+                workers=workers,
             ),
         )
         trim()  # the pieces' arrays, before the verdict copies the output to put its line in
@@ -533,22 +534,26 @@ def _side_nth(k: int) -> Any:
 
 
 def _check_and_count(
-    program: Program, sres: SpliceResult, workers: int, check: Callable[[], SpliceCheck]
+    program: Program, sres: SpliceResult, workers: int, check: Callable[[int], SpliceCheck]
 ) -> tuple[SpliceCheck, tuple | None]:
     """The splice check, and beside it in a second process the verdict's counts of the replaced blocks.
 
-    The check reads the output on one core; the counts (:func:`loadpath.printability.replaced_blocks`)
+    ``check(workers)`` reads the output.  The counts (:func:`loadpath.printability.replaced_blocks`)
     are mostly a parse of the whole output (0.4 s of a 100-layer file's repeated run), which the
     verdict would otherwise make after the check.  Side by side when there are two workers, a block
-    was replaced and the output is within the verdict's line budget; else the check alone (the
-    verdict counts later, as before).  Only the check's problems and the counts cross processes.
+    was replaced and the output is within the verdict's line budget, the check then on one core;
+    else the check alone on every worker (the verdict counts later, as before, or not at all over
+    its budget).  Only the check's problems and the counts cross processes.
     """
     from loadpath.printability import VERDICT_LINES, replaced_blocks
     from loadpath.procs import fork_map, forks
 
     if not (forks(workers, 2) and sres.blocks and sres.data.count(b"\n") <= VERDICT_LINES):
-        return check(), None
-    _SIDE[:] = [check, lambda: (replaced_blocks(program, parse(sres.data, strict=False), sres), "")]
+        return check(workers), None
+    _SIDE[:] = [
+        lambda: check(1),
+        lambda: (replaced_blocks(program, parse(sres.data, strict=False), sres), ""),
+    ]
     try:
         got, counts = fork_map(_side_nth, [0, 1], 2)
     finally:

@@ -83,6 +83,8 @@ def check_output(
     regions: Mapping[int, Region] | None = None,
     retract_length: float = 0.0,
     piece_lines: int | None = None,
+    workers: int = 1,
+    groups: int | None = None,
 ) -> SpliceCheck:
     """:func:`check_splice` on the output's bytes, without parsing them into a :class:`Program`.
 
@@ -92,13 +94,16 @@ def check_output(
     :class:`~loadpath.splice.lineview.LineView` (the same parse stages, the same arrays, a third
     of the memory at its peak); an output with G2/G3 arcs is parsed in full, since its moves are arc
     chords.  Same parameters and result as :func:`check_splice`, with the output's bytes in place
-    of its Program.
+    of its Program; ``workers`` and ``groups`` as for :func:`~loadpath.splice.piecewise.check_pieces`
+    (groups of pieces read side by side).
     """
     from loadpath.splice.piecewise import PIECE_LINES, check_pieces
 
     lines = PIECE_LINES if piece_lines is None else piece_lines
     if lines > 0 and len(original.layers) >= 2:
-        got = check_pieces(original, data, result, volume_tol, regions, retract_length, lines)
+        got = check_pieces(
+            original, data, result, volume_tol, regions, retract_length, lines, workers, groups
+        )
         if got is not None:
             return got
     view = read_lines(data)

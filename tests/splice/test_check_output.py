@@ -63,14 +63,29 @@ def test_line_view_holds_the_programs_arrays(spliced):
     assert n_ext > 0
 
 
-@pytest.mark.parametrize("piece_lines", [0, 150, None], ids=["whole", "pieces", "default"])
-def test_same_verdict_on_a_good_splice(spliced, piece_lines):
-    """Read whole, in pieces of 150 lines (a few dozen pieces, cut between layers) or by default."""
+# (piece_lines, groups, workers): whole; in pieces of 150 lines (a few dozen, cut between layers);
+# those pieces in three groups read one after the other, each but the first from a guessed start;
+# in two groups read side by side in forked processes; by default
+READS = {
+    "whole": (0, None, 1),
+    "pieces": (150, None, 1),
+    "groups": (150, 3, 1),
+    "forked": (150, 2, 2),
+    "default": (None, None, 1),
+}
+
+
+@pytest.mark.parametrize("read", list(READS))
+def test_same_verdict_on_a_good_splice(spliced, read):
+    piece_lines, groups, workers = READS[read]
     program, result, out, check, regions = spliced
     assert check.problems == []
     if piece_lines:  # the pieces really are several
         assert len(_cuts(program, result.line_map(program.n_lines), out.n_lines, piece_lines)) >= 3
-    _same(check_output(program, result.data, result, regions=regions, piece_lines=piece_lines), check)
+    got = check_output(
+        program, result.data, result, regions=regions, piece_lines=piece_lines, workers=workers, groups=groups
+    )
+    _same(got, check)
 
 
 def _damage(program, result, out, how):
@@ -112,15 +127,64 @@ def _damage(program, result, out, how):
     return b"\n".join(lines)
 
 
-@pytest.mark.parametrize("piece_lines", [0, 150], ids=["whole", "pieces"])
+@pytest.mark.parametrize("read", ["whole", "pieces", "groups"])
 @pytest.mark.parametrize("how", ["kept line", "volume", "retraction", "outside", "state", "layer"])
-def test_same_verdict_on_damaged_files(spliced, how, piece_lines):
+def test_same_verdict_on_damaged_files(spliced, how, read):
+    piece_lines, groups, workers = READS[read]
     program, result, _, _, regions = spliced
     data = _damage(program, result, gcode.parse(result.data, strict=False), how)
     want = check_splice(program, gcode.parse(data, strict=False), result, regions=regions)
     assert want.problems, f"the damage ({how}) went unnoticed"
     assert not any("np." in p for p in want.problems), want.problems  # values as numbers, not reprs
-    _same(check_output(program, data, result, regions=regions, piece_lines=piece_lines), want)
+    got = check_output(
+        program, data, result, regions=regions, piece_lines=piece_lines, workers=workers, groups=groups
+    )
+    _same(got, want)
+
+
+def test_a_wrong_guess_is_read_again(spliced, monkeypatch):
+    """A group whose guessed start is not where the group before it ended is read again from there:
+    with every guess made on tool 7 (which no layer of these files changes), the verdict is still
+    the whole read's."""
+    from dataclasses import replace
+
+    from loadpath.splice import piecewise
+
+    program, result, out, check, regions = spliced
+    made = []
+    start_before = piecewise._start_before
+
+    def on_tool_7(so, i):
+        made.append(i)
+        return replace(start_before(so, i), tool=7)
+
+    monkeypatch.setattr(piecewise, "_start_before", on_tool_7)
+    monkeypatch.setattr(piecewise, "read_piece", _counting(piecewise.read_piece, calls := []))
+    got = check_output(program, result.data, result, regions=regions, piece_lines=150, groups=3)
+    _same(got, check)
+    assert len(made) == 2
+    pieces = len(_cuts(program, result.line_map(program.n_lines), out.n_lines, 150))
+    # every piece once, two windows, and the groups read again: more than the pieces and windows
+    assert len(calls) > pieces + 2
+
+
+def test_guesses_hold_on_real_files(spliced, monkeypatch):
+    """Each group but the first is read once, from its guess: the output's layer before it, read from
+    the original's state at its marker, ends where the group before ended."""
+    from loadpath.splice import piecewise
+
+    program, result, out, check, regions = spliced
+    monkeypatch.setattr(piecewise, "read_piece", _counting(piecewise.read_piece, calls := []))
+    _same(check_output(program, result.data, result, regions=regions, piece_lines=150, groups=3), check)
+    assert len(calls) == len(_cuts(program, result.line_map(program.n_lines), out.n_lines, 150)) + 2
+
+
+def _counting(fn, calls):
+    def wrapped(*args, **kwargs):
+        calls.append(1)
+        return fn(*args, **kwargs)
+
+    return wrapped
 
 
 def test_pieces_hold_the_whole_reads_arrays(spliced):
