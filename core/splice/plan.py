@@ -188,6 +188,29 @@ class BlockPlan:
         return float(sum(c.length for c in self.chains))
 
 
+COMPILED_FROM = 2_000_000
+"""Vertices in a splice's paths from which its RDP passes run compiled (:func:`load_compiled`).
+Loading numba and the kernel takes about 0.45 s, before the splice's workers fork; the numpy pass
+takes about 0.27 us a vertex and the compiled loop a sixth of that, two passes a vertex (bead runs:
+position and extrusion, then position), so on two workers the load pays from about 2 million
+vertices.  The 1000-layer specimen's paths have 7.5 million: 0.89 -> 0.15 s over 400 of its blocks."""
+
+_COMPILED: list = []
+"""The compiled RDP pass once :func:`load_compiled` has loaded it in this process."""
+
+
+def load_compiled() -> None:
+    """Load the compiled RDP pass (:mod:`loadpath.splice.rdp_kernel`) for every later
+    :func:`simplify_mask` in this process and the processes it forks; it keeps the same vertices."""
+    if _COMPILED:
+        return
+    from loadpath.splice.rdp_kernel import rdp_keep
+
+    one = np.zeros(3)
+    rdp_keep(one, one, one, np.zeros(1, np.int64), np.full(1, 3, np.int64), 1.0, 1.0, np.zeros(3, bool))
+    _COMPILED.append(rdp_keep)
+
+
 def simplify_mask(
     points: Points2,
     pitch: Floats,
@@ -223,8 +246,35 @@ def simplify_mask(
     starts = ends - sizes
     keep[starts] = keep[ends - 1] = True
     px, py = pts[:, 0].copy(), pts[:, 1].copy()
-    # Ramer-Douglas-Peucker, one numpy pass per recursion level over the inner vertices of every
-    # segment still being split (segments [a, z], vertex indices into the ragged array)
+    if _COMPILED:  # a large splice loaded the compiled pass (load_compiled): the same vertices kept
+        _COMPILED[0](px, py, pit, starts, ends, tol, pitch_tol, keep)
+    else:
+        _rdp_levels(keep, px, py, pit, starts, ends, tol, pitch_tol)
+    if min_segment > 0:
+        # then kept vertices closer than min_segment to the previous kept one go, and the one before
+        # a path's last vertex when it is that close to it (paths of more than two kept vertices)
+        kv = np.flatnonzero(keep)
+        path = np.searchsorted(ends, kv, side="right")
+        count = np.bincount(path, minlength=len(sizes))[path]
+        head = np.ones(len(kv), dtype=bool)
+        head[1:] = path[1:] != path[:-1]
+        tail = np.ones(len(kv), dtype=bool)
+        tail[:-1] = head[1:]
+        gap = np.zeros(len(kv))
+        gap[1:] = np.hypot(*np.diff(pts[kv], axis=0).T)  # from the previous kept vertex
+        drop = ~head & ~tail & (gap < min_segment)
+        before_tail = np.flatnonzero(tail & ~head)
+        before_tail = before_tail[gap[before_tail] < min_segment] - 1
+        drop[before_tail] = True
+        drop &= (count > 2) & ~head & ~tail
+        keep[kv[drop]] = False
+    return keep
+
+
+def _rdp_levels(keep, px, py, pit, starts, ends, tol: float, pitch_tol: float) -> None:
+    """Ramer-Douglas-Peucker, one numpy pass per recursion level over the inner vertices of every
+    segment still being split (segments [a, z], vertex indices into the ragged array); the kept
+    vertices are marked in ``keep``."""
     a, z = starts, ends - 1
     while len(a):
         inner = z - a - 1
@@ -258,25 +308,6 @@ def simplify_mask(
         m = idx[worst]
         keep[m] = True
         a, z = np.concatenate([a[split], m]), np.concatenate([m, z[split]])
-    if min_segment > 0:
-        # then kept vertices closer than min_segment to the previous kept one go, and the one before
-        # a path's last vertex when it is that close to it (paths of more than two kept vertices)
-        kv = np.flatnonzero(keep)
-        path = np.searchsorted(ends, kv, side="right")
-        count = np.bincount(path, minlength=len(sizes))[path]
-        head = np.ones(len(kv), dtype=bool)
-        head[1:] = path[1:] != path[:-1]
-        tail = np.ones(len(kv), dtype=bool)
-        tail[:-1] = head[1:]
-        gap = np.zeros(len(kv))
-        gap[1:] = np.hypot(*np.diff(pts[kv], axis=0).T)  # from the previous kept vertex
-        drop = ~head & ~tail & (gap < min_segment)
-        before_tail = np.flatnonzero(tail & ~head)
-        before_tail = before_tail[gap[before_tail] < min_segment] - 1
-        drop[before_tail] = True
-        drop &= (count > 2) & ~head & ~tail
-        keep[kv[drop]] = False
-    return keep
 
 
 def simplify(

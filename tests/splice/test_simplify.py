@@ -1,14 +1,27 @@
 """plan.simplify (all paths of a block in one numpy pass per level) against a plain per-path reference.
 
 The splicer writes whatever vertices simplify keeps, so the vectorized version must keep exactly
-the vertices of the straightforward recursive Ramer-Douglas-Peucker below, on every path.
+the vertices of the straightforward recursive Ramer-Douglas-Peucker below, on every path; and so
+must the compiled pass large splices load (:func:`loadpath.splice.plan.load_compiled`), down to
+the bytes the splice writes on a real file.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from loadpath.splice import plan
 from loadpath.splice.plan import simplify, simplify_mask
+
+
+@pytest.fixture(params=["numpy", "compiled"])
+def rdp(request, monkeypatch):
+    """The RDP pass simplify_mask runs: numpy's levels, or the compiled loop (restored after)."""
+    monkeypatch.setattr(plan, "_COMPILED", [])
+    if request.param == "compiled":
+        plan.load_compiled()
+        assert plan._COMPILED
+    return request.param
 
 
 def _errors(pts, pit, a, z, tol, pitch_tol):
@@ -79,7 +92,7 @@ def _random_paths(rng, n_paths):
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_simplify_equals_per_path_reference(seed):
+def test_simplify_equals_per_path_reference(seed, rdp):
     rng = np.random.default_rng(seed)
     paths = _random_paths(rng, 150)
     for tol, pitch_tol, min_segment in ((0.005, 0.025, 0.05), (0.03, 0.2, 0.0), (0.001, 0.01, 0.3)):
@@ -92,7 +105,7 @@ def test_simplify_equals_per_path_reference(seed):
             assert np.array_equal(gp[[0, -1]], paths[k][0][[0, -1]])  # ends always kept
 
 
-def test_simplify_drops_what_it_may():
+def test_simplify_drops_what_it_may(rdp):
     """A straight, evenly sampled line keeps its two ends; a corner keeps its corner."""
     x = np.linspace(0, 10, 101)
     line = (np.stack([x, 0.001 * np.sin(x)], 1), np.full(101, 0.45))
@@ -102,7 +115,7 @@ def test_simplify_drops_what_it_may():
     assert np.array_equal(cp, [[0, 0], [2, 0], [2, 2]])
 
 
-def test_simplify_mask_on_ragged_arrays():
+def test_simplify_mask_on_ragged_arrays(rdp):
     rng = np.random.default_rng(42)
     paths = _random_paths(rng, 40)
     sizes = np.array([len(p) for p, _ in paths])
@@ -113,3 +126,42 @@ def test_simplify_mask_on_ragged_arrays():
         assert np.array_equal(pts[keep & (path_of == k)], wp)
     assert simplify([], 0.005) == []
     assert not simplify_mask(np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=int), 0.005).any()
+
+
+def test_compiled_splice_writes_the_same_bytes(sliced, monkeypatch):
+    """A real PrusaSlicer file spliced with the numpy pass and with the compiled one (loaded by the
+    splice itself from COMPILED_FROM vertices): the same output, byte for byte."""
+    from loadpath import gcode
+    from splice_helpers import infill_blocks, rectilinear_fills, run_splice
+
+    program = gcode.read(sliced("prusa", "ohs", "mixed"))
+    fills = [_wavy(f) for f in rectilinear_fills(program, infill_blocks(program))]
+    assert sum(len(p.points) for f in fills for p in f.paths) > 20_000
+    monkeypatch.setattr(plan, "_COMPILED", [])
+    numpy_out = run_splice(program, fills)[0].data
+    assert not plan._COMPILED  # a small file: numpy's pass
+    monkeypatch.setattr(plan, "COMPILED_FROM", 1)
+    compiled_out = run_splice(program, fills)[0].data
+    assert plan._COMPILED
+    assert compiled_out == numpy_out
+
+
+def _wavy(fill):
+    """The fill's straight lines as curves: a vertex every 0.1 mm, 0.03 mm to either side and back
+    over 2 mm, the pitch varying by 0.02 mm (so the RDP pass has vertices to weigh)."""
+    import dataclasses
+
+    from loadpath.toolpath import Path
+
+    out = []
+    for p in fill.paths:
+        seg = np.hypot(*np.diff(p.points, axis=0).T)
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        at = np.linspace(0.0, s[-1], max(2, int(s[-1] / 0.1) + 1))
+        pts = np.stack([np.interp(at, s, p.points[:, k]) for k in (0, 1)], 1)
+        d = p.points[-1] - p.points[0]
+        normal = np.array([-d[1], d[0]]) / max(float(np.hypot(*d)), 1e-9)
+        pts = pts + 0.03 * np.sin(at * np.pi)[:, None] * normal
+        pitch = np.interp(at, s, p.pitch) + 0.02 * np.sin(at * 0.7)
+        out.append(Path(pts, pitch, p.kind))
+    return dataclasses.replace(fill, paths=tuple(out))
