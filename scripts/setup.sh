@@ -84,10 +84,10 @@ locate_points(tri, np.zeros((1, 2)), 1e-9)
 one = SimpleNamespace(start=np.zeros((1, 2)), end=np.array([[0.5, 0.0]]), volume=np.ones(1), height=np.ones(1))
 sample_batch(one, np.zeros(1, dtype=np.int64), 0.1, tri, np.zeros(1, dtype=np.int64), np.zeros((1, 4)), np.zeros((3, 1)), 1)
 
-# large splices' RDP pass (loadpath.splice.rdp_kernel), about a second
-from loadpath.splice.plan import load_compiled
+# large splices' loops (loadpath.splice.kernels), a few seconds
+from loadpath.splice import compiled
 
-load_compiled()
+compiled.load()
 PY
 then
   echo "setup: compiling the swarm engine failed (see above); it will compile on first use" >&2

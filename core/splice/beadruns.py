@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from loadpath._typing import Floats, Points2
+from loadpath.splice.compiled import kernel
 from loadpath.splice.corridor import corridor_fit
 from loadpath.splice.flow import FlowModel
 from loadpath.splice.plan import BlockPlan, Chain, simplify_mask
@@ -140,6 +141,10 @@ def runs_of_widths(
     n = len(width)
     if n == 0:
         return np.zeros(0, dtype=np.int64)
+    compiled = kernel("runs")  # a large splice loaded it (loadpath.splice.compiled): the same runs
+    if compiled is not None:
+        is_first = np.zeros(n, dtype=bool) if start is None else start
+        return compiled(np.asarray(width, dtype=float), np.asarray(length) < short, is_first, 1.0 + step)
     # Sequential by nature (each run's band depends on where the previous one ended); one pass of
     # plain floats over the segments of a chain, like the marker pass in Writer.extrude_many
     # (``min``/``max`` spelled as the comparisons they make, the indices kept in a list: a third

@@ -55,6 +55,7 @@ from functools import cached_property
 import numpy as np
 import shapely
 from loadpath._typing import Floats, Ints, Points2, Region
+from loadpath.splice.compiled import kernel
 from loadpath.splice.flow import FlowModel
 from loadpath.toolpath import Path
 from shapely.geometry import LineString
@@ -188,29 +189,6 @@ class BlockPlan:
         return float(sum(c.length for c in self.chains))
 
 
-COMPILED_FROM = 2_000_000
-"""Vertices in a splice's paths from which its RDP passes run compiled (:func:`load_compiled`).
-Loading numba and the kernel takes about 0.45 s, before the splice's workers fork; the numpy pass
-takes about 0.27 us a vertex and the compiled loop a sixth of that, two passes a vertex (bead runs:
-position and extrusion, then position), so on two workers the load pays from about 2 million
-vertices.  The 1000-layer specimen's paths have 7.5 million: 0.89 -> 0.15 s over 400 of its blocks."""
-
-_COMPILED: list = []
-"""The compiled RDP pass once :func:`load_compiled` has loaded it in this process."""
-
-
-def load_compiled() -> None:
-    """Load the compiled RDP pass (:mod:`loadpath.splice.rdp_kernel`) for every later
-    :func:`simplify_mask` in this process and the processes it forks; it keeps the same vertices."""
-    if _COMPILED:
-        return
-    from loadpath.splice.rdp_kernel import rdp_keep
-
-    one = np.zeros(3)
-    rdp_keep(one, one, one, np.zeros(1, np.int64), np.full(1, 3, np.int64), 1.0, 1.0, np.zeros(3, bool))
-    _COMPILED.append(rdp_keep)
-
-
 def simplify_mask(
     points: Points2,
     pitch: Floats,
@@ -246,8 +224,9 @@ def simplify_mask(
     starts = ends - sizes
     keep[starts] = keep[ends - 1] = True
     px, py = pts[:, 0].copy(), pts[:, 1].copy()
-    if _COMPILED:  # a large splice loaded the compiled pass (load_compiled): the same vertices kept
-        _COMPILED[0](px, py, pit, starts, ends, tol, pitch_tol, keep)
+    compiled = kernel("rdp")  # a large splice loaded it (loadpath.splice.compiled): the same vertices
+    if compiled is not None:
+        compiled(px, py, pit, starts, ends, tol, pitch_tol, keep)
     else:
         _rdp_levels(keep, px, py, pit, starts, ends, tol, pitch_tol)
     if min_segment > 0:

@@ -309,10 +309,10 @@ def splice(
         free = float("inf") if r.only_when_crossing else r.before_travel
         plan_options = replace(plan_options, free_travel=free)
     from loadpath.procs import fork_map, spans
-    from loadpath.splice.plan import COMPILED_FROM, load_compiled
+    from loadpath.splice import compiled
 
-    if sum(len(p.points) for f in fills for p in f.paths) >= COMPILED_FROM:
-        load_compiled()  # before the workers fork: they inherit it
+    if sum(len(p.points) for f in fills for p in f.paths) >= compiled.COMPILED_FROM:
+        compiled.load()  # before the workers fork: they inherit the loops
     _WORK = [(program, fills, options, plan_options, style_of(program))]
     try:
         # contiguous batches: a few hundred kB of text per result instead of a round trip per block

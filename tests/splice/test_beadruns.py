@@ -105,12 +105,46 @@ def test_markers_say_the_width_printed_on_long_segments():
         assert np.all(np.abs(printed[long] - c.width[long]) <= opts.width_step * c.width[long] + 1e-9)
 
 
-def test_runs_of_widths_band_and_short_segments():
+@pytest.fixture(params=["python", "compiled"])
+def runs_pass(request, monkeypatch):
+    """The pass runs_of_widths makes: its Python loop, or the compiled one (unloaded after)."""
+    from loadpath.splice import compiled
+
+    monkeypatch.setattr(compiled, "_LOADED", {})
+    if request.param == "compiled":
+        compiled.load()
+    return request.param
+
+
+def test_runs_of_widths_band_and_short_segments(runs_pass):
     w = np.array([0.45, 0.46, 0.47, 0.60, 0.46, 0.45, 0.52, 0.53])
     ln = np.array([2.0, 2.0, 2.0, 0.3, 2.0, 2.0, 2.0, 2.0])
     run = runs_of_widths(w, ln, 0.05, 0.8)
     assert run.tolist() == [0, 0, 0, 0, 0, 0, 1, 1]  # 0.60 is a short link: absorbed
     assert runs_of_widths(w, ln, 0.0, 0.0).tolist() == [0, 1, 2, 3, 4, 5, 6, 7]
+    start = np.array([False, False, False, False, True, False, False, False])
+    assert runs_of_widths(w, ln, 0.05, 0.8, start).tolist() == [0, 0, 0, 0, 1, 1, 2, 2]
+
+
+def test_compiled_runs_equal_the_python_loop(monkeypatch):
+    """Random widths on a 0.01 mm grid (exact ties at the band's edge), short segments, chain starts
+    (also on a short segment, and first): the compiled pass gives the loop's runs."""
+    from loadpath.splice import compiled
+
+    rng = np.random.default_rng(11)
+    monkeypatch.setattr(compiled, "_LOADED", {})
+    cases = []
+    for _ in range(200):
+        n = int(rng.integers(1, 80))
+        w = np.round(rng.uniform(0.40, 0.60, n), 2)
+        ln = rng.uniform(0.0, 3.0, n)
+        start = rng.random(n) < 0.1
+        step = float(rng.choice([0.0, 0.05, 0.15, 0.25]))
+        cases.append((w, ln, step, 0.8, start if rng.random() < 0.8 else None))
+    want = [runs_of_widths(*c) for c in cases]
+    compiled.load()
+    for c, w in zip(cases, want, strict=True):
+        assert runs_of_widths(*c).tolist() == w.tolist()
 
 
 @pytest.mark.parametrize("window", [0.0, 1.0, 5.0, 100.0])

@@ -2,25 +2,25 @@
 
 The splicer writes whatever vertices simplify keeps, so the vectorized version must keep exactly
 the vertices of the straightforward recursive Ramer-Douglas-Peucker below, on every path; and so
-must the compiled pass large splices load (:func:`loadpath.splice.plan.load_compiled`), down to
-the bytes the splice writes on a real file.
+must the compiled pass large splices load (:mod:`loadpath.splice.compiled`), down to the bytes
+the splice writes on a real file (where the bead runs' compiled run index is used too).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from loadpath.splice import plan
+from loadpath.splice import compiled
 from loadpath.splice.plan import simplify, simplify_mask
 
 
 @pytest.fixture(params=["numpy", "compiled"])
 def rdp(request, monkeypatch):
-    """The RDP pass simplify_mask runs: numpy's levels, or the compiled loop (restored after)."""
-    monkeypatch.setattr(plan, "_COMPILED", [])
+    """The RDP pass simplify_mask runs: numpy's levels, or the compiled loop (unloaded after)."""
+    monkeypatch.setattr(compiled, "_LOADED", {})
     if request.param == "compiled":
-        plan.load_compiled()
-        assert plan._COMPILED
+        compiled.load()
+        assert compiled.kernel("rdp") is not None
     return request.param
 
 
@@ -137,12 +137,12 @@ def test_compiled_splice_writes_the_same_bytes(sliced, monkeypatch):
     program = gcode.read(sliced("prusa", "ohs", "mixed"))
     fills = [_wavy(f) for f in rectilinear_fills(program, infill_blocks(program))]
     assert sum(len(p.points) for f in fills for p in f.paths) > 20_000
-    monkeypatch.setattr(plan, "_COMPILED", [])
+    monkeypatch.setattr(compiled, "_LOADED", {})
     numpy_out = run_splice(program, fills)[0].data
-    assert not plan._COMPILED  # a small file: numpy's pass
-    monkeypatch.setattr(plan, "COMPILED_FROM", 1)
+    assert compiled.kernel("rdp") is None  # a small file: numpy's pass
+    monkeypatch.setattr(compiled, "COMPILED_FROM", 1)
     compiled_out = run_splice(program, fills)[0].data
-    assert plan._COMPILED
+    assert compiled.kernel("rdp") is not None and compiled.kernel("runs") is not None
     assert compiled_out == numpy_out
 
 

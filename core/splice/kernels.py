@@ -1,5 +1,6 @@
-"""The compiled loop of :func:`loadpath.splice.plan.simplify_mask`'s Ramer-Douglas-Peucker pass.
+"""The splice's compiled loops, for large splices (:mod:`loadpath.splice.compiled` loads them).
 
+:func:`rdp_keep`: the Ramer-Douglas-Peucker pass of :func:`loadpath.splice.plan.simplify_mask`.
 The numpy pass splits every segment of every path one recursion level at a time, gathering the
 inner vertices of all segments still being split into fresh arrays on each level: about 30 array
 operations per vertex and level.  On the 1000-layer specimen's splice that was 4.0 s of its 16.5 s
@@ -10,9 +11,14 @@ taken in.  Per segment, the worst vertex is the first one with the largest error
 ignored (numpy's ``fmax.reduceat``), and an error is NaN when either of its terms is
 (``np.maximum``).
 
+
+:func:`run_index`: :func:`loadpath.splice.beadruns.runs_of_widths`, a pass that is sequential by
+nature (each run's band of widths depends on where the one before ended), the same comparisons in
+the same order: 1.5 s of the 1000-layer specimen's splice as a Python loop.
+
 Compiled with the engines' ``njit`` (numba's on-disk cache, stamped with this file) and imported
-only for large splices (:data:`loadpath.splice.plan.COMPILED_FROM` vertices): a small file's run
-never imports numba for it.
+only for large splices (:data:`loadpath.splice.compiled.COMPILED_FROM` vertices): a small file's
+run never imports numba for them.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from loadpath.jit import jit_family
 
-__all__ = ["rdp_keep"]
+__all__ = ["rdp_keep", "run_index"]
 
 _njit, _ = jit_family((Path(__file__).resolve(),))
 
@@ -102,3 +108,62 @@ def rdp_keep(px, py, pit, starts, ends, tol: float, pitch_tol: float, keep: np.n
         float(pitch_tol),
         keep,
     )
+
+
+@_njit
+def _runs(w, is_short, first, limit, run):  # pragma: no cover - compiled
+    k = -1
+    have = False
+    lo = 0.0
+    hi = 0.0
+    for i in range(w.shape[0]):
+        if first[i]:
+            k += 1
+            have = False
+        if is_short[i] and have:
+            run[i] = k
+            continue
+        wi = w[i]
+        if not have:
+            lo = wi
+            hi = wi
+            have = True
+            if k < 0:
+                k = 0
+        else:
+            nlo = wi if wi < lo else lo
+            nhi = wi if wi > hi else hi
+            if nhi <= nlo * limit:
+                lo = nlo
+                hi = nhi
+            else:
+                k += 1
+                lo = wi
+                hi = wi
+        run[i] = k
+
+
+def run_index(width: np.ndarray, is_short: np.ndarray, first: np.ndarray, limit: float) -> np.ndarray:
+    """Run index per segment, as :func:`loadpath.splice.beadruns.runs_of_widths` gives it.
+
+    Parameters
+    ----------
+    width : (n,) float64, mm
+    is_short, first : (n,) bool
+        Segments shorter than the runs' ``short``; segments that begin a chain.
+    limit : float
+        ``1 + step``: the largest ratio of a run's widest width to its narrowest.
+
+    Returns
+    -------
+    (n,) int64
+    """
+    run = np.zeros(len(width), dtype=np.int64)
+    _runs(
+        np.ascontiguousarray(width, dtype=np.float64),
+        np.ascontiguousarray(is_short, dtype=np.bool_),
+        np.ascontiguousarray(first, dtype=np.bool_),
+        float(limit),
+        run,
+    )
+    return run
