@@ -551,11 +551,19 @@ def lies_in(paths: Sequence[Path], region: Region, tol: float = TOL.region_reuse
     ps = [p.points for p in paths if len(p.points) >= 2]
     if not ps:
         return True
-    # one call for all the lines (about 1 ms for a 1000-layer specimen's 7000 vertices)
     index = np.repeat(np.arange(len(ps)), [len(q) for q in ps])
     lines = shapely.linestrings(np.concatenate(ps), indices=index)
     grown = region.buffer(tol, quad_segs=4) if tol > 0 else region  # its arcs' chords lie inside the true one
-    return bool(shapely.covered_by(lines, grown).all())
+    # a line that meets no edge of the grown region lies wholly inside it or wholly outside, as its
+    # first vertex does; only the lines that meet an edge are tested whole (the 1000-layer specimen's
+    # 980 reused layers: 0.85 -> 0.2 s, covered_by on every line testing each of its 7000 vertices)
+    edge = shapely.boundary(grown)
+    shapely.prepare(edge)
+    meets = shapely.intersects(edge, lines)
+    first = np.array([q[0] for q, m in zip(ps, meets, strict=True) if not m]).reshape(-1, 2)
+    if not shapely.contains_xy(grown, first[:, 0], first[:, 1]).all():
+        return False
+    return bool(shapely.covered_by(lines[meets], grown).all())
 
 
 def clip_to(paths: Sequence[Path], region: Region, min_length: float) -> tuple[Path, ...]:

@@ -67,6 +67,31 @@ def test_a_segment_across_a_hole_does_not_lie_in_the_region_though_its_vertices_
     assert lies_in([Path(np.array([[101.0, 95.0], [150.0, 95.0]]), np.full(2, 4.0))], rounded)
 
 
+
+def test_lies_in_is_covered_by_of_the_whole_lines():
+    """lies_in tests whole only the lines that meet an edge of the grown region, the others by their
+    first vertex: the same answer as covered_by on every line, for random polylines inside, across
+    the hole, wholly in it, wholly outside, along the edge and ending on it."""
+    import shapely
+    from loadpath.pipeline.paths import lies_in
+    from loadpath.tolerances import TOL
+
+    region = box(100, 90, 150, 120).difference(Point(125, 105).buffer(3.8, 64))
+    grown = region.buffer(TOL.region_reuse_mm, quad_segs=4)
+    rng = np.random.default_rng(5)
+    answers = []
+    for _ in range(400):
+        paths = []
+        for _ in range(int(rng.integers(1, 4))):
+            start = rng.choice([[101.0, 91.0], [125.0, 105.0], [121.0, 105.0], [160.0, 95.0], [100.0, 100.0]])
+            steps = rng.normal(0, rng.choice([0.05, 0.5, 3.0]), (int(rng.integers(2, 30)), 2))
+            paths.append(Path(start + np.cumsum(steps, axis=0), np.full(len(steps), 0.45)))
+        lines = [shapely.LineString(p.points) for p in paths]
+        want = all(grown.covers(line) for line in lines)
+        assert lies_in(paths, region) == want
+        answers.append(want)
+    assert 20 < sum(answers) < 380  # both answers, often
+
 def test_the_shipped_examples_layers_print_their_representatives_runs(tmp_path):
     """On the shipped example every layer of an engine run whose region is its representative's within
     rounding prints the representative's linked runs (or its staggered copy's): the run links once per
