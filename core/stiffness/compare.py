@@ -263,7 +263,8 @@ def evaluate_file(
     metrics : bool
         Also the path metrics (an isotropic analysis per body, then beta and coverage); False: the
         mechanics only (``isotropic`` empty, ``beta`` and ``coverage`` NaN), for a caller that ranks
-        files by stiffness and failure load (``density = "auto"``).
+        files by stiffness and failure load (``density = "auto"``), which reads the file's layer
+        geometry for the part's body alone (``layer_geometry(outlines_only=True)``: the same body).
 
     Returns
     -------
@@ -285,7 +286,7 @@ def evaluate_file(
             raise LoadpathError(f"cannot read {source}: {exc.strerror or exc}; check the path") from None
     label = name if name is not None else (str(source) if not isinstance(source, Program) else "program")
     options, card, card_why = file_card(program.config, loadcase, options)
-    geo = geometry.layer_geometry(program, check=False)
+    geo = geometry.layer_geometry(program, check=False, outlines_only=not metrics)  # the body alone
     rbs = resolve(loadcase, geo.bodies())
     diameter = geo.filament_diameter
     preds, isos, fails = [], [], []

@@ -117,3 +117,23 @@ def test_islands_made_in_worker_processes_are_those_made_in_one(sliced, tmp_path
     again = Cache(tmp_path / "cache")  # what the workers made is found, and is the same
     assert _differences(geometry.layer_geometry(program, check=False, cache=again, workers=2), one) == []
     assert again.stats.hits == {"islands": n}
+
+
+def test_outlines_only_gives_the_same_bodies(sliced):
+    """``outlines_only`` (what ``evaluate_file(metrics=False)`` reads): every island's outline and
+    domain as the full derivation's, no blocks, so the same bodies: two objects, one of two islands."""
+    program = gcode.read(sliced("prusa", "two_objects", "mixed"))
+    full = geometry.layer_geometry(program, check=False)
+    lean = geometry.layer_geometry(program, check=False, outlines_only=True)
+    assert [o.name for o in lean.objects] == [o.name for o in full.objects]
+    n = 0
+    for fo, lo in zip(full.objects, lean.objects, strict=True):
+        for fl, ll in zip(fo.layers, lo.layers, strict=True):
+            assert len(ll.islands) == len(fl.islands)
+            for fi, li in zip(fl.islands, ll.islands, strict=True):
+                assert li.outline.wkb == fi.outline.wkb and li.domain.wkb == fi.domain.wkb
+                assert li.blocks == () and fi.blocks
+                n += 1
+    assert n > 10
+    for fb, lb in zip(full.bodies(), lean.bodies(), strict=True):
+        assert _differences(fb, lb, "body") == []
