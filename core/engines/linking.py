@@ -618,6 +618,11 @@ class _Layer:
         ks = np.flatnonzero(self.straight)
         ea = np.concatenate([self.a[ks], self.b[ks]])
         eb = np.concatenate([self.b[ks], self.a[ks]])
+        return self._straight_batch(ea, eb)
+
+    def _straight_batch(self, ea: np.ndarray, eb: np.ndarray) -> dict[tuple[int, int], tuple]:
+        """The straight links from end ``ea[i]`` to ``eb[i]`` (c,) int, sampled and tested against
+        the paths at once: ``(ea, eb) -> (i, lo, hi, clear, samples)`` as :meth:`_straight_links`."""
         if not len(ea):
             return {}
         ends_xy = np.stack([self.e_pt[ea], self.e_pt[eb]], axis=1).reshape(-1, 2)
@@ -628,6 +633,17 @@ class _Layer:
             (x, y): (i, ends[i], ends[i + 1], ok, pts)
             for i, (x, y, ok) in enumerate(zip(ea.tolist(), eb.tolist(), clear.tolist(), strict=True))
         }
+
+    def prepare_straight(self, ea: np.ndarray, eb: np.ndarray) -> None:
+        """Sample and test the straight links ``ea[i] -> eb[i]`` not tried yet in one batch, so that
+        :meth:`geometry` finds them made (the same samples and test as one at a time)."""
+        if self.straight_links is None:
+            self.straight_links = self._straight_links()
+        known = self.straight_links
+        new = [(x, y) for x, y in zip(ea.tolist(), eb.tolist(), strict=True) if (x, y) not in known]
+        if new:
+            xs, ys = (np.array(v, dtype=np.int64) for v in zip(*new, strict=True))
+            known.update(self._straight_batch(xs, ys))
 
     def _edge_links(
         self, ea: np.ndarray | None = None, eb: np.ndarray | None = None
@@ -848,13 +864,25 @@ def _link(
             fa, fb, fg, facing, inside = found
             ok = facing & inside
             fa, fb, fg = fa[ok], fb[ok], fg[ok]
-            for k in np.argsort(fg, kind="stable"):
-                accept(int(fa[k]), int(fb[k]), True, False)
+            order = np.argsort(fg, kind="stable")
+            # in batches of the next pairs whose ends are still free: their samples and clearance
+            # made at once (one tree query; one per link was a third of a sparse layer's linking)
+            for lo in range(0, len(order), _LONG_BATCH):
+                ks = order[lo : lo + _LONG_BATCH]
+                free_k = ks[~used[fa[ks]] & ~used[fb[ks]]]
+                layer.prepare_straight(fa[free_k], fb[free_k])
+                for k in ks:
+                    accept(int(fa[k]), int(fb[k]), True, False)
 
     runs, spans = _walk(ps, link, layer.e_w, options.link_width)
     stats["runs"] = len(runs)
     stats["links_at"] = spans
     return tuple(runs), stats
+
+
+_LONG_BATCH = 64
+"""Long links of the second pass sampled and tested for clearance together
+(:meth:`_Layer.prepare_straight`)."""
 
 
 def _grow(

@@ -187,3 +187,34 @@ def test_batched_candidate_tests_link_engine_layers_as_one_by_one(engine):
     tp = generate(engine, EngineInput(region, field, 0.45))
     _, passing = assert_links_as_one_by_one(list(tp.paths), region, 0.45)
     assert passing > 0
+
+
+def test_long_links_tested_in_batches_link_as_one_at_a_time(monkeypatch):
+    """The second pass's long links, sampled and tested for clearance in batches of the next pairs
+    whose ends are free (_Layer.prepare_straight), give the runs of one test per link as the layer
+    makes it without them (_Layer.clear_of_paths), on sparse level-set and swarm layers of a plate
+    with a hole (many free ends, some long links not clear)."""
+    from loadpath.engines import generate, linking
+    from loadpath.engines.linking import link_paths
+    from loadpath.field import AnalyticField, kirsch_tensor
+    from loadpath.toolpath import EngineInput
+    from shapely.geometry import Point
+
+    region = box(0, 0, 40, 16).difference(Point(20, 8).buffer(3.0, 64))
+    field = AnalyticField(lambda p: kirsch_tensor(p, (20, 8), 3.0, 10.0), region, scale=10.0)
+    real = linking._Layer.prepare_straight
+    tested = []
+
+    def counted(self, ea, eb):
+        real(self, ea, eb)
+        tested.extend(v[3] for k, v in self.straight_links.items() if k in set(zip(ea.tolist(), eb.tolist())))
+
+    for engine in ("levelset", "swarm"):
+        paths = list(generate(engine, EngineInput(region, field, 1.6)).paths)
+        got = []
+        for batch in (counted, lambda self, ea, eb: None):
+            monkeypatch.setattr(linking._Layer, "prepare_straight", batch)
+            runs, _ = link_paths(paths, region, 1.6)
+            got.append([(r.points.tobytes(), r.pitch.tobytes()) for r in runs])
+        assert got[0] == got[1], engine
+    assert any(tested) and not all(tested)  # long pairs tested in batches, clear and not
