@@ -444,6 +444,36 @@ of the 1000-layer splice's CPU).  Keyed on everything they read, 914 of its 1016
 distinct: the regions found from PrusaSlicer's perimeters differ in the last digits on 812 of
 them, the slicer's filament per block takes 473 values, and the start point 172; a key within a
 tolerance would make a block's bytes depend on which block a worker laid first.
+
+2026-12-05, 07:51-08:01 (main 3f22b45, load 0.7), ``--repeats 3``::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    example                      10     0.14     3.67   26.4     0.61    4.4      251    0.25   3.47     0.2     5.6     0.8
+    specimen-100                100     0.32     4.92   15.3     2.74    8.5      323    2.31   4.18     0.5     7.8     4.5
+    gusset-gyroid30              40     0.33     5.31   16.2     5.14   15.7      309    2.32   1.11     0.5     7.7     7.5
+    gusset-gyroid30-sparse       40     0.37    12.37   33.6    12.27   33.3      327    2.32   0.53     0.6    18.5    18.6
+    gusset-100                   40     0.34     6.39   18.9     3.36   10.0      316    0.64   5.89     0.5    10.3     5.7
+    specimen-1000              1000     1.96    19.21    9.8    13.57    6.9      720   22.95   4.26     3.6    32.5    22.0
+
+What changed: the splice check reads its pieces in one group per worker side by side, each from a
+guessed start checked against where the group before it ended (:mod:`loadpath.splice.piecewise`;
+the 1000-layer output's check 3.28 -> 1.91 s); a splice of 2 million path vertices or more runs
+its RDP pass and its bead runs' run index compiled (:mod:`loadpath.splice.compiled`; the
+1000-layer splice 16.5 -> 13.3 s of CPU); a layer's reused runs are tested against its region by
+the lines that meet its edge only (0.85 -> 0.23 s on the 1000-layer file); ``density = "auto"``
+reads its candidates and the slicer's file for the part's body alone (their geometry 3.4 -> 0.7 s
+on the sparse gusset); the linking's long links and clearance pairs in batches (0.47 -> 0.37 s of
+CPU a sparse gusset layer).  The gusset's default repeat (5.14 s, 2.12 s in the morning's run
+of the same code but the last two changes) re-laid paths PrusaSlicer's re-slice moved.  On fixed
+files, 3750756 (before) and 3f22b45 (after) in turn, twice each, first on an empty cache and
+repeat on the same part re-sliced at other speeds, outputs byte-identical but for the verdict's
+timestamp, load 0.8-1.9: example 3.54, 3.25 -> 3.29, 3.43 s (its repeat, on a re-slice of the
+STL that moves more than the example's own slicing, 2.03, 1.90 -> 1.82, 1.90 s); 100-layer
+specimen 4.83, 4.62 -> 4.53, 4.67 s, repeat 2.75, 2.64 -> 2.57, 2.67 s (under the compiled
+loops' 2 million vertices, its check beside the verdict's counts: nothing of this applies);
+gusset, sparse replaced, first 13.43, 13.28 -> 11.83, 12.40 s, repeat 11.50, 11.33 -> 8.14, 8.52 s;
+1000-layer specimen first 22.41, 22.44 -> 18.15, 19.79 s (peak 753 -> 737 MB), repeat 18.04,
+18.51 -> 13.78, 15.14 s (peak 576 -> 679 MB: the check's two groups read side by side).
 """
 
 from __future__ import annotations

@@ -35,9 +35,12 @@ _njit, _ = jit_family((Path(__file__).resolve(),))
 
 @_njit
 def _rdp(px, py, pit, starts, ends, tol, pitch_tol, keep):  # pragma: no cover - compiled
-    stack = np.empty((max(64, 2 * px.shape[0]), 2), dtype=np.int64)
+    # the segments waiting on the stack split one path into disjoint pieces: at most its size
+    size = 2
     for p in range(starts.shape[0]):
-        top = 0
+        size = max(size, ends[p] - starts[p] + 1)
+    stack = np.zeros((size, 2), dtype=np.int64)
+    for p in range(starts.shape[0]):
         stack[0, 0] = starts[p]
         stack[0, 1] = ends[p] - 1
         top = 1
