@@ -400,7 +400,7 @@ def _run(
 
     judged = None
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
-        judged = judge(program, lc)
+        judged = judge(program, lc, opts.workers)
         pres, result.density = run_choosing(run_with, judged, opts)
     else:
         pres = run_with(opts)

@@ -4,6 +4,8 @@ The choice on real slices: tests/pipeline/test_sparse_strength.py."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from loadpath.plugin.density_choice import Choice, describe, score
 
 
@@ -32,3 +34,32 @@ def test_the_verdict_names_the_kept_criterion_and_the_figures_that_chose_it():
     assert "failure load not predicted" in describe(Choice("energy", (("energy", 1.2, None),)))
     off = describe(Choice("energy", (("energy", 1.14, 1.238), ("stack", 1.243, 1.333)), (("stack", 0.38),)))
     assert off.endswith("; stack laid +38% of the slicer's plastic (blocks kept as sliced), not its mass)")
+
+
+def test_the_first_judgment_side_by_side_gives_the_same_figures(tmp_path):
+    """The Judge's first call evaluates the slicer's file and the candidate in two forked workers
+    when it has two: the same ratios, bit for bit, as one after the other, and a later call (its
+    body meshed again in this process) as well."""
+    from loadpath import gcode, loadcase
+    from loadpath.plugin.density_choice import judge
+    from loadpath.plugin.job import JobRequest, run_job
+
+    repo = Path(__file__).resolve().parents[2]
+    src, case = repo / "examples" / "ohs.gcode", repo / "examples" / "ohs.toml"
+    out = tmp_path / "out.gcode"
+    res = run_job(JobRequest(src, case, output=out, cli={"cache": False}, predict=False))
+    assert res.written, res.error
+    pres = _Result(out.read_bytes(), {})
+    program, lc = gcode.read(src), loadcase.read(case)
+    one, two = judge(program, lc, 1), judge(program, lc, 2)
+    first = [one(pres), two(pres)]
+    again = [one(pres), two(pres)]
+    assert first[0] == first[1] and again[0] == again[1] == first[0]
+    assert first[0][0] > 1.0  # the example's new infill: stiffer in the model
+
+
+class _Result:
+    """What the Judge reads of a pipeline result (weakly referenced, as the pipeline's is)."""
+
+    def __init__(self, data: bytes, analyses: dict) -> None:
+        self.data, self.analyses = data, analyses
