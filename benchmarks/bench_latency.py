@@ -445,7 +445,7 @@ distinct: the regions found from PrusaSlicer's perimeters differ in the last dig
 them, the slicer's filament per block takes 473 values, and the start point 172; a key within a
 tolerance would make a block's bytes depend on which block a worker laid first.
 
-2026-12-05, 07:51-08:01 (main 3f22b45, load 0.7), ``--repeats 3``::
+2026-12-05, 07:51-08:01 (main 85aa8b3, load 0.7), ``--repeats 3``::
 
     part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
     example                      10     0.14     3.67   26.4     0.61    4.4      251    0.25   3.47     0.2     5.6     0.8
@@ -464,8 +464,8 @@ the lines that meet its edge only (0.85 -> 0.23 s on the 1000-layer file); ``den
 reads its candidates and the slicer's file for the part's body alone (their geometry 3.4 -> 0.7 s
 on the sparse gusset); the linking's long links and clearance pairs in batches (0.47 -> 0.37 s of
 CPU a sparse gusset layer).  The gusset's default repeat (5.14 s, 2.12 s in the morning's run
-of the same code but the last two changes) re-laid paths PrusaSlicer's re-slice moved.  On fixed
-files, 3750756 (before) and 3f22b45 (after) in turn, twice each, first on an empty cache and
+of the code without the last three changes) re-laid paths PrusaSlicer's re-slice moved.  On fixed
+files, 3750756 (before) and 85aa8b3 (after) in turn, twice each, first on an empty cache and
 repeat on the same part re-sliced at other speeds, outputs byte-identical but for the verdict's
 timestamp, load 0.8-1.9: example 3.54, 3.25 -> 3.29, 3.43 s (its repeat, on a re-slice of the
 STL that moves more than the example's own slicing, 2.03, 1.90 -> 1.82, 1.90 s); 100-layer
