@@ -127,7 +127,7 @@ def _damage(program, result, out, how):
     return b"\n".join(lines)
 
 
-@pytest.mark.parametrize("read", ["whole", "pieces", "groups"])
+@pytest.mark.parametrize("read", ["whole", "pieces", "groups", "forked"])
 @pytest.mark.parametrize("how", ["kept line", "volume", "retraction", "outside", "state", "layer"])
 def test_same_verdict_on_damaged_files(spliced, how, read):
     piece_lines, groups, workers = READS[read]
