@@ -138,6 +138,10 @@ def _toolpath(t: ToolpathOptions) -> list[str]:
         rows.append(f"principal = {_str(t.principal)}")
     if t.replace is not None:
         rows.append("replace = [" + ", ".join(_str(k) for k in t.replace) + "]")
+    if t.density is not None:
+        rows.append(f"density = {_str(t.density)}")
+    if t.sparse_fill is not None:
+        rows.append(f"sparse_fill = {_num(t.sparse_fill)}  # mean fill of the replaced sparse infill, 0-1")
     if not rows:
         return []
     return ["[toolpath]              # command-line options win over this section", *rows]

@@ -40,6 +40,8 @@ pitch = 0.41
 K = 5
 principal = "alternate"
 replace = ["solid", "sparse"]
+density = "stack"
+sparse_fill = 0.25
 """
 
 
