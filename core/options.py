@@ -84,6 +84,15 @@ class Field:
 TOOLPATH_FIELDS: tuple[Field, ...] = (
     Field("engine", "str", engines.DEFAULT, "", "path engine", engines.NAMES, cli="--engine", toolpath=True),
     Field(
+        "sparse_engine",
+        "str",
+        "auto",
+        "",
+        f"path engine for sparse infill; auto: the one named by engine, else {engines.SPARSE_DEFAULT}",
+        engines.SPARSE_CHOICES,
+        toolpath=True,
+    ),
+    Field(
         "pitch",
         "optional_float",
         None,

@@ -194,6 +194,7 @@ def build(
     stiffness: Any = None,
     note: str = "",
     total_seconds: float | None = None,
+    sparse_engine: str | None = None,
 ) -> Verdict:
     """Make the verdict of a pipeline result.
 
@@ -213,6 +214,9 @@ def build(
         Why nothing was replaced, or why the stiffness is missing.
     total_seconds : float, optional
         The slicer's estimate of the whole print, for the per-cent change.
+    sparse_engine : str, optional
+        The engine that laid sparse infill when it is not ``engine``: the verdict names both
+        (``swarm (solid), levelset (sparse)``) when both kinds were replaced.
     """
     date = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%MZ")
     if result is None or not result.changed:
@@ -227,6 +231,9 @@ def build(
     layers = tuple(sorted({b.layer + 1 for b in blocks}))
     kind_of = {b.block_index: u.kind for jr in result.jobs for u in jr.units for b in u.blocks}
     kinds = tuple(dict.fromkeys(kind_of.get(b.block, b.feature) for b in blocks))
+    if sparse_engine and sparse_engine != engine and "sparse" in kinds:
+        others = ", ".join(k for k in kinds if k != "sparse")
+        engine = f"{engine} ({others}), {sparse_engine} (sparse)" if others else sparse_engine
     farea = math.pi * filament_diameter**2 / 4
     dmass = sum(b.filament_new - b.filament_old for b in blocks) * farea * density * 1e-3
     dt = float(result.splice.seconds_delta)

@@ -368,9 +368,12 @@ def _run(
             s = s.with_values({"filament_diameter": d}, "inferred from the G-code")
             result.settings = s
     params = {name: getattr(s, name) for name in engines.get(s.engine).settings}
+    sparse = s.engine_for_sparse()
     opts = pipeline.PipelineOptions(
         engine=s.engine,
         engine_params=params,
+        sparse_engine=sparse,
+        sparse_engine_params={name: getattr(s, name) for name in engines.get(sparse).settings},
         pitch=s.pitch,
         principal=s.principal,
         cross_angle=s.cross_angle,
@@ -441,6 +444,7 @@ def _run(
         stiffness=stiff,
         note=why,
         total_seconds=verdict_mod.total_print_seconds(pres.data) if pres.changed else None,
+        sparse_engine=sparse,
     )
     if not request.predict and pres.changed:
         v = dataclasses.replace(v, note="not asked for")

@@ -259,6 +259,7 @@ class Settings:
     """
 
     engine: str = engines.DEFAULT
+    sparse_engine: str = "auto"
     pitch: float | None = None
     K: float = 5.0  # noqa: N815 (the paper's symbol)
     principal: str = "max_abs"
@@ -315,6 +316,10 @@ class Settings:
     def source(self, name: str) -> str:
         """Where the value of ``name`` came from."""
         return self.sources.get(name, "default")
+
+    def engine_for_sparse(self) -> str:
+        """The engine that lays sparse infill (``sparse_engine``; :func:`loadpath.engines.for_sparse`)."""
+        return engines.for_sparse(self.sparse_engine, self.engine, self.source("engine") != "default")
 
     def as_dict(self) -> dict[str, Any]:
         """Return the values as plain JSON-able data."""

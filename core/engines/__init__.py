@@ -19,8 +19,11 @@ from __future__ import annotations
 from loadpath.engines.registry import (
     DEFAULT,
     NAMES,
+    SPARSE_CHOICES,
+    SPARSE_DEFAULT,
     Engine,
     Machine,
+    for_sparse,
     generate,
     get,
     register,
@@ -28,4 +31,17 @@ from loadpath.engines.registry import (
     warm_up,
 )
 
-__all__ = ["NAMES", "DEFAULT", "Engine", "Machine", "generate", "get", "register", "unregister", "warm_up"]
+__all__ = [
+    "NAMES",
+    "DEFAULT",
+    "SPARSE_CHOICES",
+    "SPARSE_DEFAULT",
+    "Engine",
+    "Machine",
+    "for_sparse",
+    "generate",
+    "get",
+    "register",
+    "unregister",
+    "warm_up",
+]

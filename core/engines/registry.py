@@ -28,7 +28,20 @@ from typing import Any
 from loadpath.errors import SettingsError
 from loadpath.toolpath import EngineInput, Toolpaths
 
-__all__ = ["Machine", "Engine", "register", "unregister", "get", "NAMES", "DEFAULT", "generate", "warm_up"]
+__all__ = [
+    "Machine",
+    "Engine",
+    "register",
+    "unregister",
+    "get",
+    "NAMES",
+    "DEFAULT",
+    "SPARSE_DEFAULT",
+    "SPARSE_CHOICES",
+    "for_sparse",
+    "generate",
+    "warm_up",
+]
 
 
 @dataclass(frozen=True)
@@ -125,26 +138,31 @@ _REGISTRY: dict[str, Engine] = {}
 
 
 class _Names(Sequence[str]):
-    """The registered engine names, in registration order; a live view of the registry."""
+    """``extra`` and the registered engine names, in registration order; a live view of the registry."""
+
+    def __init__(self, extra: tuple[str, ...] = ()) -> None:
+        self.extra = extra
 
     def __getitem__(self, i: Any) -> Any:
-        return tuple(_REGISTRY)[i]
+        return (*self.extra, *_REGISTRY)[i]
 
     def __len__(self) -> int:
-        return len(_REGISTRY)
+        return len(self.extra) + len(_REGISTRY)
 
     def __iter__(self) -> Iterator[str]:
-        return iter(tuple(_REGISTRY))
+        return iter((*self.extra, *_REGISTRY))
 
     def __contains__(self, name: object) -> bool:
-        return name in _REGISTRY
+        return name in self.extra or name in _REGISTRY
 
     def __repr__(self) -> str:
-        return repr(tuple(_REGISTRY))
+        return repr((*self.extra, *_REGISTRY))
 
 
 NAMES: Sequence[str] = _Names()
 """Registered engine names (first: the default), always current."""
+SPARSE_CHOICES: Sequence[str] = _Names(("auto",))
+"""What ``sparse_engine`` takes: ``auto`` (:func:`for_sparse`) or a registered name, always current."""
 
 
 def register(engine: Engine) -> Engine:
@@ -231,6 +249,39 @@ def warm_up(engine: str) -> None:
 
 DEFAULT = "swarm"
 """The engine used when the user names none."""
+
+SPARSE_DEFAULT = "levelset"
+"""The engine for sparse infill when the user names none (:func:`for_sparse`).
+
+The level sets lead the swarm on sparse infill at the same mass.  ``benchmarks/bench_sparse.py
+--thickness 12 --variants density`` (five parts, PrusaSlicer gyroid and CuraEngine grid at 20 % and
+40 %: 20 files, 2026-12-05, over the slicer's file): stiffer on all 20 (20 %: 1.33-1.92x against
+the swarm's 1.18-1.86x), a higher failure load on 16 (the swarm's is higher on the 40 % L-bracket
+and shelf, both slicers), no more sparse retractions per layer on 14, no longer print time on 12,
+a smaller output on all 20.  Ten 2.4 mm parts at 40 % (``benchmarks/printability_results.md``,
+sixth round): stiffer and stronger on all ten, 16-64 retractions against 66-192 on PrusaSlicer's
+five.  The 40-layer 30 % gyroid gusset of ``bench_latency.py``, swarm on solid and level sets on
+sparse against the swarm on both: stiffness 2.127 against 2.092x the slicer's, failure load 3.03
+against 2.87x, 452 against 810 retractions (the slicer's 207), 10.5 against 14.4 s.
+"""
+
+
+def for_sparse(sparse_engine: str, engine: str, engine_chosen: bool) -> str:
+    """The engine that lays sparse infill.
+
+    ``sparse_engine`` when it names one; ``"auto"``: the engine the user chose for the rest
+    (``engine_chosen``: ``engine`` was set, not left at its default), else :data:`SPARSE_DEFAULT`.
+
+    Examples
+    --------
+    >>> for_sparse("auto", "swarm", False), for_sparse("auto", "swarm", True)
+    ('levelset', 'swarm')
+    >>> for_sparse("streamlines", "swarm", True)
+    'streamlines'
+    """
+    if sparse_engine != "auto":
+        return get(sparse_engine).name
+    return get(engine).name if engine_chosen else SPARSE_DEFAULT
 
 register(
     Engine(

@@ -218,7 +218,9 @@ class ToolpathOptions:
     Attributes
     ----------
     engine : str or None
-        A registered engine (:data:`loadpath.engines.NAMES`: ``"swarm"``, ``"streamlines"``).
+        A registered engine (:data:`loadpath.engines.NAMES`: ``"swarm"``, ``"streamlines"``, ``"levelset"``).
+    sparse_engine : str or None
+        The engine for sparse infill, or ``"auto"`` (:func:`loadpath.engines.for_sparse`).
     pitch : float or None, mm
     K : float or None
         Swarm: weight of stress alignment against even spacing.
@@ -234,6 +236,7 @@ class ToolpathOptions:
     """
 
     engine: str | None = None
+    sparse_engine: str | None = None
     pitch: float | None = None
     K: float | None = None  # noqa: N815 (the paper's symbol)
     principal: str | None = None

@@ -379,6 +379,11 @@ def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
     engine = (
         c.string(t["engine"], "toolpath.engine", options.field("engine").choices) if "engine" in t else None
     )
+    sparse_engine = (
+        c.string(t["sparse_engine"], "toolpath.sparse_engine", options.field("sparse_engine").choices)
+        if "sparse_engine" in t
+        else None
+    )
     pitch = None
     if "pitch" in t:
         pitch = c.number(t["pitch"], "toolpath.pitch", "mm")
@@ -416,6 +421,7 @@ def _toolpath(c: _Ctx, value: Any) -> ToolpathOptions:
         fill = bounded("sparse_fill", fill)
     return ToolpathOptions(
         engine=engine,
+        sparse_engine=sparse_engine,
         pitch=pitch,
         K=k,
         principal=principal,

@@ -130,6 +130,8 @@ def _toolpath(t: ToolpathOptions) -> list[str]:
     rows = []
     if t.engine is not None:
         rows.append(f"engine = {_str(t.engine)}")
+    if t.sparse_engine is not None:
+        rows.append(f"sparse_engine = {_str(t.sparse_engine)}")
     if t.pitch is not None:
         rows.append(f"pitch = {_num(t.pitch)}  # mm")
     if t.K is not None:

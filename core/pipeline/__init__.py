@@ -101,6 +101,11 @@ class PipelineOptions:
         A registered engine (:data:`loadpath.engines.NAMES`).
     engine_params : mapping
         Engine parameters (``{"K": 5.0}`` for the swarm).
+    sparse_engine : str or None
+        The engine for sparse infill (:func:`loadpath.engines.for_sparse` resolves the user's
+        ``sparse_engine``); None: ``engine``.
+    sparse_engine_params : mapping
+        Its parameters.
     pitch : float or None, mm
         None: each unit's slicer pitch.
     principal : str
@@ -130,6 +135,8 @@ class PipelineOptions:
 
     engine: str = options.field("engine").default
     engine_params: Mapping[str, Any] = field(default_factory=dict)
+    sparse_engine: str | None = None
+    sparse_engine_params: Mapping[str, Any] = field(default_factory=dict)
     pitch: float | None = options.field("pitch").default
     principal: str = options.field("principal").default
     cross_angle: float = options.field("cross_angle").default
@@ -147,8 +154,21 @@ class PipelineOptions:
         # directly gets the same one-line errors as the command line and the load case
         for name in ("engine", "principal", "replace", "stagger"):
             options.convert(options.field(name), getattr(self, name), f"PipelineOptions.{name}")
+        if self.sparse_engine is not None:
+            options.convert(options.field("engine"), self.sparse_engine, "PipelineOptions.sparse_engine")
         if options.user_pitch(self.pitch) is not None:
             options.convert(options.field("pitch"), self.pitch, "PipelineOptions.pitch")
+
+    def engine_for(self, unit: Unit) -> tuple[str, Mapping[str, Any]]:
+        """The engine that lays ``unit`` and its parameters: ``sparse_engine`` for sparse infill."""
+        if unit.fixed_width and self.sparse_engine is not None:
+            return self.sparse_engine, self.sparse_engine_params
+        return self.engine, self.engine_params
+
+    def engines_used(self) -> tuple[str, ...]:
+        """The engines a run with these options may call, solid infill's first (once each)."""
+        sparse = self.sparse_engine if "sparse" in self.replace and self.sparse_engine else self.engine
+        return (self.engine,) if sparse == self.engine else (self.engine, sparse)
 
 
 @dataclass
@@ -178,6 +198,8 @@ class EngineRun:
     links : dict
         What the linking did (:func:`loadpath.engines.linking.link_paths` stats, first layer and
         staggered copy summed), empty when off.
+    engine : str
+        The engine that laid the paths (:meth:`PipelineOptions.engine_for`).
     """
 
     job: Job
@@ -189,6 +211,7 @@ class EngineRun:
     shifted_by_engine: bool = False
     printed: tuple[Path, ...] = ()
     links: dict = field(default_factory=dict)
+    engine: str = ""
 
     @property
     def layers(self) -> list[int]:
@@ -408,7 +431,7 @@ def run(
     # field, gap-filling pieces).  Which engines do this: lays_phase.
     phased = (
         [k for k, j in enumerate(jobs) if len(j.units) > 1]
-        if options.stagger and lays_phase(options.engine, options.engine_params)
+        if options.stagger and lays_phase(*options.engine_for(jobs[k].unit))
         else []
     )
     copies = [
@@ -426,8 +449,7 @@ def run(
             keys = [
                 job_key(
                     j,
-                    options.engine,
-                    options.engine_params,
+                    *options.engine_for(j.unit),
                     _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
                     retry,
                     f,
@@ -436,8 +458,8 @@ def run(
             ]
         return run_jobs(
             todo,
-            options.engine,
-            dict(options.engine_params),
+            [options.engine_for(j.unit)[0] for j in todo],
+            [dict(options.engine_for(j.unit)[1]) for j in todo],
             options.workers,
             lambda done, total: tell("paths", done, total),
             length_retry=retry,
@@ -877,6 +899,7 @@ def _fills(
                 shifted is not None and by_engine,
                 base if options.link else (),
                 link_stats,
+                options.engine_for(job.unit)[0],
             )
         )
     if cache is not None and (kept[0] or cache.stats.misses.get("simplified")):

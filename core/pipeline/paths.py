@@ -368,8 +368,8 @@ def default_workers() -> int:
 
 def run_jobs(
     jobs: Sequence[Job],
-    engine: str,
-    params: dict[str, Any],
+    engine: str | Sequence[str],
+    params: Mapping[str, Any] | Sequence[Mapping[str, Any]],
     workers: int = 1,
     progress: Callable[[int, int], None] | None = None,
     length_retry: float = 0.15,
@@ -383,9 +383,10 @@ def run_jobs(
     Parameters
     ----------
     jobs : sequence of Job
-    engine : str
-    params : dict
-        Engine parameters (``K``, ...).
+    engine : str or sequence of str
+        The engine of every job, or one per job (sparse infill may have its own).
+    params : mapping or sequence of mapping
+        Engine parameters (``K``, ...): for every job, or one mapping per job.
     workers : int
         Processes; 1 runs in this process.
     progress : callable, optional
@@ -406,16 +407,18 @@ def run_jobs(
     """
     global _WORK
     factors = list(pitch_factor) if pitch_factor is not None else [1.0] * len(jobs)
+    names = [engine] * len(jobs) if isinstance(engine, str) else list(engine)
+    each = [params] * len(jobs) if isinstance(params, Mapping) else list(params)
     _WORK = [
         (
-            engine,
+            name,
             j.input if f == 1.0 else replace(j.input, pitch=j.input.pitch * f),
-            {**params, **j.params},
+            {**p, **j.params},
             length_target(j),
             length_retry,
             _machine_of(machine, j),
         )
-        for j, f in zip(jobs, factors, strict=True)
+        for j, f, name, p in zip(jobs, factors, names, each, strict=True)
     ]
     n = len(jobs)
     out: list[tuple[Toolpaths, float] | None] = [None] * n
@@ -431,7 +434,8 @@ def run_jobs(
         if forks(workers, len(todo)):
             # compile (or load) an engine's compiled kernels once here: forked workers inherit
             # them, where each would otherwise compile them on its own on a cold cache
-            engines.warm_up(engine)
+            for name in dict.fromkeys(names[i] for i in todo):
+                engines.warm_up(name)
         done = [n - len(todo)]
 
         def arrived(k: int, got: tuple[Toolpaths, float]) -> None:

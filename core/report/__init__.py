@@ -331,7 +331,8 @@ def _html(
         parts += [
             f"<section><h2>{e(lr.title)}</h2>",
             f"<p>pitch {n['pitch_mm']:.3f} mm, slicer's flow width {n['flow_width_mm']:.3f} mm, principal "
-            f"{e(n['principal'])}; engine {n['engine_s']:.2f} s for {n['n_paths_engine']} paths; "
+            f"{e(n['principal'])}; engine {e(n.get('engine') or '')} {n['engine_s']:.2f} s for "
+            f"{n['n_paths_engine']} paths; "
             "staggered by half "
             f"a pitch on layers {e(', '.join(map(str, n['staggered_layers'])) or 'none')}.</p>",
             lr.figure,

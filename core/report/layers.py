@@ -280,6 +280,7 @@ def layer_report(
         "pitch_mm": pitch,
         "flow_width_mm": unit.flow_width,
         "region_area_mm2": float(region.area),
+        "engine": job_result.engine,
         "engine_s": job_result.seconds,
         "n_paths_engine": len(job_result.paths.paths),
         "staggered_layers": [

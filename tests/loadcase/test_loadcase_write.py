@@ -42,6 +42,7 @@ principal = "alternate"
 replace = ["solid", "sparse"]
 density = "stack"
 sparse_fill = 0.25
+sparse_engine = "streamlines"
 """
 
 

@@ -1,0 +1,101 @@
+"""Sparse infill's own engine (issues 15 and 19): the level sets unless the user names an engine.
+
+``sparse_engine = "auto"`` (the default) lays sparse infill with the engine the user named with
+``engine`` (command line, ``--set`` or the load case's ``[toolpath]``), else with the level sets
+(:data:`loadpath.engines.SPARSE_DEFAULT`); solid infill keeps ``engine`` (default the swarm).  A
+real PrusaSlicer 2.5 L-bracket at 20 % gyroid, run as a user runs it, shows which engine laid each
+distinct layer and what the verdict says.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import slicing
+from cases import BRACKET_PIN
+from loadpath import engines, gcode, loadcase
+from loadpath.errors import LoadCaseError, SettingsError
+from loadpath.loadcase import ToolpathOptions
+from loadpath.plugin import settings as settings_mod
+from loadpath.plugin.job import JobRequest, run_job
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.fixture(scope="module")
+def example():
+    return gcode.read(EXAMPLE / "ohs.gcode")
+
+
+def test_auto_is_the_level_sets_unless_an_engine_is_named(example):
+    resolve = settings_mod.resolve
+    assert resolve(example).engine_for_sparse() == engines.SPARSE_DEFAULT == "levelset"
+    assert resolve(example).engine == engines.DEFAULT == "swarm"  # solid infill keeps the swarm
+    assert resolve(example, cli={"engine": "streamlines"}).engine_for_sparse() == "streamlines"
+    assert resolve(example, cli={"engine": "swarm"}).engine_for_sparse() == "swarm"  # named, even the default
+    assert resolve(example, toolpath=ToolpathOptions(engine="swarm")).engine_for_sparse() == "swarm"
+    named = resolve(example, toolpath=ToolpathOptions(engine="swarm", sparse_engine="streamlines"))
+    assert named.engine_for_sparse() == "streamlines"
+    # the command line wins over the load case, as for every option
+    lc_sparse = ToolpathOptions(sparse_engine="streamlines")
+    both = resolve(example, toolpath=lc_sparse, cli={"sparse_engine": "swarm"})
+    assert both.engine_for_sparse() == "swarm" and both.source("sparse_engine") == "command line"
+
+
+def test_a_bad_sparse_engine_is_one_line_naming_the_choices(example):
+    with pytest.raises(SettingsError) as err:
+        settings_mod.resolve(example, cli={"sparse_engine": "gyroid"})
+    msg = str(err.value)
+    assert "\n" not in msg and "sparse_engine" in msg and "auto" in msg and "levelset" in msg
+    with pytest.raises(LoadCaseError) as err2:
+        text = (EXAMPLE / "ohs.toml").read_text(encoding="utf-8")
+        loadcase.parse(text + '\n[toolpath]\nsparse_engine = "x"\n')
+    assert "sparse_engine" in str(err2.value) and "\n" not in str(err2.value)
+
+
+def test_the_load_case_keeps_its_sparse_engine_written_and_read_back():
+    text = (EXAMPLE / "ohs.toml").read_text(encoding="utf-8")
+    table = '\n[toolpath]\nsparse_engine = "swarm"\ndensity = "stack"\nsparse_fill = 0.25\n'
+    lc = loadcase.parse(text + table)
+    assert lc.toolpath.sparse_engine == "swarm"
+    assert loadcase.parse(loadcase.to_toml(lc)).toolpath == lc.toolpath  # density and fill kept too
+
+
+@pytest.fixture(scope="module")
+def bracket(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("bracket_engines")
+    stl = slicing.write_stl(slicing.bracket_mesh(thickness=4.0), folder / "bracket.stl")
+    conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3"}
+    src = slicing.slice_prusa(stl, folder / "bracket.gcode", **{**conf, "fill_pattern": "gyroid"})
+    case = folder / "case.toml"
+    case.write_text(BRACKET_PIN, encoding="utf-8")
+    return src, case
+
+
+def _engines_by_kind(res) -> dict[str, set[str]]:
+    out: dict[str, set[str]] = {}
+    for jr in res.pipeline.jobs:
+        out.setdefault(jr.job.unit.kind, set()).add(jr.engine)
+    return out
+
+
+@pytest.mark.slow
+def test_sparse_laid_by_the_level_sets_solid_by_the_swarm_and_the_verdict_says_so(bracket):
+    src, case = bracket
+    out = src.with_name("bracket.auto.gcode")
+    cli = {"replace": ("solid", "sparse"), "density": "uniform", "cache": False}
+    res = run_job(JobRequest(src, case, output=out, cli=cli))
+    assert res.written and res.error is None, res.error
+    assert res.pipeline.check is not None and not res.pipeline.check.problems
+    assert _engines_by_kind(res) == {"solid": {"swarm"}, "sparse": {"levelset"}}
+    line = res.verdict.line()
+    assert "with swarm (solid), levelset (sparse);" in line
+    assert line in out.read_text(encoding="utf-8").split("\n", 2)[1]  # the file's header says the same
+
+    # an engine named by the user lays both kinds, and the verdict names it alone
+    named = src.with_name("bracket.swarm.gcode")
+    res2 = run_job(JobRequest(src, case, output=named, cli={**cli, "engine": "swarm"}))
+    assert res2.written and res2.error is None, res2.error
+    assert _engines_by_kind(res2) == {"solid": {"swarm"}, "sparse": {"swarm"}}
+    assert "with swarm;" in res2.verdict.line()
