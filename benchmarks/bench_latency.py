@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_latency.py [OUT_DIR] [--repeats 3] [--quick] [--engine swarm]
+    python benchmarks/bench_latency.py [OUT_DIR] [--repeats 3] [--quick] [--engine NAME]
 
 (``./dev bench`` passes the same arguments to every benchmark; unknown ones are ignored.)
 
@@ -642,12 +642,13 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="one repeat; example, 100 layers, gyroid gusset")
     from loadpath.engines import NAMES
-    ap.add_argument("--engine", default="swarm", choices=tuple(NAMES))
+    ap.add_argument("--engine", default=None, choices=tuple(NAMES),
+                    help="pass --engine NAME to every run (default: none, the product's own engines)")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds before a run is given up")
     ap.add_argument("--only", default=None, help="comma-separated part names")
     args, _ = ap.parse_known_args(argv)
     repeats = 1 if args.quick else max(1, args.repeats)
-    eng = ["--engine", args.engine]
+    eng = ["--engine", args.engine] if args.engine else []
     head = (
         f"{'part':<24}{'layers':>7}{'slice s':>9}{'first s':>9}{'x':>7}{'repeat s':>9}{'x':>7}"
         f"{'peak MB':>9}{'in MB':>8}{'out/in':>7}{'cpu:sl':>8}{'first':>8}{'repeat':>8}"
@@ -673,7 +674,7 @@ def main(argv=None) -> int:
         start = statistics.median(_child([LOADPATH, "--help"])[0] for _ in range(repeats))
         print(
             f"loadpath run vs PrusaSlicer slicing, whole processes, median of {repeats}; engine "
-            f"{args.engine}; {slicing.prusa_version()}; interpreter + imports (loadpath --help) "
+            f"{args.engine or 'default'}; {slicing.prusa_version()}; interpreter + imports (loadpath --help) "
             f"{start:.2f} s; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
             flush=True,
         )
