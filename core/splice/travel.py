@@ -193,8 +193,12 @@ def route(st: TravelState, a: Points2, b: Points2, reach: float = 0.35) -> Point
     the region replaced by the shorter way round the edge it crosses; ``(k, 2)`` points after ``a``
     (ending with ``b``), or None when that is not possible (another island, several edges).
 
-    A piece at either end of at most ``reach`` mm stays straight: the nozzle comes from (or goes
-    to) the innermost perimeter, whose centre line lies that little outside the infill region.
+    A piece at either end that is at most ``reach`` mm long, or that stays within ``reach`` of the
+    region all along, stays straight: the nozzle comes from (or goes to) the innermost perimeter,
+    whose centre line lies that little outside the infill region.  The second case is CuraEngine's
+    layer start: its travel ends on the infill line's end, 0.04 mm outside the region found from
+    the perimeters, and the first new run may start a few mm along that edge: a straight travel
+    over the edge, not one round it (the edge walk cannot start from a point off the edge).
     """
     from shapely.ops import substring
 
@@ -211,12 +215,14 @@ def route(st: TravelState, a: Points2, b: Points2, reach: float = 0.35) -> Point
         if len(c) < 2:
             continue
         t0, t1 = line.project(shapely.points(c[0])), line.project(shapely.points(c[-1]))
-        pos_on_line.append((min(t0, t1), c[0] if t0 <= t1 else c[-1], c[-1] if t0 <= t1 else c[0]))
+        pos_on_line.append((min(t0, t1), c[0] if t0 <= t1 else c[-1], c[-1] if t0 <= t1 else c[0], piece))
     pos_on_line.sort(key=lambda x: x[0])
     total_len = line.length
-    for t, p, q in pos_on_line:
+    for t, p, q, piece in pos_on_line:
         piece_len = float(np.hypot(*(q - p)))
-        if piece_len <= reach and (t < 1e-6 or abs(t + piece_len - total_len) < 1e-6):
+        if (t < 1e-6 or abs(t + piece_len - total_len) < 1e-6) and (
+            piece_len <= reach or _near_region(st, reach).covers(piece)
+        ):
             continue  # from or to the perimeter beside the region
         pp, qp = shapely.points(p), shapely.points(q)
         d = np.array([ring.distance(pp) + ring.distance(qp) for ring in st.rings])

@@ -184,6 +184,23 @@ def test_route_goes_round_a_hole():
     assert route(st, np.array([10.0, 10.0]), np.array([10.0, 30.0])) is None  # outside the region
 
 
+def test_route_takes_a_start_off_the_edge_straight_along_it():
+    """CuraEngine's layer start: the travel before the block ends on its first infill line's end,
+    0.04 mm outside the region found from the perimeters; the first new run starts a few mm along
+    that edge.  The travel stays over the innermost perimeter, so it is taken straight (combing,
+    not retracted); one that starts a millimetre out is not."""
+    region = box(0, 0, 40, 20)
+    st = TravelState(None, region, Motion(), 0.2)
+    a, b = np.array([2.0, -0.04]), np.array([11.0, 0.1])
+    way = route(st, a, b)
+    assert way is not None and np.allclose(way, b[None])  # straight, not round the edge
+    assert route(st, np.array([2.0, -1.0]), b) is None  # from a millimetre outside: no way inside
+    # a piece off the edge in the middle of a travel still goes round (only the ends may hug it)
+    hole = box(0, 0, 40, 20).difference(box(15, -1, 25, 0.2))
+    mid = route(TravelState(None, hole, Motion(), 0.2), np.array([10.0, 0.1]), np.array([30.0, 0.1]))
+    assert mid is not None and len(mid) > 1
+
+
 def test_prusa_retracts_only_where_the_slicer_would(prusa_run):
     """Every retraction in the new blocks serves a gap (run end to next run start) of at least
     ``retract_before_travel``, or one leaving the region by more than the perimeter beside it:
