@@ -2,7 +2,10 @@
 
 Usage::
 
-    python benchmarks/bench_sparse.py [OUT_DIR] [--quick] [--engine swarm|streamlines]
+    python benchmarks/bench_sparse.py [OUT_DIR] [--quick] [--engine swarm|streamlines|levelset]
+
+(Without ``--engine`` the runs use the product's own engines: the swarm on solid infill, the level
+sets on sparse, ``sparse_engine = "auto"``.)
 
 Real slices: PrusaSlicer 2.5 (MK3S presets, ``tests/slicing.py``; gyroid, its default, and
 rectilinear) and CuraEngine 4.13 (prusa_i3_mk3; grid, its default, and gyroid) at 20 % and 40 %, of
@@ -290,7 +293,12 @@ def infill_motion(path: Path) -> dict[int, tuple[float, int]]:
     return out
 
 
-def timing(folder: Path, engine: str, repeats: int = 3) -> int:
+def _engine(engine: str | None) -> dict:
+    """The run's ``engine`` setting: none for the product's own (swarm on solid, level sets on sparse)."""
+    return {"engine": engine} if engine else {}
+
+
+def timing(folder: Path, engine: str | None, repeats: int = 3) -> int:
     """``loadpath run`` on a 40-layer 30 % gyroid part against PrusaSlicer's own slicing time."""
     stl = slicing.write_stl(slicing.bracket_mesh(thickness=8.0), folder / "bracket8.stl")
     case = folder / "bracket.toml"
@@ -306,15 +314,15 @@ def timing(folder: Path, engine: str, repeats: int = 3) -> int:
     for k in range(repeats):
         t0 = time.perf_counter()
         res = run_job(JobRequest(src, case, output=folder / f"bracket8-{k}.loadpath.gcode",
-                                 cli={"engine": engine, "replace": ("solid", "sparse"), "cache": False}))
+                                 cli={**_engine(engine), "replace": ("solid", "sparse"), "cache": False}))
         t_run.append(time.perf_counter() - t0)
         stages.append(dict(res.times))
         if res.error:
             print(f"loadpath run failed: {res.error}")
             return 1
     ms, mr = float(np.median(t_slice)), float(np.median(t_run))
-    print(f"{layers}-layer 30 % gyroid bracket: PrusaSlicer {ms:.1f} s, loadpath run ({engine}) {mr:.1f} s "
-          f"(medians of {repeats}): {mr / ms:.1f}x (target <= 5x)")
+    print(f"{layers}-layer 30 % gyroid bracket: PrusaSlicer {ms:.1f} s, loadpath run ({engine or 'default'}) "
+          f"{mr:.1f} s (medians of {repeats}): {mr / ms:.1f}x (target <= 5x)")
     med = {k: float(np.median([st.get(k, 0.0) for st in stages])) for st in stages for k in st}
     print("stages (median s): " + ", ".join(f"{k} {v:.1f}" for k, v in sorted(med.items(), key=lambda kv: -kv[1])))
     return 0
@@ -326,7 +334,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("out", nargs="?", default=None)
     ap.add_argument("--quick", action="store_true")
     from loadpath.engines import NAMES
-    ap.add_argument("--engine", default="swarm", choices=tuple(NAMES))
+    ap.add_argument("--engine", default=None, choices=tuple(NAMES),
+                    help="every kind laid by this engine (default: none named, the product's own engines)")
     ap.add_argument("--parts", default=None, help="comma-separated subset of " + ",".join(PARTS))
     ap.add_argument("--configs", default=None, help="slicer-pattern-fill, comma-separated: prusa-gyroid-20")
     ap.add_argument("--variants", default=None, help="comma-separated subset of " + ",".join(VARIANTS))
@@ -359,7 +368,7 @@ def main(argv: list[str] | None = None) -> int:
     head = (f"{'part':8} {'slice':16} {'variant':9} {'mass':>6} {'stiff':>6} {'st/m':>6} {'fail':>6} "
             f"{'fa/m':>6} {'fail N':>7} {'beta':>5} "
             f"{'trav':>6} {'travmx':>6} {'retr':>6} {'time':>5} {'size':>5} {'check':>6} {'run s':>6}")
-    print(f"engine {args.engine}; parts {THICK:g} mm thick, {args.skins} top / bottom skins; "
+    print(f"engine {args.engine or 'default'}; parts {THICK:g} mm thick, {args.skins} top / bottom skins; "
           f"files in {folder}")
     print(head)
     print("-" * len(head))
@@ -373,7 +382,7 @@ def main(argv: list[str] | None = None) -> int:
             for v in variants:
                 out = src.with_name(f"{src.stem}.{v}.gcode")
                 t0 = time.perf_counter()
-                cli = {"engine": args.engine, "replace": ("solid", "sparse"), "cache": False, **VARIANTS[v]}
+                cli = {**_engine(args.engine), "replace": ("solid", "sparse"), "cache": False, **VARIANTS[v]}
                 res = run_job(JobRequest(src, case, output=out, cli=cli))
                 secs = time.perf_counter() - t0
                 if res.error or not res.written:
