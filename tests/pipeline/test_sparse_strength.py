@@ -21,13 +21,7 @@ from loadpath.stiffness import compare_files
 
 @pytest.fixture(scope="module")
 def bracket(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("bracket")
-    stl = slicing.write_stl(slicing.bracket_mesh(thickness=4.0), folder / "bracket.stl")
-    conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3"}
-    src = slicing.slice_prusa(stl, folder / "bracket.gcode", **{**conf, "fill_pattern": "gyroid"})
-    case = folder / "case.toml"
-    case.write_text(BRACKET_PIN, encoding="utf-8")
-    return src, case
+    return slicing.gyroid_bracket(tmp_path_factory.mktemp("bracket"), BRACKET_PIN)
 
 
 @pytest.mark.slow
