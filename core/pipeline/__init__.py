@@ -165,11 +165,6 @@ class PipelineOptions:
             return self.sparse_engine, self.sparse_engine_params
         return self.engine, self.engine_params
 
-    def engines_used(self) -> tuple[str, ...]:
-        """The engines a run with these options may call, solid infill's first (once each)."""
-        sparse = self.sparse_engine if "sparse" in self.replace and self.sparse_engine else self.engine
-        return (self.engine,) if sparse == self.engine else (self.engine, sparse)
-
 
 @dataclass
 class EngineRun:
@@ -430,8 +425,8 @@ def run(
     # streamlines' copy is a median 0.47 pitch off on the specimen, 0.29 on the bracket (curved
     # field, gap-filling pieces).  Which engines do this: lays_phase.
     phased = (
-        [k for k, j in enumerate(jobs) if len(j.units) > 1]
-        if options.stagger and lays_phase(*options.engine_for(jobs[k].unit))
+        [k for k, j in enumerate(jobs) if len(j.units) > 1 and lays_phase(*options.engine_for(j.unit))]
+        if options.stagger
         else []
     )
     copies = [
@@ -444,22 +439,24 @@ def run(
     )
 
     def engine_runs(todo: list[Job], factors: list[float]) -> list[tuple[Toolpaths, float]]:
+        picked = [options.engine_for(j.unit) for j in todo]
         keys = None
         if cache is not None:
             keys = [
                 job_key(
                     j,
-                    *options.engine_for(j.unit),
+                    name,
+                    params,
                     _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
                     retry,
                     f,
                 )
-                for j, f in zip(todo, factors, strict=True)
+                for j, (name, params), f in zip(todo, picked, factors, strict=True)
             ]
         return run_jobs(
             todo,
-            [options.engine_for(j.unit)[0] for j in todo],
-            [dict(options.engine_for(j.unit)[1]) for j in todo],
+            [name for name, _ in picked],
+            [dict(params) for _, params in picked],
             options.workers,
             lambda done, total: tell("paths", done, total),
             length_retry=retry,
