@@ -194,7 +194,6 @@ def build(
     stiffness: Any = None,
     note: str = "",
     total_seconds: float | None = None,
-    sparse_engine: str | None = None,
 ) -> Verdict:
     """Make the verdict of a pipeline result.
 
@@ -203,6 +202,9 @@ def build(
     result : loadpath.pipeline.PipelineResult or None
         None: the run failed and the slicer's G-code was kept (``note`` says why).
     engine : str
+        The run's engine; where the replaced kinds were laid by different engines (the runs'
+        :attr:`~loadpath.pipeline.EngineRun.engine`), the verdict names each with its kinds, sparse
+        infill last: ``swarm (solid), levelset (sparse)``.
     filament_diameter : float, mm
     warnings : int
         How many warnings the run printed.
@@ -214,9 +216,6 @@ def build(
         Why nothing was replaced, or why the stiffness is missing.
     total_seconds : float, optional
         The slicer's estimate of the whole print, for the per-cent change.
-    sparse_engine : str, optional
-        The engine that laid sparse infill when it is not ``engine``: the verdict names both
-        (``swarm (solid), levelset (sparse)``) when both kinds were replaced.
     """
     date = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%MZ")
     if result is None or not result.changed:
@@ -231,9 +230,14 @@ def build(
     layers = tuple(sorted({b.layer + 1 for b in blocks}))
     kind_of = {b.block_index: u.kind for jr in result.jobs for u in jr.units for b in u.blocks}
     kinds = tuple(dict.fromkeys(kind_of.get(b.block, b.feature) for b in blocks))
-    if sparse_engine and sparse_engine != engine and "sparse" in kinds:
-        others = ", ".join(k for k in kinds if k != "sparse")
-        engine = f"{engine} ({others}), {sparse_engine} (sparse)" if others else sparse_engine
+    ran = {u.kind: jr.engine for jr in result.jobs for u in jr.units if jr.engine}
+    groups: dict[str, list[str]] = {}  # engine -> the kinds it laid, sparse infill named last
+    for k in sorted((k for k in kinds if k in ran), key=lambda k: k == "sparse"):
+        groups.setdefault(ran[k], []).append(k)
+    if len(groups) > 1:
+        engine = ", ".join(f"{e} ({', '.join(ks)})" for e, ks in groups.items())
+    elif groups:
+        engine = next(iter(groups))
     farea = math.pi * filament_diameter**2 / 4
     dmass = sum(b.filament_new - b.filament_old for b in blocks) * farea * density * 1e-3
     dt = float(result.splice.seconds_delta)

@@ -367,13 +367,16 @@ def _run(
         if d is not None:
             s = s.with_values({"filament_diameter": d}, "inferred from the G-code")
             result.settings = s
-    params = {name: getattr(s, name) for name in engines.get(s.engine).settings}
+
+    def params_of(engine: str) -> dict[str, Any]:  # the user's settings the engine takes (K, ...)
+        return {name: getattr(s, name) for name in engines.get(engine).settings}
+
     sparse = s.engine_for_sparse()
     opts = pipeline.PipelineOptions(
         engine=s.engine,
-        engine_params=params,
+        engine_params=params_of(s.engine),
         sparse_engine=sparse,
-        sparse_engine_params={name: getattr(s, name) for name in engines.get(sparse).settings},
+        sparse_engine_params=params_of(sparse),
         pitch=s.pitch,
         principal=s.principal,
         cross_angle=s.cross_angle,
@@ -444,7 +447,6 @@ def _run(
         stiffness=stiff,
         note=why,
         total_seconds=verdict_mod.total_print_seconds(pres.data) if pres.changed else None,
-        sparse_engine=sparse,
     )
     if not request.predict and pres.changed:
         v = dataclasses.replace(v, note="not asked for")
