@@ -80,7 +80,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 from scipy.sparse.linalg import spsolve
 
-__all__ = ["LevelSetOptions", "generate", "fit"]
+__all__ = ["LevelSetOptions", "generate", "fit", "warm_up"]
 
 END_GAP = 0.25
 """Path ends stay this many bead widths inside the region: where a PrusaSlicer 2.5 infill line ends,
@@ -679,3 +679,21 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
         **{k: v for k, v in ends.items() if isinstance(v, (int, float))},
     }
     return Toolpaths(paths=tuple(paths), stats=stats)
+
+
+def warm_up() -> float:
+    """Load the compiled finishing kernels the engine calls (numba) by running it on a tiny layer.
+
+    Run before workers fork (:func:`loadpath.engines.registry.warm_up`), so they inherit the kernels:
+    each worker otherwise loaded them itself on its first level-set job, about 0.4 s apiece.
+    Returns the seconds it took.
+    """
+    from loadpath.engines.registry import Machine, generate as run
+    from loadpath.field import AnalyticField, kirsch_tensor
+    from shapely.geometry import Point, box
+
+    t0 = time.perf_counter()
+    region = box(0, 0, 12, 6).difference(Point(6, 3).buffer(1.0))
+    field = AnalyticField(lambda p: kirsch_tensor(p, (6, 3), 1.0, 1.0), region, scale=6.0)
+    run("levelset", EngineInput(region, field, 1.5), machine=Machine(flow_width=0.45))
+    return time.perf_counter() - t0

@@ -314,6 +314,7 @@ register(
         phase=lambda options: True,
         density=True,
         machine=("flow_width",),
+        warm_up="loadpath.engines.levelset:warm_up",
         # level sets that leave a cut at 45 degrees reach the edge at a few degrees (a bending
         # part's tension and compression faces): each end's link runs along the edge beside the
         # path converging on it, for up to 24 pitches (``benchmarks/bench_printability.py``)
