@@ -341,26 +341,35 @@ def layout_bound(
     """
     from loadpath import gcode, geometry
     from loadpath.gcode.flavors import Role
-    from loadpath.stiffness.compare import evaluate_file
-    from loadpath.stiffness.model import file_card
+    from loadpath.stiffness.deposits import from_program
+    from loadpath.stiffness.model import body_mesh, file_card
+    from loadpath.stiffness.predict import predict
 
-    program = gcode.read(sparse)
+    program, other = gcode.read(sparse), gcode.read(bare)
     m = program.moves
     mine = (m["role"] == int(Role.SPARSE_INFILL)) & m["extrude"]
     if not mine.any():
         raise LoadpathError(f"{sparse}: no sparse infill to lay out; give the slicer's sparse file")
-    meshes: dict = {}
-    got = [evaluate_file(f, loadcase, meshes=meshes, metrics=False) for f in (program, bare)]
-    if any(len(r.predictions) != 1 for r in got):
-        raise LoadpathError("the layout bound takes one body; name it with object = in the load case")
-    ps, pb = got[0].predictions[0], got[1].predictions[0]
-    if ps.mesh is not pb.mesh or ps.mesh.dim != 2:
-        raise LoadpathError(
-            f"{bare} is not the same part as {sparse} in an in-plane load case; slice the same STL"
-        )
     geo = geometry.layer_geometry(program, check=False, outlines_only=True)
-    (rb,) = resolve(loadcase, geo.bodies())
+    bodies = resolve(loadcase, geo.bodies())
+    if len(bodies) != 1 or bodies[0].analysis != "2d":
+        raise LoadpathError(
+            "the layout bound takes one body in an in-plane load case; name it with object = in the case"
+        )
+    rb = bodies[0]
     options, _, _ = file_card(program.config, loadcase)
+    mesh = body_mesh(rb, options)
+    # both files on the sparse file's mesh (their outlines may differ by a rounding), so they differ
+    # only by their beads
+    geo_b = geometry.layer_geometry(other, check=False, outlines_only=True)
+    outline = rb.body.slabs[0].outline
+    other_bodies = resolve(loadcase, geo_b.bodies())
+    bare_outline = other_bodies[0].body.slabs[0].outline if len(other_bodies) == 1 else None
+    if bare_outline is None or outline.symmetric_difference(bare_outline).area > 0.01 * outline.area:
+        raise LoadpathError(f"{bare} is not the same part as {sparse}; slice the same STL at 0 % infill")
+    ps = predict(rb, from_program(program, geo.object(rb.name).code, geo.filament_diameter), options, mesh)
+    obj_b = geo_b.object(rb.name)
+    pb = predict(rb, from_program(other, obj_b.code, geo_b.filament_diameter), options, mesh)
     layers = np.unique(m["layer"][mine])
     share = float(sum(program.layers[int(k)].height for k in layers)) / ps.mesh.thickness
     if floor is None:

@@ -136,3 +136,37 @@ def test_plastic_the_layers_cannot_hold_is_refused(setup):
     cap = np.abs(mesh.measures).sum() * mesh.thickness * share
     with pytest.raises(SolverError, match="does not fit the sparse layers"):
         optimum(rb, mesh, fixed.D, PLA_PRINTED, 1.01 * cap, share)
+
+
+def test_a_real_sparse_slice_is_far_below_what_its_plastic_allows(tmp_path):
+    """PrusaSlicer 2.5's 20 % gyroid L-bracket (4 mm, 3 top / 3 bottom skins) against the same part at
+    0 %: the model's best layout of its sparse plastic is stiffer than the slicer's, within its bound,
+    and the loadpath run of the same file lies below the bound too."""
+    import slicing
+    from cases import BRACKET_PIN
+    from loadpath import loadcase
+    from loadpath.errors import LoadpathError
+    from loadpath.plugin.job import JobRequest, run_job
+    from loadpath.stiffness import compare_files
+    from loadpath.stiffness.optimum import layout_bound
+
+    stl = slicing.write_stl(slicing.bracket_mesh(thickness=4.0), tmp_path / "bracket.stl")
+    conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3", "fill_pattern": "gyroid"}
+    sparse = slicing.slice_prusa(stl, tmp_path / "b20.gcode", **{**conf, "fill_density": "20%"})
+    bare = slicing.slice_prusa(stl, tmp_path / "b0.gcode", **{**conf, "fill_density": "0%"})
+    case_path = tmp_path / "case.toml"
+    case_path.write_text(BRACKET_PIN, encoding="utf-8")
+    case = loadcase.read(case_path)
+    lb = layout_bound(sparse, bare, case, iterations=30, tol=0.01)
+    assert 1.0 < lb.best <= lb.bound
+    assert lb.optimum.gap < 0.01
+    assert 0.04 < lb.floor < 0.07  # a 0.45 mm bead every 8 mm
+    assert 0.3 < lb.share < 1.0
+    out = tmp_path / "b20.loadpath.gcode"
+    res = run_job(JobRequest(sparse, case_path, output=out, cli={"replace": ("solid", "sparse"), "cache": False}))
+    assert res.error is None and res.written
+    rows, _ = compare_files([str(sparse), str(out)], case)
+    assert rows[1].relative_stiffness <= lb.bound
+    with pytest.raises(LoadpathError, match="not the same part"):
+        other = slicing.write_stl(slicing.bracket_mesh(thickness=4.0).apply_scale([1.03, 1.0, 1.0]), tmp_path / "big.stl")
+        layout_bound(sparse, slicing.slice_prusa(other, tmp_path / "big0.gcode", **conf), case)
