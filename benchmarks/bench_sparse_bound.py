@@ -16,7 +16,7 @@ file's lines run at +-45 degrees; aligned solid lines gain at most a few per cen
 The failure-load column is the same ratio for the first-ply failure load; strength is not monotone
 in added material the way stiffness is (a stress raiser can move), so it is indicative only.
 
-The linear bound (``linear``): where the part is strained about evenly (a bar in tension), layers
+The linear estimate (``linear``): where the part is strained about evenly (a bar in tension), layers
 and lines act side by side, so the stiffness grows with the sparse plastic no faster than linearly
 between the part without sparse infill (the slicer's file at 0 %: walls and skins only) and the part
 with every sparse layer solid (the better of the 100 % file and loadpath's level sets along the
@@ -25,7 +25,7 @@ solid file's) that is ``k0 + share * (k_solid - k0)``.  Moving plastic to where 
 can beat it only where the strain is uneven (bending, a hole's stress raiser), so on a part in
 tension it is what any layout of the slicer's plastic can reach, to within that unevenness.
 
-The flange bound (``flange``), for parts that work in bending: in a beam of depth ``h`` the
+The flange estimate (``flange``), for parts that work in bending: in a beam of depth ``h`` the
 stiffest place for a share ``s`` of the section's material is two flanges at the extreme fibres
 (Euler-Bernoulli; shear only softens the beam further), whose second moment is ``1 - (1 - s)**3``
 of the solid section's.  Read the same way, ``k0 + (1 - (1 - share)**3) * (k_solid - k0)`` bounds
@@ -34,7 +34,8 @@ the extreme fibres, are in ``k0``).  It is at least the linear bound, so it boun
 loosely.
 
 The layout bound (``best``, ``bound``; :func:`loadpath.stiffness.optimum.layout_bound`): the
-linear and flange estimates above borrow a shape for the optimum.  The model itself answers the
+linear and flange estimates above borrow a shape for the optimum, and are not bounds (the model's
+own bound lies above the flange estimate on every part in bending, 2026-12-05).  The model itself answers the
 question exactly: its compliance is convex in the element matrices, so optimality criteria on the
 sparse layers' fill and bead angle (walls and skins as in the 0 % file, the sparse plastic of the
 file, at least one bead per 8 mm everywhere) converge to the model's stiffest layout, and a first-
@@ -121,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
           "at 20 % against 0/90; walls+skins: the 0 % file's stiffness over the sparse file's; aligned: "
           "loadpath's level sets along the stress on the 100 % file; share: the sparse file's sparse "
           "plastic over the 100 % file's; linear, flange: the linear (tension) and flange (bending) "
-          "bounds at that share; best, bound: the model's stiffest layout of the sparse plastic found, "
+          "estimates at that share; best, bound: the model's stiffest layout of the sparse plastic found, "
           "and what no layout can beat (module docstring)")
     return 0
 
