@@ -247,8 +247,8 @@ def slice_part(part: str, slicer: str, pattern: str, fill: int, folder: Path, sk
     lines = {"grid": 2.0, "gyroid": 1.0, "lines": 1.0}[pattern]
     n = str(skins)
     s = {**slicing.CURA_MIXED, "top_layers": n, "bottom_layers": n, "initial_bottom_layers": n}
-    s.update(infill_pattern=pattern, infill_sparse_density=str(fill),
-             infill_line_distance=f"{0.4 * 100.0 / fill * lines:.4f}")
+    distance = f"{0.4 * 100.0 / fill * lines:.4f}" if fill > 0 else "0"  # 0: no infill (walls and skins)
+    s.update(infill_pattern=pattern, infill_sparse_density=str(fill), infill_line_distance=distance)
     return slicing.slice_cura(stl, out, **s)
 
 
