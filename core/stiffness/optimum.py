@@ -367,14 +367,18 @@ def layout_bound(
     bare_outline = other_bodies[0].body.slabs[0].outline if len(other_bodies) == 1 else None
     if bare_outline is None or outline.symmetric_difference(bare_outline).area > 0.01 * outline.area:
         raise LoadpathError(f"{bare} is not the same part as {sparse}; slice the same STL at 0 % infill")
-    ps = predict(rb, from_program(program, geo.object(rb.name).code, geo.filament_diameter), options, mesh)
+    beads = from_program(program, geo.object(rb.name).code, geo.filament_diameter)
+    ps = predict(rb, beads, options, mesh)
     obj_b = geo_b.object(rb.name)
     pb = predict(rb, from_program(other, obj_b.code, geo_b.filament_diameter), options, mesh)
     layers = np.unique(m["layer"][mine])
     share = float(sum(program.layers[int(k)].height for k in layers)) / ps.mesh.thickness
-    if floor is None:
-        w = m["width"][mine]
-        floor = float(np.median(w[np.isfinite(w) & (w > 0)])) / max_pitch
+    if floor is None:  # the sparse beads' flow width (from their plastic: Cura writes no widths)
+        w = beads.flow_width[beads.role == int(Role.SPARSE_INFILL)]
+        w = w[np.isfinite(w) & (w > 0)]
+        if len(w) == 0:
+            raise LoadpathError(f"{sparse}: its sparse beads have no width; give floor (a fill, 0-1)")
+        floor = float(np.median(w)) / max_pitch
     walls = np.clip((pb.fill - (1.0 - share)) / share, 0.0, 1.0)  # what the walls fill of those layers
     volume = ps.volume - pb.volume
     o = optimum(
