@@ -1,4 +1,4 @@
-"""The model's stiffest layout of a sparse plastic, and the bound no layout beats (loadpath.stiffness.optimum)."""
+"""The model's stiffest layout of a sparse plastic and the bound no layout beats (stiffness.optimum)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,14 @@ from loadpath import metrics
 from loadpath.errors import SolverError
 from loadpath.fea.orthotropic import PLA_PRINTED, rotate
 from loadpath.loadcase import Body, parse, resolve
-from loadpath.stiffness import Deposits, StiffnessOptions, from_toolpaths, predict, solve_printed, stiffness_mesh
+from loadpath.stiffness import (
+    Deposits,
+    StiffnessOptions,
+    from_toolpaths,
+    predict,
+    solve_printed,
+    stiffness_mesh,
+)
 from loadpath.stiffness.beads import bead_ply_matrices
 from loadpath.stiffness.optimum import envelope, optimum, strain_moments
 from loadpath.toolpath import Path
@@ -33,7 +40,8 @@ SPARSE_PITCH = 2.25  # a 20 % sparse infill of 0.45 mm beads
 
 def _layer(k: int, angle: float, pitch: float, width: float = 0.45) -> Deposits:
     """Straight beads ``width`` wide, ``pitch`` apart (the sparse ones do not touch)."""
-    lines = [Path(p.points, np.full(len(p.points), width)) for p in metrics.rectilinear(PLATE, pitch, angle).paths]
+    laid = metrics.rectilinear(PLATE, pitch, angle).paths
+    lines = [Path(p.points, np.full(len(p.points), width)) for p in laid]
     return from_toolpaths(lines, (k + 1) * H, H, k)
 
 
@@ -76,7 +84,8 @@ def test_the_envelope_holds_every_bead_the_model_can_see():
     fused[: n // 4], transfer[n // 4 : n // 2] = 1.0, 0.0  # the extremes too
     bending = rng.uniform(0, 2 * Q[2, 2], n)
     theta = rng.uniform(0, np.pi, n)
-    C = rotate(bead_ply_matrices(Q, PLA_PRINTED.E1, fill, fused, transfer, bending), theta) / fill[:, None, None]
+    C = rotate(bead_ply_matrices(Q, PLA_PRINTED.E1, fill, fused, transfer, bending), theta)
+    C /= fill[:, None, None]
     eps = rng.normal(size=(n, 3, 2))
     M = np.einsum("niq,njq->nij", eps, eps)  # a sum of strain outer products, as over an element
     bead = np.einsum("nij,nij->n", C, M)
@@ -84,7 +93,8 @@ def test_the_envelope_holds_every_bead_the_model_can_see():
     assert np.all(bead <= hull * (1 + 1e-12) + 1e-9)
     # and the envelope is not loose: the fused ply at full transfer is one of its corners
     fusedC = rotate(bead_ply_matrices(Q, PLA_PRINTED.E1, np.ones(n), np.ones(n), np.ones(n), bending), theta)
-    np.testing.assert_allclose(np.einsum("nij,nij->n", fusedC, M), np.einsum("nij,nij->n", rotate(Q, theta), M))
+    corner = np.einsum("nij,nij->n", rotate(Q, theta), M)
+    np.testing.assert_allclose(np.einsum("nij,nij->n", fusedC, M), corner)
 
 
 def test_strain_moments_give_the_compliance(setup):
@@ -101,7 +111,8 @@ def test_no_layout_beats_the_bound_and_the_optimum_beats_straight_lines(setup):
     assert best.gap < 0.01  # converged: the optimum is known within 1 %
     for name, p in designs.items():  # printed sparse files of the same plastic
         assert 0.95 * volume < p.volume - fixed.volume <= volume * (1 + 1e-12), name
-        assert 0.15 < (p.volume - fixed.volume) / (np.abs(mesh.measures).sum() * mesh.thickness * share) < 0.25
+        held = np.abs(mesh.measures).sum() * mesh.thickness * share  # what the sparse layers hold
+        assert 0.15 < (p.volume - fixed.volume) / held < 0.25  # a 20 % sparse fill
         assert p.compliance >= best.lower_bound, name
         assert p.compliance > best.compliance, name
     # random layouts in the envelope, of the same plastic: none below the bound
@@ -151,7 +162,8 @@ def test_a_real_sparse_slice_is_far_below_what_its_plastic_allows(tmp_path):
     from loadpath.stiffness.optimum import layout_bound
 
     stl = slicing.write_stl(slicing.bracket_mesh(thickness=4.0), tmp_path / "bracket.stl")
-    conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3", "fill_pattern": "gyroid"}
+    conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3"}
+    conf["fill_pattern"] = "gyroid"
     sparse = slicing.slice_prusa(stl, tmp_path / "b20.gcode", **{**conf, "fill_density": "20%"})
     bare = slicing.slice_prusa(stl, tmp_path / "b0.gcode", **{**conf, "fill_density": "0%"})
     case_path = tmp_path / "case.toml"
@@ -163,10 +175,12 @@ def test_a_real_sparse_slice_is_far_below_what_its_plastic_allows(tmp_path):
     assert 0.04 < lb.floor < 0.07  # a 0.45 mm bead every 8 mm
     assert 0.3 < lb.share < 1.0
     out = tmp_path / "b20.loadpath.gcode"
-    res = run_job(JobRequest(sparse, case_path, output=out, cli={"replace": ("solid", "sparse"), "cache": False}))
+    cli = {"replace": ("solid", "sparse"), "cache": False}
+    res = run_job(JobRequest(sparse, case_path, output=out, cli=cli))
     assert res.error is None and res.written
     rows, _ = compare_files([str(sparse), str(out)], case)
     assert rows[1].relative_stiffness <= lb.bound
     with pytest.raises(LoadpathError, match="not the same part"):
-        other = slicing.write_stl(slicing.bracket_mesh(thickness=4.0).apply_scale([1.03, 1.0, 1.0]), tmp_path / "big.stl")
+        wider = slicing.bracket_mesh(thickness=4.0).apply_scale([1.03, 1.0, 1.0])
+        other = slicing.write_stl(wider, tmp_path / "big.stl")
         layout_bound(sparse, slicing.slice_prusa(other, tmp_path / "big0.gcode", **conf), case)
