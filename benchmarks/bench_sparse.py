@@ -2,7 +2,10 @@
 
 Usage::
 
-    python benchmarks/bench_sparse.py [OUT_DIR] [--quick] [--engine swarm|streamlines|levelset]
+    python benchmarks/bench_sparse.py [OUT_DIR] [--quick] [--engine swarm|streamlines|levelset] [--bound]
+
+(``--bound``: under each slice's row, the model's layout bound of its sparse plastic,
+:func:`loadpath.stiffness.optimum.layout_bound`, from the same part sliced at 0 %.)
 
 (Without ``--engine`` the runs use the product's own engines: the swarm on solid infill, the level
 sets on sparse, ``sparse_engine = "auto"``.)
@@ -154,6 +157,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 from loadpath import gcode, loadcase  # noqa: E402
+from loadpath.errors import LoadpathError  # noqa: E402
 from loadpath.gcode import Role  # noqa: E402
 from loadpath.plugin.job import JobRequest, run_job  # noqa: E402
 
@@ -349,6 +353,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--thickness", type=float, default=None,
                     help=f"parts' thickness, mm (default {THICK:g}); the slices are named without it: "
                     "use its own OUT_DIR")
+    ap.add_argument("--bound", action="store_true",
+                    help="also the model's layout bound of each slice (loadpath.stiffness.optimum; slices "
+                    "the part at 0 %% too, about a minute per slice)")
     ap.add_argument("--timing", action="store_true", help="only the time budget: 40-layer 30 %% gyroid part")
     ap.add_argument("--repeats", type=int, default=3, help="--timing: runs of each (median)")
     args, _ = ap.parse_known_args(argv)
@@ -409,6 +416,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{part:8} {label:16} {'slicer':9} {1.0:6.3f} {1.0:6.3f} {1.0:6.3f} {1.0:6.3f} {1.0:6.3f} "
                   f"{r0['failure_n']:7.0f} {r0['beta']:5.2f} "
                   f"{1.0:6.2f} {1.0:6.2f} {1.0:6.2f} {1.0:5.2f} {1.0:5.2f} {'-':>6} {'-':>6}")
+            if args.bound:
+                _print_bound(part, label, src, slice_part(part, slicer, pattern, 0, folder, args.skins), case)
             for (v, secs, tr, size, clean, out), r in zip(info, rows[1:], strict=True):
                 mot = infill_motion(out)
                 ratios = [(mot.get(k, (0.0, 0))[0] + 1.0) / (t + 1.0) for k, (t, _) in base.items()]
@@ -425,6 +434,20 @@ def main(argv: list[str] | None = None) -> int:
           " size: output over input bytes. Thesis §3.6 beam (ABS, 20 %, printed): 4.7x over 0/90;"
           " Strecs3D: 1.65x stiffness, 1.97x load (benchmarks.md §7).")
     return 0
+
+
+def _print_bound(part: str, label: str, src: Path, bare: Path, case: Path) -> None:
+    """The model's stiffest layout of ``src``'s sparse plastic (``best``) and what no layout beats
+    (``bound``), over the slicer's file (:func:`loadpath.stiffness.optimum.layout_bound`)."""
+    from loadpath.stiffness.optimum import layout_bound
+
+    try:
+        lb = layout_bound(src, bare, loadcase.read(case))
+    except LoadpathError as exc:
+        print(f"{part:8} {label:16} {'bound':9} not computed: {exc}")
+        return
+    print(f"{part:8} {label:16} {'bound':9} {'':6} {lb.bound:6.3f}  (best layout found {lb.best:.3f}; "
+          f"any layout of this plastic at most {lb.bound:.3f}x as stiff, in the model)")
 
 
 if __name__ == "__main__":
