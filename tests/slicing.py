@@ -315,13 +315,20 @@ def write_prusa_profile(folder: str | os.PathLike) -> list[Path]:
 # Running the slicers
 
 
+def _one_cpu() -> None:
+    """Pin this (child) process to one of the CPUs it may use (``preexec_fn`` of :func:`_run`)."""
+    cpus = sorted(os.sched_getaffinity(0))
+    os.sched_setaffinity(0, {cpus[os.getpid() % len(cpus)]})
+
+
 def _run(
-    cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None = None
+    cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None = None, one_cpu: bool = False
 ) -> subprocess.CompletedProcess:
     exe = shutil.which(cmd[0])
     if exe is None:
         raise SlicerError(f"{cmd[0]} is not installed")
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd, timeout=600)
+    pin = _one_cpu if one_cpu and hasattr(os, "sched_setaffinity") else None
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd, timeout=600, preexec_fn=pin)
     errors = [ln for ln in proc.stderr.splitlines() if re.search(r"\[(error|ERROR|fatal)\]|^error:", ln)]
     if proc.returncode != 0 or errors:
         tail = "\n".join(errors or proc.stderr.splitlines()[-15:])
@@ -332,9 +339,17 @@ def _run(
 def slice_prusa(
     stl: str | os.PathLike | Sequence[str | os.PathLike],
     out: str | os.PathLike,
+    *,
+    one_cpu: bool = True,
     **overrides: str | float | int,
 ) -> Path:
     """Slice with PrusaSlicer 2.5 and the flattened MK3S presets (relative E).
+
+    PrusaSlicer 2.5 on several threads does not slice an STL to the same bytes twice (its gyroid
+    coordinates differ in the third decimal, 2026-12-05), and the model's first-ply failure load
+    follows such differences by up to 17 %; on one CPU (``one_cpu``, the default) its slices are
+    the same every time, so tests and benchmarks that compare files see the same input.  A benchmark
+    that times the slicer as the user runs it passes ``one_cpu=False``.
 
     Parameters
     ----------
@@ -363,7 +378,7 @@ def slice_prusa(
         ov.write_text("".join(f"{k} = {v}\n" for k, v in sorted(overrides.items())), encoding="utf-8")
         cmd += ["--load", str(ov)]
     cmd += ["--output", str(out), *(str(Path(s)) for s in stls)]
-    _run(cmd)
+    _run(cmd, one_cpu=one_cpu)
     if not out.is_file() or out.stat().st_size == 0:
         raise SlicerError(f"prusa-slicer wrote no G-code to {out}")
     return out
