@@ -10,11 +10,10 @@ Usage::
 (Without ``--engine`` the runs use the product's own engines: the swarm on solid infill, the level
 sets on sparse, ``sparse_engine = "auto"``.)
 
-Compare two versions on the same slices: copy one OUT_DIR's slices (not the ``.VARIANT.gcode``
-outputs) into the other's folder, as existing slices are reused.  PrusaSlicer 2.5 does not slice an
-STL to the same bytes twice (gyroid coordinates differ in the third decimal), and the first-ply
-failure load follows such differences by up to 17 % (2026-12-05: the 12 mm specimen at 20 %, 1.900
-and 2.034 over two slices).
+PrusaSlicer 2.5 on several threads does not slice an STL to the same bytes twice (gyroid
+coordinates differ in the third decimal), and the first-ply failure load follows such differences by
+up to 17 % (2026-12-05: the 12 mm specimen at 20 %, 1.900 and 2.034 over two slices); the slices are
+made on one CPU (``tests/slicing.slice_prusa``), where they are the same every time.
 
 Real slices: PrusaSlicer 2.5 (MK3S presets, ``tests/slicing.py``; gyroid, its default, and
 rectilinear) and CuraEngine 4.13 (prusa_i3_mk3; grid, its default, and gyroid) at 20 % and 40 %, of
