@@ -10,8 +10,8 @@ bead coverage of the infill domain (:func:`loadpath.metrics.coverage` with each 
 pooled by area over at most four layers spread over the height: the union of the beads is the
 expensive part).  In 3D, beta is pooled over at most 24 layers.
 
-Files whose bodies have the same outlines are solved on the very same mesh, so two files of one
-part differ only by their beads.  Relative stiffness is against the first file:
+Files whose bodies have the same outlines (within :data:`~.model.OUTLINE_TOL_MM`, 0.01 mm) are
+solved on the very same mesh, so two files of one part differ only by their beads.  Relative stiffness is against the first file:
 ``compliance_first / compliance``; per mass, ``(compliance * mass)_first / (compliance * mass)``.
 """
 
