@@ -462,12 +462,18 @@ def cura_version() -> str:
     return m.group(0) if m else "CuraEngine (unknown version)"
 
 
+GYROID_BRACKET: dict[str, str] = {
+    **PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3", "fill_pattern": "gyroid"
+}
+"""The preset of :func:`gyroid_bracket`: the mixed preset's 20 % as gyroid, 3 top / 3 bottom skins."""
+
+
 def gyroid_bracket(folder: Path, case_text: str) -> tuple[Path, Path]:
-    """The 4 mm L-bracket sliced by PrusaSlicer 2.5 at the mixed preset's 20 % gyroid, 3 top / 3
-    bottom solid layers (``bench_sparse.py``'s), and ``case_text`` written beside it: (G-code, case)."""
+    """The 4 mm L-bracket sliced by PrusaSlicer 2.5 with :data:`GYROID_BRACKET` (``bench_sparse.py``'s
+    slice) as ``folder/bracket.gcode`` beside ``bracket.stl``, and ``case_text`` written beside it:
+    (G-code, case)."""
     stl = write_stl(bracket_mesh(thickness=4.0), folder / "bracket.stl")
-    conf = {**PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3", "fill_pattern": "gyroid"}
-    src = slice_prusa(stl, folder / "bracket.gcode", **conf)
+    src = slice_prusa(stl, folder / "bracket.gcode", **GYROID_BRACKET)
     case = folder / "case.toml"
     case.write_text(case_text, encoding="utf-8")
     return src, case

@@ -11,8 +11,9 @@ pooled by area over at most four layers spread over the height: the union of the
 expensive part).  In 3D, beta is pooled over at most 24 layers.
 
 Files whose bodies have the same outlines (within :data:`~.model.OUTLINE_TOL_MM`, 0.01 mm) are
-solved on the very same mesh, so two files of one part differ only by their beads.  Relative stiffness is against the first file:
-``compliance_first / compliance``; per mass, ``(compliance * mass)_first / (compliance * mass)``.
+solved on the very same mesh, so two files of one part differ only by their beads.  Relative
+stiffness is against the first file: ``compliance_first / compliance``; per mass,
+``(compliance * mass)_first / (compliance * mass)``.
 """
 
 from __future__ import annotations

@@ -161,20 +161,19 @@ def test_a_real_sparse_slice_is_far_below_what_its_plastic_allows(tmp_path):
     from loadpath.stiffness import compare_files
     from loadpath.stiffness.optimum import layout_bound
 
-    stl = slicing.write_stl(slicing.bracket_mesh(thickness=4.0), tmp_path / "bracket.stl")
-    conf = {**slicing.PRUSA_MIXED, "top_solid_layers": "3", "bottom_solid_layers": "3"}
-    conf["fill_pattern"] = "gyroid"
-    sparse = slicing.slice_prusa(stl, tmp_path / "b20.gcode", **{**conf, "fill_density": "20%"})
-    bare = slicing.slice_prusa(stl, tmp_path / "b0.gcode", **{**conf, "fill_density": "0%"})
-    case_path = tmp_path / "case.toml"
-    case_path.write_text(BRACKET_PIN, encoding="utf-8")
+    sparse, case_path = slicing.gyroid_bracket(tmp_path, BRACKET_PIN)
+    conf = slicing.GYROID_BRACKET
+    assert conf["fill_density"] == "20%"
+    bare = slicing.slice_prusa(
+        tmp_path / "bracket.stl", tmp_path / "b0.gcode", **{**conf, "fill_density": "0%"}
+    )
     case = loadcase.read(case_path)
     lb = layout_bound(sparse, bare, case, iterations=30, tol=0.01)
     assert 1.0 < lb.best <= lb.bound
     assert lb.optimum.gap < 0.01
     assert 0.04 < lb.floor < 0.07  # a 0.45 mm bead every 8 mm
     assert 0.3 < lb.share < 1.0
-    out = tmp_path / "b20.loadpath.gcode"
+    out = tmp_path / "bracket.loadpath.gcode"
     cli = {"replace": ("solid", "sparse"), "cache": False}
     res = run_job(JobRequest(sparse, case_path, output=out, cli=cli))
     assert res.error is None and res.written
