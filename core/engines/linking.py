@@ -193,6 +193,25 @@ class LinkOptions:
             raise SettingsError(f"linking lone_share = {self.lone_share!r} must lie in 0..1")
 
 
+    def for_bead(self, width: float, pitch: float) -> LinkOptions:
+        """These options for paths printed ``width`` mm wide at ``pitch`` mm apart (sparse infill).
+
+        ``clearance`` is in pitches; on solid infill the bead is the pitch.  Sparse beads are
+        narrower than their spacing, and in its pitches the clearance kept a link a whole bead or
+        more off its neighbours, leaving most ends unlinked.  Here it is the same share of the bead
+        as on solid infill: ``clearance * width / pitch`` pitches (no change where ``width >=
+        pitch``).
+
+        Examples
+        --------
+        >>> o = LinkOptions()
+        >>> round(o.for_bead(0.45, 1.125).clearance, 3), o.for_bead(0.45, 0.4).clearance
+        (0.2, 0.5)
+        """
+        share = min(1.0, width / pitch) if width > 0 and pitch > 0 else 1.0
+        return replace(self, clearance=self.clearance * share)
+
+
 LONE_AREA_RANGE = (0.0, 25.0)
 """Bounds of :attr:`LinkOptions.lone_area`, square pitches (the one place they are set): at 25, a
 lone run five pitches long at five pitches wide, beyond any stub."""

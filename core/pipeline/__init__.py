@@ -799,7 +799,8 @@ def _fills(
         """Index of the linking of ``ps`` in ``u``'s region (None: left as they are)."""
         if not options.link or len(ps) < 2:
             return None
-        tasks.append((ps, u.fill_region, u.pitch, fld, base_opts if u.fixed_width else link_opts))
+        lo = base_opts.for_bead(u.flow_width, u.pitch) if u.fixed_width else link_opts
+        tasks.append((ps, u.fill_region, u.pitch, fld, lo))
         task_fields.append(fid)
         return len(tasks) - 1
 
