@@ -150,7 +150,10 @@ def test_density_field_sets_where_the_lines_go_at_the_total_the_pitch_lays():
     df = density_field(field, region, width, slicer_pitch, DensityOptions())
     tp = generate("levelset", EngineInput(region, field, slicer_pitch, density=df), flow_width=width)
     assert "zones" not in tp.stats  # one fit over the whole region, no zones and no seams
-    assert tp.total_length == pytest.approx(region.area / slicer_pitch, rel=0.05)
+    # the lines and the links the linking will print along the edge lay what the pitch lays
+    links = tp.stats["edge_links_mm"]
+    assert 0 < links < 0.3 * tp.total_length
+    assert tp.total_length + links == pytest.approx(region.area / slicer_pitch, rel=0.05)
     # more line per area where the field is denser: the clamped end against the tip
     def length_in(geom):
         return sum(shapely.LineString(p.points).intersection(geom).length for p in tp.paths)
@@ -159,6 +162,28 @@ def test_density_field_sets_where_the_lines_go_at_the_total_the_pitch_lays():
     rho = df.sample(np.array([[5.0, 6.0], [35.0, 6.0]]))
     assert rho[0] > rho[1]
     assert length_in(root) > 1.3 * length_in(tip)
+
+
+def test_sparse_lines_leave_the_slicers_plastic_for_the_links_along_the_edge():
+    """Sparse infill (the slicer's bead width): the links the linking stage prints between the
+    lines' ends along the edge are plastic too, so the lines are laid shorter by about their length,
+    and the linked runs come out near the slicer's length.  Solid infill counts none (its flow
+    follows its pitch)."""
+    region = box(0, 0, 40, 16)
+    field = AnalyticField(uniform(60.0), None)
+    width, pitch = 0.45, 2.0
+    tp = generate("levelset", EngineInput(region, field, pitch), flow_width=width)
+    target = region.area / pitch
+    links = tp.stats["edge_links_mm"]
+    assert links > 0.03 * target
+    assert tp.total_length + links == pytest.approx(target, rel=0.01)
+    runs, _ = link_paths(tp.paths, region, pitch, LinkOptions().for_bead(width, pitch))
+    linked = sum(float(np.hypot(*np.diff(r.points, axis=0).T).sum()) for r in runs)
+    assert len(runs) < len(tp.paths) / 3
+    # lines alone at the target would have come out 1 + links / target (here about 1.15) long
+    assert linked == pytest.approx(target, rel=0.03)
+    solid = generate("levelset", EngineInput(region, field, PITCH))
+    assert solid.stats["edge_links_mm"] == 0.0
 
 
 def test_phase_half_lays_the_paths_between_those_of_phase_zero():
