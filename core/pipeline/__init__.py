@@ -482,9 +482,10 @@ def run(
         units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
         field_ids=field_ids,
     )
-    # a sparse run whose linked layers still fall short of the slicer's plastic by more than the
-    # flow correction takes back would be kept as sliced: it is run again at a closer pitch, once
-    # (short_runs), and everything is linked again (the other jobs' links come from the cache)
+    # a sparse run whose linked layers still miss the slicer's plastic by more than the flow
+    # correction takes back would be kept as sliced: it is run again at a closer (or, when its
+    # links made it too long, a wider) pitch, once (short_runs), and everything is linked again
+    # (the other jobs' links come from the cache)
     printed = [
         [sum(p.length for p in (er.printed or er.paths.paths))]
         + ([sum(p.length for p in er.shifted)] if er.shifted else [])

@@ -22,7 +22,8 @@ more at the pitch that scales its length onto the slicer's, and the closer of th
 (:func:`_run_one`).  A run that is too short is not judged here: the printed links between path
 ends add length the paths do not show (on Cura's 4 mm sparse pitch, links up to 8 mm long make up a
 short run).  Once linked, a run still short by more than the flow correction is run again at a
-closer pitch (:func:`short_runs`, ``pitch_factor`` of :func:`run_jobs`).
+closer pitch, and one its links made longer than the correction takes back at a wider one
+(:func:`short_runs`, ``pitch_factor`` of :func:`run_jobs`).
 
 Engine runs go to worker processes (``fork``: the stress fields and regions are inherited, only the
 paths come back) when there are several and ``jobs > 1``; results are collected by index, so the
@@ -220,7 +221,11 @@ this share of the correction under that length (0.5: 7.5 % under at the default 
 laid again, add length once more.  The streamline engine on CuraEngine's 40 % L-bracket
 (``benchmarks/bench_printability.py``) laid 72-74 % of the slicer's length and 79 % linked; the flow
 correction's 15 % left every block at 91 %, all kept as sliced.  Judged on the engine's length alone
-the same rule hit runs the links make up (the 40 % beam's streamlines, 73 % alone)."""
+the same rule hit runs the links make up (the 40 % beam's streamlines, 73 % alone).  A linked run
+too long by more than the correction is run again aiming the same share over the slicer's length:
+at the bead's share of the clearance (:meth:`loadpath.engines.linking.LinkOptions.for_bead`) the
+swarm's sparse links on CuraEngine's 40 % beam came to 120 % of it and every block was kept as
+sliced."""
 
 
 def job_key(
@@ -330,7 +335,8 @@ def _run_one(i: int) -> tuple[Toolpaths, float]:
 
 
 def short_runs(jobs: Sequence[Job], printed: Sequence[Sequence[float]], retry: float) -> dict[int, float]:
-    """The fixed-width jobs whose linked runs fall short of the slicer's length by more than ``retry``.
+    """The fixed-width jobs whose linked runs miss the slicer's length by more than ``retry``:
+    short of it, or (their links on top) over it.
 
     Parameters
     ----------
@@ -346,14 +352,18 @@ def short_runs(jobs: Sequence[Job], printed: Sequence[Sequence[float]], retry: f
     dict
         Job index -> the factor on its pitch that lays :data:`SHORT_AIM` of ``retry`` under the
         slicer's length (the shortest layer's length over that, in ``_PITCH_STEP``'s lower bound
-        .. 1).
+        .. 1), or as far over it (the longest layer's, 1 .. the upper bound).
     """
     out: dict[int, float] = {}
     for i, (job, lengths) in enumerate(zip(jobs, printed, strict=True)):
         target = length_target(job)
-        got = min(lengths) if len(lengths) else 0.0
-        if target and 0.0 < got < target * (1.0 - retry):
-            out[i] = float(np.clip(got / (target * (1.0 - SHORT_AIM * retry)), _PITCH_STEP[0], 1.0))
+        if not target or not len(lengths):
+            continue
+        short, long = min(lengths), max(lengths)
+        if 0.0 < short < target * (1.0 - retry):
+            out[i] = float(np.clip(short / (target * (1.0 - SHORT_AIM * retry)), _PITCH_STEP[0], 1.0))
+        elif long > target * (1.0 + retry):
+            out[i] = float(np.clip(long / (target * (1.0 + SHORT_AIM * retry)), 1.0, _PITCH_STEP[1]))
     return out
 
 
