@@ -39,6 +39,11 @@ it laid tiny loops.  There the direction is blended with the region's stress-wei
 direction, the alignment weighs less (down to ``relief_floor``) and ``phi``'s second differences are
 held near zero (``straight``): the level sets run straight and evenly spaced.
 
+Sparse infill (the slicer's bead width) is laid to the slicer's plastic with the links the linking
+stage will print between its ends along the edge counted in (:func:`_edge_links`, an estimate): they
+came on top of it, 8-18 % of the length, and the splicer printed the beads at 0.85-0.89 of the
+slicer's flow (``benchmarks/printability_results.md``, twelfth and thirteenth rounds).
+
 Solid infill (flow from the pitch).  Each vertex's pitch is measured from its neighbours
 (:func:`loadpath.engines.finish.widths.local_pitch`), and where neighbouring level sets lie more
 than ``split`` pitches apart, wider than a bead can print, the level set half-way between them is
@@ -591,32 +596,27 @@ def _paths(
     return paths, total
 
 
-EDGE_REACH = 1.2
-"""Path ends within this many pitches of the region's edge can be linked along it
-(:attr:`loadpath.engines.linking.LinkOptions.edge_reach`)."""
-
-EDGE_LINK = 12.0
-"""Longest link along the edge, pitches (:attr:`loadpath.engines.linking.LinkOptions.max_edge_link`)."""
-
-
 def _edge_links(paths: list[Path], region: Region, pitch: float) -> float:
     """Length the linking will print between the paths' ends along the edge, estimated, mm.
 
-    Each end near the edge is linked to its nearest neighbouring end there (the slicer's zig-zag
-    connection): half the sum of those distances, each at most :data:`EDGE_LINK` pitches.
+    Each end within the linking's ``edge_reach`` of the edge is linked to its nearest neighbouring
+    end there (the slicer's zig-zag connection): half the sum of those distances, each at most the
+    linking's ``max_edge_link`` (:class:`loadpath.engines.linking.LinkOptions`' defaults).
     """
     if len(paths) < 2:
         return 0.0
+    from loadpath.engines.linking import LinkOptions
     from scipy.spatial import cKDTree
 
+    lo = LinkOptions()
     ends = np.array([p.points[i] for p in paths for i in (0, -1)])
-    near = shapely.distance(region.boundary, shapely.points(ends)) <= EDGE_REACH * pitch
+    near = shapely.distance(region.boundary, shapely.points(ends)) <= lo.edge_reach * pitch
     e = ends[near]
     if len(e) < 2:
         return 0.0
     d, _ = cKDTree(e).query(e, k=2)
     gap = d[:, 1]
-    return float(0.5 * gap[gap <= EDGE_LINK * pitch].sum())
+    return float(0.5 * gap[gap <= lo.max_edge_link * pitch].sum())
 
 
 def generate(inp: EngineInput, **options: Any) -> Toolpaths:

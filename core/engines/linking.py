@@ -192,7 +192,6 @@ class LinkOptions:
         if not 0.0 <= self.lone_share <= 1.0:
             raise SettingsError(f"linking lone_share = {self.lone_share!r} must lie in 0..1")
 
-
     def for_bead(self, width: float, pitch: float) -> LinkOptions:
         """These options for paths printed ``width`` mm wide at ``pitch`` mm apart (sparse infill).
 
