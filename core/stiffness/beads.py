@@ -48,7 +48,15 @@ from loadpath._typing import Floats, Points2
 from loadpath.gcode.flavors import Role
 from loadpath.stiffness.deposits import Deposits
 
-__all__ = ["BeadState", "subdivide", "bead_state", "neck_fraction", "crossing_spacing", "bead_ply_matrices"]
+__all__ = [
+    "BeadState",
+    "subdivide",
+    "bead_state",
+    "neck_fraction",
+    "crossing_spacing",
+    "bead_ply_matrices",
+    "UNFUSED_E2",
+]
 
 PIECE = 1.0
 """mm: longest piece a bead is cut into, so that fusion and transfer are resolved along it (about the
@@ -60,7 +68,9 @@ _CONE = np.tan(np.radians(60.0))  # a neighbour lies within 60 degrees of the be
 _TURN = np.cos(np.radians(35.0))
 _NECK_REF = float(np.sqrt(1.0 - (np.pi / 4.0) ** 2))  # b/h at the slicer's solid spacing
 _WALLS = np.array([int(Role.PERIMETER), int(Role.EXTERNAL_PERIMETER), int(Role.OVERHANG_PERIMETER)])
-_UNFUSED_E2 = 1e-3  # across-bead stiffness left to an unfused bead (fraction of E2): not singular
+UNFUSED_E2 = 1e-3
+"""Across-bead stiffness left to an unfused bead, as a fraction of E2 (not zero: not singular); the
+layout bound's envelope takes the same (:func:`loadpath.stiffness.optimum.envelope`)."""
 
 
 @dataclass(frozen=True)
@@ -409,12 +419,12 @@ def bead_ply_matrices(
     U = np.zeros((len(fill), nv, nv))
     if nv == 3:
         U[:, 0, 0] = E1
-        U[:, 1, 1] = _UNFUSED_E2 * Q[1, 1]
+        U[:, 1, 1] = UNFUSED_E2 * Q[1, 1]
         U[:, 2, 2] = np.minimum(bending, Q[2, 2])
     else:
         U[:, 0, 0] = E1
-        U[:, 1, 1] = U[:, 2, 2] = _UNFUSED_E2 * Q[1, 1]
-        U[:, 3, 3] = _UNFUSED_E2 * Q[3, 3]
+        U[:, 1, 1] = U[:, 2, 2] = UNFUSED_E2 * Q[1, 1]
+        U[:, 3, 3] = UNFUSED_E2 * Q[3, 3]
         U[:, 4, 4] = np.minimum(bending, Q[4, 4])  # 13: the bead bends about z between crossings
         U[:, 5, 5] = np.minimum(bending, Q[5, 5])  # 12
     C = v * (phi * Q[None] + (1.0 - phi) * U)

@@ -57,11 +57,19 @@ from loadpath.fea.orthotropic import PrintedMaterial, rotation_voigt
 from loadpath.loadcase.model import LoadCase
 from loadpath.loadcase.resolve import ResolvedBody, resolve
 from loadpath.mesh.data import MeshData
-from loadpath.stiffness.beads import _UNFUSED_E2  # the bead model's own across-bead trace
+from loadpath.stiffness.beads import UNFUSED_E2
 from loadpath.stiffness.predict import solve_printed
 
-__all__ = ["ANGLES", "GRID_MISS", "Optimum", "LayoutBound", "envelope", "strain_moments", "optimum"]
-__all__ += ["layout_bound"]
+__all__ = [
+    "ANGLES",
+    "GRID_MISS",
+    "Optimum",
+    "LayoutBound",
+    "envelope",
+    "strain_moments",
+    "optimum",
+    "layout_bound",
+]
 
 ANGLES = 720
 """Bead angles searched per element, evenly over 180 degrees."""
@@ -115,7 +123,7 @@ def envelope(material: PrintedMaterial) -> np.ndarray:
     Q = material.local(2)
     U = np.zeros((3, 3))
     U[0, 0] = material.E1
-    U[1, 1] = _UNFUSED_E2 * Q[1, 1]
+    U[1, 1] = UNFUSED_E2 * Q[1, 1]  # the bead model's own across-bead trace
     U[2, 2] = Q[2, 2]
     out = []
     for C in (Q, U):
