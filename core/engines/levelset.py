@@ -99,6 +99,15 @@ JUMP_DEG = 50.0
 CUT_WEIGHT = 0.05
 """How firmly phi keeps level on the cut (relative to the spacing term)."""
 
+GIVE_WAY = 1.0
+"""Solid infill whose cut is longer than this many times the square root of the region's area
+gives way (option ``give_way``): the pipeline lays it with the swarm instead where the level sets
+are only tried first (:attr:`loadpath.pipeline.PipelineOptions.solid_first`).  A bending
+part's neutral axis runs the part's length: the cut measured 3.5-6.0 on issue 15's beam, L-bracket
+and shelf bracket, where the level sets' ends on it lowered the first-ply failure load
+(``benchmarks/printability_results.md``, eleventh round); around the open-hole specimen's hole,
+where the hoop compression meets the pull, 0.15; the two islands in tension 0."""
+
 MAX_NODES = 60_000
 """Most grid nodes of one fit (the grid is coarsened beyond it): one sparse solve stays well under a second."""
 
@@ -141,6 +150,11 @@ class LevelSetOptions:
         this (a near-stress-free layer); a stressed region's low-stress corners keep following the
         stress (relieving them there raised the 3-point-bend beam's retractions by half,
         ``benchmarks/bench_sparse.py``).  1 or more: every region.
+    give_way : bool
+        Solid infill whose fit is cut along more than :data:`GIVE_WAY` (a bending part's neutral
+        axis) gets no paths: the run stops after the fit and says so in its stats (``give_way``),
+        and the pipeline lays that layer with another engine
+        (:attr:`loadpath.pipeline.PipelineOptions.solid_first`).  False: level sets everywhere.
     """
 
     grid: float = 0.4
@@ -155,6 +169,7 @@ class LevelSetOptions:
     relief_floor: float = 0.05
     straight: float = 10.0
     quiet: float = 0.25
+    give_way: bool = False
 
     def __post_init__(self) -> None:
         for name in ("grid", "align", "hold"):
@@ -187,7 +202,7 @@ class LevelSetOptions:
         kw: dict[str, Any] = {}
         for k in names & set(options):
             v = options[k]
-            kw[k] = tuple(float(x) for x in v) if k == "pitch_range" else float(v)
+            kw[k] = tuple(float(x) for x in v) if k == "pitch_range" else v if k == "give_way" else float(v)
         return cls(**kw)
 
 
@@ -656,6 +671,11 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
     t0 = time.perf_counter()
     f = fit(inp, o)
     t1 = time.perf_counter()
+    # the cut's length: its band is the fit's triangles on the jump, about one grid cell wide
+    cut_mm = float(f.cut.area) / f.h if not f.cut.is_empty else 0.0
+    if o.give_way and not fixed and cut_mm > GIVE_WAY * float(np.sqrt(region.area)):
+        return Toolpaths(paths=(), stats={"times_s": {"fit": t1 - t0, "total": t1 - t0}, "give_way": True,
+                                          "cut_mm": round(cut_mm, 2), "residual": f.residual})
     inset = region.buffer(-gap)
     if not f.cut.is_empty:
         inset = inset.difference(f.cut)
@@ -707,6 +727,8 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
         "n_paths": len(paths),
         "length_mm": round(total, 2),
         "edge_links_mm": round(links, 2),
+        "cut_mm": round(cut_mm, 2),
+        "give_way": False,
         "length_target_mm": round(target, 2),
         "density_scale": round(scale, 4),
         "contourings": steps,

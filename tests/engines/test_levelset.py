@@ -14,8 +14,8 @@ import pytest
 import shapely
 from loadpath import metrics as M
 from loadpath.density import DensityOptions, density_field
-from loadpath.engines import NAMES, generate
-from loadpath.engines.levelset import LevelSetOptions, fit
+from loadpath.engines import NAMES, Machine, generate
+from loadpath.engines.levelset import GIVE_WAY, LevelSetOptions, fit
 from loadpath.engines.linking import LinkOptions, link_paths, pieces
 from loadpath.engines.registry import get as engine_named
 from loadpath.errors import GeometryError, SettingsError
@@ -141,6 +141,27 @@ def test_a_jump_of_the_followed_stress_cuts_the_fit_and_no_path_runs_along_it():
     assert cov.coverage >= 0.95, cov
     al = M.alignment(tp, field, PITCH, region=region)
     assert al.beta >= 0.95, al
+
+
+def test_solid_infill_cut_along_its_length_gives_way_when_asked_sparse_and_an_open_hole_do_not():
+    """Option ``give_way``: the pipeline then lays such solid infill with the swarm (issue 19)."""
+    region = box(0, 0, 30, 10)
+    beam = EngineInput(region, AnalyticField(cantilever(10, 30), region, scale=1.0), PITCH)
+    asked = generate("levelset", beam, give_way=True)
+    # the neutral axis runs the length of the part: about 30 mm against sqrt(300) = 17 mm
+    assert asked.paths == () and asked.stats["give_way"] is True, asked.stats
+    assert asked.stats["cut_mm"] > GIVE_WAY * np.sqrt(region.area) + 5.0
+    # not asked (the engine named): the level sets, cut
+    named = generate("levelset", beam)
+    assert named.paths and named.stats["give_way"] is False and named.stats["cut_mm"] > 20.0
+    # sparse infill (the slicer's bead width) keeps its level sets whatever the cut
+    sparse = generate("levelset", beam, machine=Machine(flow_width=0.45), give_way=True)
+    assert sparse.paths and sparse.stats["give_way"] is False and sparse.stats["cut_mm"] > 20.0
+    # around the open hole the pull meets the hoop compression in short cuts: kept
+    region2, field2 = open_hole()
+    hole = generate("levelset", EngineInput(region2, field2, PITCH), give_way=True)
+    assert hole.paths and hole.stats["give_way"] is False
+    assert 0.0 < hole.stats["cut_mm"] < 0.75 * GIVE_WAY * np.sqrt(region2.area), hole.stats
 
 
 def test_density_field_sets_where_the_lines_go_at_the_total_the_pitch_lays():
