@@ -128,6 +128,11 @@ def _slices(part: str) -> list[tuple[str, str, dict, str]]:
     ]
 
 
+def _named(engine: str) -> dict:
+    """``--engine default``: no engine named, the product's own choice per kind."""
+    return {} if engine == "default" else {"engine": engine}
+
+
 def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, principal: str) -> dict:
     from loadpath.gcode import read
     from loadpath.plugin.job import JobRequest, run_job
@@ -136,7 +141,10 @@ def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, princip
     t0 = time.perf_counter()
     res = run_job(
         JobRequest(
-            gcode, case, output=out, cli={"engine": engine, "replace": (kind,), "principal": principal}
+            gcode,
+            case,
+            output=out,
+            cli={**_named(engine), "replace": (kind,), "principal": principal},
         )
     )
     secs = time.perf_counter() - t0
