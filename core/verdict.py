@@ -230,10 +230,12 @@ def build(
     layers = tuple(sorted({b.layer + 1 for b in blocks}))
     kind_of = {b.block_index: u.kind for jr in result.jobs for u in jr.units for b in u.blocks}
     kinds = tuple(dict.fromkeys(kind_of.get(b.block, b.feature) for b in blocks))
-    ran = {u.kind: jr.engine for jr in result.jobs for u in jr.units if jr.engine}
-    groups: dict[str, list[str]] = {}  # engine -> the kinds it laid, sparse infill named last
-    for k in sorted((k for k in kinds if k in ran), key=lambda k: k == "sparse"):
-        groups.setdefault(ran[k], []).append(k)
+    # engine -> the kinds it laid, sparse infill named last (solid infill may have two: the level
+    # sets where they hold, the swarm where they give way)
+    ran = dict.fromkeys((u.kind, jr.engine) for jr in result.jobs for u in jr.units if jr.engine)
+    groups: dict[str, list[str]] = {}
+    for k, e in sorted((p for p in ran if p[0] in kinds), key=lambda p: p[0] == "sparse"):
+        groups.setdefault(e, []).append(k)
     if len(groups) > 1:
         engine = ", ".join(f"{e} ({', '.join(ks)})" for e, ks in groups.items())
     elif groups:

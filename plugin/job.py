@@ -372,11 +372,14 @@ def _run(
         return {name: getattr(s, name) for name in engines.get(engine).settings}
 
     sparse = s.engine_for_sparse()
+    first = s.engine_first_on_solid()
     opts = pipeline.PipelineOptions(
         engine=s.engine,
         engine_params=params_of(s.engine),
         sparse_engine=sparse,
         sparse_engine_params=params_of(sparse),
+        solid_first=first[0] if first else None,
+        solid_first_params=first[1] if first else {},
         pitch=s.pitch,
         principal=s.principal,
         cross_angle=s.cross_angle,

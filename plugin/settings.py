@@ -317,6 +317,10 @@ class Settings:
         """Where the value of ``name`` came from."""
         return self.sources.get(name, "default")
 
+    def engine_first_on_solid(self) -> tuple[str, dict[str, Any]] | None:
+        """The engine tried first on solid infill (:func:`loadpath.engines.first_on_solid`)."""
+        return engines.first_on_solid(self.source("engine") != "default")
+
     def engine_for_sparse(self) -> str:
         """The engine that lays sparse infill (``sparse_engine``; :func:`loadpath.engines.for_sparse`)."""
         return engines.for_sparse(self.sparse_engine, self.engine, self.source("engine") != "default")

@@ -39,6 +39,8 @@ __all__ = [
     "SPARSE_DEFAULT",
     "SPARSE_CHOICES",
     "for_sparse",
+    "SOLID_FIRST",
+    "first_on_solid",
     "generate",
     "warm_up",
 ]
@@ -248,13 +250,14 @@ def warm_up(engine: str) -> None:
 # ------------------------------------------------------------------------------ the engines
 
 DEFAULT = "swarm"
-"""The engine used when the user names none (solid infill; sparse infill: :data:`SPARSE_DEFAULT`).
+"""The engine named by default: it lays the solid infill the level sets give way on (:data:`SOLID_FIRST`).
 
 The level sets retract 3-6x less on solid infill, but where a part bends its internal solid
 layers' first ply fails at the level sets' ends on the neutral-axis cut: with the level sets on
-solid, ``bench_sparse.py --thickness 12`` lost failure load on 8 of 20 files (the 3-point beam at
-CuraEngine 20 % 3.004 -> 2.193x the slicer's; ``benchmarks/printability_results.md``, eleventh
-round).
+all solid infill, ``bench_sparse.py --thickness 12`` lost failure load on 8 of 20 files (the 3-point
+beam at CuraEngine 20 % 3.004 -> 2.193x the slicer's; ``benchmarks/printability_results.md``,
+eleventh round).  So the level sets are tried first and the swarm lays each layer whose fit that
+cut crosses; naming an engine (``--engine swarm``) lays everything with it.
 """
 
 SPARSE_DEFAULT = "levelset"
@@ -271,6 +274,25 @@ five.  The 40-layer 30 % gyroid gusset of ``bench_latency.py``, swarm on solid a
 sparse against the swarm on both: stiffness 2.127 against 2.092x the slicer's, failure load 3.03
 against 2.87x, 452 against 810 retractions (the slicer's 207), 10.5 against 14.4 s.
 """
+
+
+SOLID_FIRST = "levelset"
+"""The engine tried first on solid infill when the user names none (:func:`first_on_solid`).
+
+Run with ``give_way``: where a jump of the stress direction cuts a layer's fit along more than
+:data:`loadpath.engines.levelset.GIVE_WAY` (a bending part's neutral axis) it lays nothing, and
+:data:`DEFAULT` lays that layer.
+"""
+
+
+def first_on_solid(engine_chosen: bool) -> tuple[str, dict[str, Any]] | None:
+    """The engine tried first on solid infill and its options: :data:`SOLID_FIRST` with
+    ``give_way``, unless the user named an engine.
+
+    >>> first_on_solid(False), first_on_solid(True)
+    (('levelset', {'give_way': True}), None)
+    """
+    return None if engine_chosen else (get(SOLID_FIRST).name, {"give_way": True})
 
 
 def for_sparse(sparse_engine: str, engine: str, engine_chosen: bool) -> str:

@@ -106,6 +106,13 @@ class PipelineOptions:
         ``sparse_engine``); None: ``engine``.
     sparse_engine_params : mapping
         Its parameters.
+    solid_first : str or None
+        An engine tried first on solid infill (:func:`loadpath.engines.first_on_solid`): its paths
+        are kept unless its run reports ``stats["give_way"]``, and ``engine`` lays that job instead
+        (the level sets give way where a jump of the stress direction cuts the layer: a bending
+        part's neutral axis).  None: ``engine`` lays all solid infill.
+    solid_first_params : mapping
+        Its parameters (``{"give_way": True}``).
     pitch : float or None, mm
         None: each unit's slicer pitch.
     principal : str
@@ -137,6 +144,8 @@ class PipelineOptions:
     engine_params: Mapping[str, Any] = field(default_factory=dict)
     sparse_engine: str | None = None
     sparse_engine_params: Mapping[str, Any] = field(default_factory=dict)
+    solid_first: str | None = None
+    solid_first_params: Mapping[str, Any] = field(default_factory=dict)
     pitch: float | None = options.field("pitch").default
     principal: str = options.field("principal").default
     cross_angle: float = options.field("cross_angle").default
@@ -154,15 +163,19 @@ class PipelineOptions:
         # directly gets the same one-line errors as the command line and the load case
         for name in ("engine", "principal", "replace", "stagger"):
             options.convert(options.field(name), getattr(self, name), f"PipelineOptions.{name}")
-        if self.sparse_engine is not None:
-            options.convert(options.field("engine"), self.sparse_engine, "PipelineOptions.sparse_engine")
+        for name in ("sparse_engine", "solid_first"):
+            if getattr(self, name) is not None:
+                options.convert(options.field("engine"), getattr(self, name), f"PipelineOptions.{name}")
         if options.user_pitch(self.pitch) is not None:
             options.convert(options.field("pitch"), self.pitch, "PipelineOptions.pitch")
 
-    def engine_for(self, unit: Unit) -> tuple[str, Mapping[str, Any]]:
-        """The engine that lays ``unit`` and its parameters: ``sparse_engine`` for sparse infill."""
+    def engine_for(self, unit: Unit, first: bool = False) -> tuple[str, Mapping[str, Any]]:
+        """The engine that lays ``unit`` and its parameters: ``sparse_engine`` for sparse infill;
+        ``first``: ``solid_first`` for solid infill, when set."""
         if unit.fixed_width and self.sparse_engine is not None:
             return self.sparse_engine, self.sparse_engine_params
+        if first and self.solid_first is not None and not unit.fixed_width:
+            return self.solid_first, self.solid_first_params
         return self.engine, self.engine_params
 
 
@@ -424,14 +437,22 @@ def run(
     # back onto the first one's paths (specimen: median 0.23 pitch apart instead of 0.5); the
     # streamlines' copy is a median 0.47 pitch off on the specimen, 0.29 on the bracket (curved
     # field, gap-filling pieces).  Which engines do this: lays_phase.
+    # solid infill laid first by options.solid_first, where set; a job whose run gives way goes
+    # back to options.engine (below, with its staggered copy)
+    first = {id(j) for j in jobs if options.solid_first is not None and not j.unit.fixed_width}
+
+    def pick(j: Job) -> tuple[str, Mapping[str, Any]]:
+        return options.engine_for(j.unit, id(j) in first)
+
     phased = (
-        [k for k, j in enumerate(jobs) if len(j.units) > 1 and lays_phase(*options.engine_for(j.unit))]
+        [k for k, j in enumerate(jobs) if len(j.units) > 1 and lays_phase(*pick(j))]
         if options.stagger
         else []
     )
     copies = [
         Job(jobs[k].unit, jobs[k].principal, jobs[k].input, jobs[k].units, {"phase": 0.5}) for k in phased
     ]
+    first |= {id(c) for k, c in zip(phased, copies, strict=True) if id(jobs[k]) in first}
     retry = splice_options.plan.max_correction
     machine = Machine(
         nozzle=splice_options.plan.nozzle_diameter,
@@ -439,7 +460,7 @@ def run(
     )
 
     def engine_runs(todo: list[Job], factors: list[float]) -> list[tuple[Toolpaths, float]]:
-        picked = [options.engine_for(j.unit) for j in todo]
+        picked = [pick(j) for j in todo]
         keys = None
         if cache is not None:
             keys = [
@@ -469,6 +490,18 @@ def run(
     results = engine_runs(jobs + copies, [1.0] * (len(jobs) + len(copies)))
     shifted = {k: tp for k, (tp, _) in zip(phased, results[len(jobs) :], strict=True)}
     results = results[: len(jobs)]
+    back = [k for k, j in enumerate(jobs) if id(j) in first and results[k][0].stats.get("give_way")]
+    if back:
+        again_of = [copies[phased.index(k)] for k in back if k in phased]
+        first -= {id(j) for j in [*(jobs[k] for k in back), *again_of]}
+        got = engine_runs([jobs[k] for k in back] + again_of, [1.0] * (len(back) + len(again_of)))
+        for k, res in zip(back, got[: len(back)], strict=True):
+            cut = results[k][0].stats.get("cut_mm")
+            res[0].stats["gave_way"] = {"engine": options.solid_first, "cut_mm": cut}
+            results[k] = res
+        for k, res in zip([k for k in back if k in phased], got[len(back) :], strict=True):
+            shifted[k] = res[0]
+    ran_by = [pick(j)[0] for j in jobs]
     clock.lap("paths")
 
     r = splice_options.motion.retraction  # the splicer's own rule for a travel it may leave primed
@@ -480,7 +513,7 @@ def run(
     ]
     job_results, fills = _fills(
         units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
-        field_ids=field_ids,
+        field_ids=field_ids, engines=ran_by,
     )
     # a sparse run whose linked layers still miss the slicer's plastic by more than the flow
     # correction takes back would be kept as sliced: it is run again at a closer (or, when its
@@ -504,7 +537,7 @@ def run(
             shifted[i] = res[0]
         job_results, fills = _fills(
             units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
-            field_ids=field_ids,
+            field_ids=field_ids, engines=ran_by,
         )
         clock.lap("paths")
     sres = splice(program, fills, splice_options, workers=options.workers)
@@ -767,6 +800,7 @@ def _fills(
     cache=None,
     free_hop: float = 1.0,
     field_ids: Sequence[str | None] | None = None,
+    engines: Sequence[str] | None = None,
 ) -> tuple[list[EngineRun], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them.
 
@@ -779,6 +813,7 @@ def _fills(
     where travels inside the region never retract, Cura's combing): the linking cuts paths to pair
     ends only where that saves retractions (:attr:`loadpath.engines.linking.LinkOptions.free_hop`).
     ``field_ids`` (per job, :func:`_field_id`): what names each job's field in the links' keys.
+    ``engines`` (per job): the engine that laid it (None: :meth:`PipelineOptions.engine_for`).
     """
     from loadpath.engines.linking import LinkOptions
 
@@ -790,17 +825,20 @@ def _fills(
     # for solid infill only: on sparse infill the level sets' wedge links cost the 3-point beam of
     # bench_sparse its failure load (PrusaSlicer gyroid 20 %: 1.882 -> 1.346x the slicer's; gyroid
     # 40 % 3.014 -> 2.154x), a link along each face beside the lines converging on it
-    own = dict(engine_named(options.engine).linking)
     base_opts = LinkOptions(free_hop=free_hop) if math.isfinite(free_hop) else LinkOptions(cut_reach=0.0)
-    link_opts = replace(base_opts, **own)
+    if engines is None:
+        engines = [options.engine_for(j.unit)[0] for j in jobs]
+    solid_opts = {e: replace(base_opts, **dict(engine_named(e).linking)) for e in set(engines)}
     tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
     task_fields: list[str | None] = []
 
-    def task(ps: tuple[Path, ...], u: Unit, fld: Any = None, fid: str | None = None) -> int | None:
-        """Index of the linking of ``ps`` in ``u``'s region (None: left as they are)."""
+    def task(
+        ps: tuple[Path, ...], u: Unit, fld: Any = None, fid: str | None = None, ji: int = 0
+    ) -> int | None:
+        """Index of the linking of job ``ji``'s ``ps`` in ``u``'s region (None: left as they are)."""
         if not options.link or len(ps) < 2:
             return None
-        lo = base_opts.for_bead(u.flow_width, u.pitch) if u.fixed_width else link_opts
+        lo = base_opts.for_bead(u.flow_width, u.pitch) if u.fixed_width else solid_opts[engines[ji]]
         tasks.append((ps, u.fill_region, u.pitch, fld, lo))
         task_fields.append(fid)
         return len(tasks) - 1
@@ -813,7 +851,7 @@ def _fills(
         base_raw = _simplified(tp.paths, plan, cache)
         fld = getattr(job.input, "field", None)
         fid = field_ids[ji] if field_ids is not None else None
-        base_t = task(base_raw, job.unit, fld, fid)
+        base_t = task(base_raw, job.unit, fld, fid, ji)
         shifted_raw, shifted_t = None, None
         rows = []
         for k, u in enumerate(members):
@@ -825,7 +863,7 @@ def _fills(
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
                     shifted_raw = _simplified(moved, plan, cache)
-                shifted_t = task(shifted_raw, u0, fld, fid)
+                shifted_t = task(shifted_raw, u0, fld, fid, ji)
             clipped = clipped_t = None
             if not reuses(u.fill_region, job.unit.fill_region):
                 # a region that differs by more than rounding (a sliver, TOL.region_reuse_mm): the
@@ -833,7 +871,7 @@ def _fills(
                 # cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-                clipped_t = task(clipped, u, fld, fid)
+                clipped_t = task(clipped, u, fld, fid, ji)
             rows.append((u, use_shift, clipped, clipped_t))
         planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
 
@@ -856,7 +894,7 @@ def _fills(
             if lies_in(ps, u.fill_region):
                 continue
             clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid))
+            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid, ji))
     if len(tasks) > first_late:
         linked += _link_all(tasks[first_late:], cache, options.workers, kept, task_fields[first_late:])
 
@@ -866,7 +904,9 @@ def _fills(
     # second pass: the runs onto the blocks
     per_block: dict[int, dict[str, Any]] = {}
     job_results = []
-    for job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows in planned:
+    for ji, (job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows) in enumerate(
+        planned
+    ):
         link_stats: dict = {}
         for t in (base_t, shifted_t):  # the representative's runs and their copy's are counted
             if t is not None:
@@ -898,7 +938,7 @@ def _fills(
                 shifted is not None and by_engine,
                 base if options.link else (),
                 link_stats,
-                options.engine_for(job.unit)[0],
+                engines[ji],
             )
         )
     if cache is not None and (kept[0] or cache.stats.misses.get("simplified")):

@@ -1,16 +1,19 @@
-"""Sparse infill's own engine (issues 15 and 19): the level sets unless the user names an engine.
+"""Which engine lays each kind (issues 15 and 19): the level sets unless the user names an engine.
 
 ``sparse_engine = "auto"`` (the default) lays sparse infill with the engine the user named with
 ``engine`` (command line, ``--set`` or the load case's ``[toolpath]``), else with the level sets
-(:data:`loadpath.engines.SPARSE_DEFAULT`); solid infill keeps ``engine`` (default the swarm).  A
-real PrusaSlicer 2.5 L-bracket at 20 % gyroid, run as a user runs it, shows which engine laid each
-distinct layer and what the verdict says.
+(:data:`loadpath.engines.SPARSE_DEFAULT`).  Solid infill with no engine named is tried with the
+level sets first (:data:`loadpath.engines.SOLID_FIRST`) and laid by ``engine`` (default the swarm)
+where they give way, a layer cut along a bending part's neutral axis.  A real PrusaSlicer 2.5
+L-bracket at 20 % gyroid and the shipped open-hole specimen, run as a user runs them, show which
+engine laid each distinct layer and what the verdict says.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import slicing
 from cases import BRACKET_PIN
@@ -31,7 +34,12 @@ def example():
 def test_auto_is_the_level_sets_unless_an_engine_is_named(example):
     resolve = settings_mod.resolve
     assert resolve(example).engine_for_sparse() == engines.SPARSE_DEFAULT == "levelset"
-    assert resolve(example).engine == engines.DEFAULT == "swarm"  # solid infill keeps the swarm
+    assert resolve(example).engine == engines.DEFAULT == "swarm"
+    # solid infill: the level sets first, the swarm where they give way; an engine named lays it
+    assert resolve(example).engine_first_on_solid() == (engines.SOLID_FIRST, {"give_way": True})
+    assert engines.SOLID_FIRST == "levelset"
+    assert resolve(example, cli={"engine": "swarm"}).engine_first_on_solid() is None
+    assert resolve(example, toolpath=ToolpathOptions(engine="levelset")).engine_first_on_solid() is None
     assert resolve(example, cli={"engine": "streamlines"}).engine_for_sparse() == "streamlines"
     assert resolve(example, cli={"engine": "swarm"}).engine_for_sparse() == "swarm"  # named, even the default
     assert resolve(example, toolpath=ToolpathOptions(engine="swarm")).engine_for_sparse() == "swarm"
@@ -82,9 +90,21 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_swarm_and_the_verdict_says_s
     res = run_job(JobRequest(src, case, output=out, cli=cli))
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems
-    assert _engines_by_kind(res) == {"solid": {"swarm"}, "sparse": {"levelset"}}
+    by_kind = _engines_by_kind(res)
+    assert by_kind["sparse"] == {"levelset"} and "swarm" in by_kind["solid"], by_kind
+    # solid infill is tried with the level sets first; the bracket bends, so where a layer's fit is
+    # cut along its neutral axis they give way to the swarm, and only there
+    for jr in res.pipeline.jobs:
+        if jr.job.unit.kind != "solid":
+            continue
+        if jr.engine == "swarm":
+            assert jr.paths.stats["gave_way"]["engine"] == "levelset", jr.paths.stats
+            assert jr.paths.stats["gave_way"]["cut_mm"] > np.sqrt(jr.job.unit.fill_region.area)
+        else:
+            assert jr.engine == "levelset" and jr.paths.stats["give_way"] is False
     line = res.verdict.line()
-    assert "with swarm (solid), levelset (sparse);" in line
+    both = "levelset" in by_kind["solid"]  # a sliver of a layer the cut does not cross
+    assert f"with swarm (solid), levelset ({'solid, ' if both else ''}sparse);" in line, line
     assert line in out.read_text(encoding="utf-8").split("\n", 2)[1]  # the file's header says the same
 
     # an engine named by the user lays both kinds, and the verdict names it alone
@@ -93,3 +113,21 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_swarm_and_the_verdict_says_s
     assert res2.written and res2.error is None, res2.error
     assert _engines_by_kind(res2) == {"solid": {"swarm"}, "sparse": {"swarm"}}
     assert "with swarm;" in res2.verdict.line()
+
+
+@pytest.mark.slow
+def test_a_part_in_tension_gets_the_level_sets_on_solid_infill_too(tmp_path):
+    """The shipped example pulls an open-hole specimen: no neutral axis cuts its layers, so with no
+    engine named its solid infill keeps the level sets, which link into zig-zags (issue 19)."""
+    out = tmp_path / "ohs.loadpath.gcode"
+    res = run_job(JobRequest(EXAMPLE / "ohs.gcode", EXAMPLE / "ohs.toml", output=out, cli={"cache": False}))
+    assert res.written and res.error is None, res.error
+    assert _engines_by_kind(res) == {"solid": {"levelset"}}
+    assert all(jr.paths.stats["give_way"] is False for jr in res.pipeline.jobs)
+    assert " with levelset;" in res.verdict.line()
+    # named, the swarm lays it all, as before
+    res2 = run_job(JobRequest(EXAMPLE / "ohs.gcode", EXAMPLE / "ohs.toml", output=tmp_path / "s.gcode",
+                              cli={"cache": False, "engine": "swarm"}))
+    assert _engines_by_kind(res2) == {"solid": {"swarm"}}
+    ours, swarm = (r.verdict.printability["loadpath"]["retractions"] for r in (res, res2))
+    assert ours < swarm, (res.verdict.line(), res2.verdict.line())
