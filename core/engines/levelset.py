@@ -85,7 +85,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 from scipy.sparse.linalg import spsolve
 
-__all__ = ["LevelSetOptions", "generate", "fit", "warm_up"]
+__all__ = ["GivesWay", "LevelSetOptions", "generate", "fit", "warm_up"]
 
 END_GAP = 0.25
 """Path ends stay this many bead widths inside the region: where a PrusaSlicer 2.5 infill line ends,
@@ -225,6 +225,8 @@ class LevelSetFit:
         Where the fit is cut (jumps of the direction): no path runs there (possibly empty).
     residual : float
         Relative residual of the normal equations (checked below ``1e-8``).
+    cut_mm : float, mm
+        The cut's length (its triangles' area over the grid spacing).
     misalignment : float, degrees
         Area-weighted mean angle between the level sets and the principal direction.
     """
@@ -237,6 +239,7 @@ class LevelSetFit:
     cut: Region
     residual: float
     misalignment: float
+    cut_mm: float = 0.0
 
     def axes(self) -> tuple[Floats, Floats]:
         """Node coordinates along x, (nx,), and along y, (ny,), mm."""
@@ -299,7 +302,15 @@ def _orient(n: np.ndarray, edges: np.ndarray, count: int) -> np.ndarray:
     return np.where(parity == 1, -1.0, 1.0)
 
 
-def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
+class GivesWay(Exception):
+    """Raised by :func:`fit` before the solve when the cut is longer than ``give_way_mm``."""
+
+    def __init__(self, cut_mm: float) -> None:
+        super().__init__(f"the level-set fit is cut along {cut_mm:.1f} mm")
+        self.cut_mm = cut_mm
+
+
+def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf) -> LevelSetFit:
     """Fit the level-set field of one region (module docstring).
 
     Parameters
@@ -307,6 +318,9 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
     inp : EngineInput
         Region, field (already the principal stress to follow), nominal pitch and optional density.
     options : LevelSetOptions
+    give_way_mm : float, mm
+        Stop before the solve, raising :class:`GivesWay`, when the cut is longer (option
+        ``give_way``: the pipeline lays that layer with another engine).
 
     Returns
     -------
@@ -416,6 +430,10 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
         np.abs(np.stack([np.einsum("ij,ij->i", nn[:, a], nn[:, b]) for a, b in ((0, 1), (0, 2), (1, 2))])), axis=0
     )
     cut = spread < np.cos(np.radians(JUMP_DEG))
+    # its length: the cut triangles' area (h^2 / 2 each) over the grid spacing
+    cut_mm = 0.5 * h * float(np.count_nonzero(cut))
+    if cut_mm > give_way_mm:
+        raise GivesWay(cut_mm)
     agree = np.where(cut, 0.0, agree)
     # rows are scaled by the nominal pitch so every term is dimensionless
     rows: list[sparse.coo_matrix] = []
@@ -507,7 +525,7 @@ def fit(inp: EngineInput, options: LevelSetOptions) -> LevelSetFit:
         band = shapely.union_all(shapely.polygons(xy)).buffer(0.05 * h)
     else:
         band = shapely.Polygon()
-    return LevelSetFit(gx0, gy0, h, phi, dens.reshape(ny, nx), band, res, mis)
+    return LevelSetFit(gx0, gy0, h, phi, dens.reshape(ny, nx), band, res, mis, cut_mm)
 
 
 def _contours(f: LevelSetFit, phase: float, scale: float = 1.0) -> list[np.ndarray]:
@@ -669,13 +687,14 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
     # 20 % sparse infill held every line end 0.5 mm off the perimeter, five times the slicer's gap
     gap = END_GAP * (float(options["flow_width"]) if fixed else p0)
     t0 = time.perf_counter()
-    f = fit(inp, o)
+    limit = GIVE_WAY * float(np.sqrt(region.area)) if o.give_way and not fixed else np.inf
+    try:
+        f = fit(inp, o, give_way_mm=limit)
+    except GivesWay as gw:  # a bending part's neutral axis: the pipeline lays this one otherwise
+        took = time.perf_counter() - t0
+        return Toolpaths(paths=(), stats={"times_s": {"fit": took, "total": took}, "give_way": True,
+                                          "cut_mm": round(gw.cut_mm, 2)})
     t1 = time.perf_counter()
-    # the cut's length: its band is the fit's triangles on the jump, about one grid cell wide
-    cut_mm = float(f.cut.area) / f.h if not f.cut.is_empty else 0.0
-    if o.give_way and not fixed and cut_mm > GIVE_WAY * float(np.sqrt(region.area)):
-        return Toolpaths(paths=(), stats={"times_s": {"fit": t1 - t0, "total": t1 - t0}, "give_way": True,
-                                          "cut_mm": round(cut_mm, 2), "residual": f.residual})
     inset = region.buffer(-gap)
     if not f.cut.is_empty:
         inset = inset.difference(f.cut)
@@ -727,7 +746,7 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
         "n_paths": len(paths),
         "length_mm": round(total, 2),
         "edge_links_mm": round(links, 2),
-        "cut_mm": round(cut_mm, 2),
+        "cut_mm": round(f.cut_mm, 2),
         "give_way": False,
         "length_target_mm": round(target, 2),
         "density_scale": round(scale, 4),
