@@ -70,9 +70,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"  {stages} (total {total:.2f} s)")
     if result.pipeline is not None and result.pipeline.splice is not None:
         blocks = result.pipeline.splice.blocks
+        # the engines that laid them (the level sets, the swarm where they gave way), as the verdict
+        engine = result.verdict.engine if result.verdict is not None else result.settings.engine
         print(
             f"  replaced {len(blocks)} infill blocks in layers "
-            f"{', '.join(str(b.layer + 1) for b in blocks)} with {result.settings.engine} paths"
+            f"{', '.join(str(b.layer + 1) for b in blocks)} with {engine} paths"
         )
     sys.stdout.flush()
     return 0
