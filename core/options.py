@@ -82,7 +82,17 @@ class Field:
 
 
 TOOLPATH_FIELDS: tuple[Field, ...] = (
-    Field("engine", "str", engines.DEFAULT, "", "path engine", engines.NAMES, cli="--engine", toolpath=True),
+    Field(
+        "engine",
+        "str",
+        engines.DEFAULT,
+        "",
+        f"path engine; not set: {engines.SOLID_FIRST}, and {engines.DEFAULT} on solid layers a bending "
+        "part's neutral axis cuts; set, it lays every kind",
+        engines.NAMES,
+        cli="--engine",
+        toolpath=True,
+    ),
     Field(
         "sparse_engine",
         "str",

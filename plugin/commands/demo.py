@@ -31,7 +31,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
         "--engine",
         choices=engines.NAMES,
         default=None,
-        help="path engine (default: the load case's, else swarm)",
+        help="path engine (default: the load case's, else the level sets and the swarm where they give way)",
     )
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
 
