@@ -281,6 +281,9 @@ def layer_report(
         "flow_width_mm": unit.flow_width,
         "region_area_mm2": float(region.area),
         "engine": job_result.engine,
+        # the engine tried first, where it gave way to this one (the level sets on a solid layer a
+        # neutral axis cuts: {"engine": "levelset", "cut_mm": ...}); None otherwise
+        "gave_way": job_result.paths.stats.get("gave_way"),
         "engine_s": job_result.seconds,
         "n_paths_engine": len(job_result.paths.paths),
         "staggered_layers": [

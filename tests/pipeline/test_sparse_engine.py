@@ -11,6 +11,7 @@ engine laid each distinct layer and what the verdict says.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -87,10 +88,15 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_swarm_and_the_verdict_says_s
     src, case = bracket
     out = src.with_name("bracket.auto.gcode")
     cli = {"replace": ("solid", "sparse"), "density": "uniform", "cache": False}
-    res = run_job(JobRequest(src, case, output=out, cli=cli))
+    res = run_job(JobRequest(src, case, output=out, cli=cli, report=src.with_name("bracket-report")))
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems
     by_kind = _engines_by_kind(res)
+    # the report says which layers the level sets gave way on, and why
+    metrics = json.loads((src.with_name("bracket-report") / "metrics.json").read_text(encoding="utf-8"))
+    rows = [r for r in metrics["layers"] if r["kind"] == "solid"]
+    assert rows and all((r["engine"] == "swarm") == (r["gave_way"] is not None) for r in rows), rows
+    assert all(r["gave_way"]["engine"] == "levelset" for r in rows if r["gave_way"] is not None)
     assert by_kind["sparse"] == {"levelset"} and "swarm" in by_kind["solid"], by_kind
     # solid infill is tried with the level sets first; the bracket bends, so where a layer's fit is
     # cut along its neutral axis they give way to the swarm, and only there
