@@ -153,7 +153,7 @@ class LevelSetOptions:
         ``benchmarks/bench_sparse.py``).  1 or more: every region.
     give_way : bool
         Solid infill whose fit is cut along more than :data:`GIVE_WAY` (a bending part's neutral
-        axis) gets no paths: the run stops after the fit and says so in its stats (``give_way``),
+        axis) gets no paths: the run stops before the fit's solve and says so in its stats (``give_way``),
         and the pipeline lays that layer with another engine
         (:attr:`loadpath.pipeline.PipelineOptions.solid_first`).  False: level sets everywhere.
     """
@@ -203,7 +203,10 @@ class LevelSetOptions:
         kw: dict[str, Any] = {}
         for k in names & set(options):
             v = options[k]
-            kw[k] = tuple(float(x) for x in v) if k == "pitch_range" else v if k == "give_way" else float(v)
+            if k == "pitch_range":
+                kw[k] = tuple(float(x) for x in v)
+            else:
+                kw[k] = bool(v) if k == "give_way" else float(v)
         return cls(**kw)
 
 
