@@ -82,8 +82,12 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     allowed = {"links", "prediction", "near", "beads", "islands"} | ({"paths", "simplified"} if any(moved) else set())
     assert set(cache2.stats.misses) <= allowed
     assert cache2.stats.hits["fea"] == 1
-    # ... and the islands of the layers it extrudes as before
-    assert cache2.stats.hits["islands"] > cache2.stats.misses.get("islands", 0)
+    # ... and the islands of the layers it extrudes as before: some found, every other one made once
+    # (how many layers PrusaSlicer moves at other speeds varies between its runs: 2 of the specimen's
+    # 10 in some, 5 in others, so more found than made held only in some)
+    n_layers = len(r2.pipeline.geometry.objects[0].layers)
+    assert cache2.stats.hits["islands"] >= 1
+    assert cache2.stats.hits["islands"] + cache2.stats.misses.get("islands", 0) == n_layers
     assert cache2.stats.hits["simplified"] >= 1  # the same engine paths
     kept = sum(1 + (len(j.units) > 1) for j, m in zip(r1.pipeline.jobs, moved, strict=True) if not m)
     assert kept >= 1 and cache2.stats.hits["paths"] == kept
