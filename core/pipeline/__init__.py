@@ -437,12 +437,12 @@ def run(
     # back onto the first one's paths (specimen: median 0.23 pitch apart instead of 0.5); the
     # streamlines' copy is a median 0.47 pitch off on the specimen, 0.29 on the bracket (curved
     # field, gap-filling pieces).  Which engines do this: lays_phase.
-    # solid infill laid first by options.solid_first, where set; a job whose run gives way goes
-    # back to options.engine (below, with its staggered copy)
-    first = {id(j) for j in jobs if options.solid_first is not None and not j.unit.fixed_width}
+    # solid infill laid first by options.solid_first, where set; a job whose run gives way (and its
+    # staggered copy) goes back to options.engine (below)
+    gave_way: set[int] = set()
 
     def pick(j: Job) -> tuple[str, Mapping[str, Any]]:
-        return options.engine_for(j.unit, id(j) in first)
+        return options.engine_for(j.unit, first=id(j) not in gave_way)
 
     phased = (
         [k for k, j in enumerate(jobs) if len(j.units) > 1 and lays_phase(*pick(j))]
@@ -452,7 +452,6 @@ def run(
     copies = [
         Job(jobs[k].unit, jobs[k].principal, jobs[k].input, jobs[k].units, {"phase": 0.5}) for k in phased
     ]
-    first |= {id(c) for k, c in zip(phased, copies, strict=True) if id(jobs[k]) in first}
     retry = splice_options.plan.max_correction
     machine = Machine(
         nozzle=splice_options.plan.nozzle_diameter,
@@ -490,10 +489,10 @@ def run(
     results = engine_runs(jobs + copies, [1.0] * (len(jobs) + len(copies)))
     shifted = {k: tp for k, (tp, _) in zip(phased, results[len(jobs) :], strict=True)}
     results = results[: len(jobs)]
-    back = [k for k, j in enumerate(jobs) if id(j) in first and results[k][0].stats.get("give_way")]
+    back = [k for k in range(len(jobs)) if results[k][0].stats.get("give_way")]
     if back:
         again_of = [copies[phased.index(k)] for k in back if k in phased]
-        first -= {id(j) for j in [*(jobs[k] for k in back), *again_of]}
+        gave_way.update(id(j) for j in [*(jobs[k] for k in back), *again_of])
         got = engine_runs([jobs[k] for k in back] + again_of, [1.0] * (len(back) + len(again_of)))
         for k, res in zip(back, got[: len(back)], strict=True):
             cut = results[k][0].stats.get("cut_mm")
@@ -800,7 +799,8 @@ def _fills(
     cache=None,
     free_hop: float = 1.0,
     field_ids: Sequence[str | None] | None = None,
-    engines: Sequence[str] | None = None,
+    *,
+    engines: Sequence[str],
 ) -> tuple[list[EngineRun], list[BlockFill]]:
     """Paths of every job onto the blocks of every unit that uses them.
 
@@ -813,7 +813,8 @@ def _fills(
     where travels inside the region never retract, Cura's combing): the linking cuts paths to pair
     ends only where that saves retractions (:attr:`loadpath.engines.linking.LinkOptions.free_hop`).
     ``field_ids`` (per job, :func:`_field_id`): what names each job's field in the links' keys.
-    ``engines`` (per job): the engine that laid it (None: :meth:`PipelineOptions.engine_for`).
+    ``engines`` (per job): the engine that laid it (its solid infill is linked with that engine's
+    link options).
     """
     from loadpath.engines.linking import LinkOptions
 
@@ -826,8 +827,6 @@ def _fills(
     # bench_sparse its failure load (PrusaSlicer gyroid 20 %: 1.882 -> 1.346x the slicer's; gyroid
     # 40 % 3.014 -> 2.154x), a link along each face beside the lines converging on it
     base_opts = LinkOptions(free_hop=free_hop) if math.isfinite(free_hop) else LinkOptions(cut_reach=0.0)
-    if engines is None:
-        engines = [options.engine_for(j.unit)[0] for j in jobs]
     solid_opts = {e: replace(base_opts, **dict(engine_named(e).linking)) for e in set(engines)}
     tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
     task_fields: list[str | None] = []

@@ -50,7 +50,6 @@ def test_short_streamline_runs_are_run_again_and_every_block_is_replaced(tmp_pat
         assert linked >= 0.85 * length_target(jr.job), (linked, length_target(jr.job))
 
 
-
 @pytest.mark.slow
 def test_runs_their_links_made_too_long_are_run_again_wider_and_every_block_is_replaced(tmp_path):
     """The other side (issue 15): the swarm's sparse runs on CuraEngine 4.13's 40 % cantilever
