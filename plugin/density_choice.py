@@ -188,10 +188,13 @@ class Judge:
         import weakref
 
         from loadpath.gcode import parse
-        from loadpath.stiffness.compare import evaluate_file, row
+        from loadpath.stiffness.compare import evaluate_file
 
         if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
             return None
+        seen = self._seen.get(id(pres))
+        if seen is not None and seen[0]() is pres and self.ref is not None:  # judged before: its figures
+            return self._ratios(seen[1])
         from loadpath.procs import fork_map, forks
 
         t0 = time.perf_counter()
@@ -212,6 +215,12 @@ class Judge:
                 )
             res = evaluate_file(out, self.loadcase, meshes=self.meshes, name="candidate", metrics=False)
         self._seen[id(pres)] = (weakref.ref(pres), res, time.perf_counter() - t0)
+        return self._ratios(res)
+
+    def _ratios(self, res: Any) -> tuple[float, float | None]:
+        """Stiffness and failure-load ratios of an evaluated candidate over the slicer's file."""
+        from loadpath.stiffness.compare import row
+
         r = row(res, self.ref)
         fail = r.relative_failure_load
         return float(r.relative_stiffness), (float(fail) if fail == fail else None)
