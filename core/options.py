@@ -88,7 +88,7 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         engines.DEFAULT,
         "",
         f"path engine; not set: {engines.SOLID_FIRST}, and {engines.DEFAULT} on solid layers a bending "
-        "part's neutral axis cuts; set, it lays every kind",
+        "part's neutral axis cuts where the mechanics model predicts it better; set, it lays every kind",
         engines.NAMES,
         cli="--engine",
         toolpath=True,

@@ -76,6 +76,9 @@ class Verdict:
     density : str
         With ``density = "auto"``: the sparse density criterion kept and the predictions that chose
         it (:mod:`loadpath.plugin.density_choice`); empty otherwise.
+    solid : str
+        Where the level sets gave way on solid infill (no engine named): the layout kept and the
+        predictions that chose it (:mod:`loadpath.plugin.solid_choice`); empty otherwise.
     printability : dict or None
         Paths, retractions and travel of the replaced blocks and the moves into them, the slicer's
         and the output's (:func:`loadpath.printability.verdict_counts`); None: not counted.
@@ -101,6 +104,7 @@ class Verdict:
     note: str = ""
     extra: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
     density: str = ""
+    solid: str = ""
     printability: dict | None = None
     printability_note: str = ""
 
@@ -113,6 +117,8 @@ class Verdict:
         parts = [f"replaced {', '.join(self.kinds)} infill on {_layers(self.layers)} with {self.engine}"]
         if self.density:
             parts.append(f"sparse density {self.density}")
+        if self.solid:
+            parts.append(f"solid infill: {self.solid}")
         if self.stiffness is not None and math.isfinite(self.stiffness):
             text = (
                 f"predicted stiffness {_pct(self.stiffness)} absolute, {_pct(self.stiffness_same_mass)} at the "

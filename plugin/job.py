@@ -36,6 +36,8 @@ from loadpath.errors import InternalError, LoadpathError, SettingsError, showing
 from loadpath.files import check_output, kind_of, read_regular, same_file, write_target
 from loadpath.plugin import settings as settings_mod
 from loadpath.plugin.density_choice import CANDIDATES, MASS_TOLERANCE, describe, judge, mass_change, run_choosing
+from loadpath.plugin.solid_choice import SolidChooser
+from loadpath.plugin.solid_choice import describe as describe_solid
 from loadpath.plugin.lifecycle import note_written
 from loadpath.plugin.job_record import already_processed, fate, log, own_warnings, with_header
 from loadpath.printability import verdict_counts
@@ -119,6 +121,9 @@ class JobResult:
     density : Choice or None
         With ``density = "auto"`` and sparse infill replaced: the criteria tried, their predicted
         ratios and the one kept (:mod:`loadpath.plugin.density_choice`).
+    solid : SolidChoice or None
+        Where the level sets gave way on solid infill (no engine named): both layouts' predicted
+        ratios and the one kept (:mod:`loadpath.plugin.solid_choice`).
     """
 
     output: Path
@@ -133,6 +138,7 @@ class JobResult:
     verdict: Any = None
     cache: Any = None
     density: Any = None
+    solid: Any = None
 
 
 def default_output(path: Path) -> Path:
@@ -407,12 +413,14 @@ def _run(
             analyze=request.analyze, cache=cache,
         )
 
-    judged = None
+    # where the level sets give way on solid infill, both layouts are laid and judged (solid_choice)
+    judged = judge(program, lc, opts.workers)
+    chooser = SolidChooser(run_with, judged)
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
-        judged = judge(program, lc, opts.workers)
-        pres, result.density = run_choosing(run_with, judged, opts)
+        pres, result.density = run_choosing(chooser, judged, opts)
     else:
-        pres = run_with(opts)
+        pres = chooser(opts)
+    result.solid = chooser.choice(pres)
     result.pipeline = pres
     times.update(pres.times)
     result.warnings.extend(pres.warnings)
@@ -455,6 +463,8 @@ def _run(
         v = dataclasses.replace(v, note="not asked for")
     if result.density is not None and pres.changed:
         v = dataclasses.replace(v, density=describe(result.density))
+    if result.solid is not None and pres.changed:
+        v = dataclasses.replace(v, solid=describe_solid(result.solid))
     if pres.changed:
         v = dataclasses.replace(v, printability=counts, printability_note=counts_why)
     result.verdict = v

@@ -257,7 +257,10 @@ layers' first ply fails at the level sets' ends on the neutral-axis cut: with th
 all solid infill, ``bench_sparse.py --thickness 12`` lost failure load on 8 of 20 files (the 3-point
 beam at CuraEngine 20 % 3.004 -> 2.193x the slicer's; ``benchmarks/printability_results.md``,
 eleventh round).  So the level sets are tried first and the swarm lays each layer whose fit that
-cut crosses; naming an engine (``--engine swarm``) lays everything with it.
+cut crosses; naming an engine (``--engine swarm``) lays everything with it.  On other bent parts
+the level sets are the stronger (2.4 mm parts printed solid), so where some layers gave way the run
+lays both layouts and keeps the one the mechanics model predicts better
+(:mod:`loadpath.plugin.solid_choice`).
 """
 
 SPARSE_DEFAULT = "levelset"

@@ -22,7 +22,9 @@ from loadpath import engines, gcode, loadcase
 from loadpath.errors import LoadCaseError, SettingsError
 from loadpath.loadcase import ToolpathOptions
 from loadpath.plugin import settings as settings_mod
+from loadpath.plugin.density_choice import score
 from loadpath.plugin.job import JobRequest, run_job
+from loadpath.plugin.solid_choice import describe as describe_solid
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples"
 
@@ -84,7 +86,7 @@ def _engines_by_kind(res) -> dict[str, set[str]]:
 
 
 @pytest.mark.slow
-def test_sparse_laid_by_the_level_sets_solid_by_the_swarm_and_the_verdict_says_so(bracket):
+def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdict_says_so(bracket):
     src, case = bracket
     out = src.with_name("bracket.auto.gcode")
     cli = {"replace": ("solid", "sparse"), "density": "uniform", "cache": False}
@@ -92,26 +94,42 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_swarm_and_the_verdict_says_s
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems
     by_kind = _engines_by_kind(res)
-    # the report says which layers the level sets gave way on, and why
+    assert by_kind["sparse"] == {"levelset"}, by_kind
+    # solid infill is tried with the level sets first; the bracket bends, so their fit is cut along
+    # its neutral axis and they give way to the swarm there: the run lays the part both ways and
+    # keeps what the model of loadpath compare predicts better (solid_choice), and says so
+    choice = res.solid
+    assert choice is not None and choice.given_way == "swarm", choice
+    (name_w, s_w, f_w), (name_s, s_s, f_s) = choice.tried
+    assert (name_w, name_s) == ("level sets", "swarm")
+    assert (score(s_w, f_w) > score(s_s, f_s)) == choice.whole, choice
+    kept = (s_w, f_w) if choice.whole else (s_s, f_s)
+    assert res.verdict.stiffness == pytest.approx(kept[0] - 1.0, abs=1e-3)
+    assert res.verdict.failure_load == pytest.approx(kept[1] - 1.0, abs=1e-3)
+    line = res.verdict.line()
+    assert f"solid infill: {describe_solid(choice)}" in line, line
+    assert line in out.read_text(encoding="utf-8").split("\n", 2)[1]  # the file's header says the same
+    # the report says which layers the level sets gave way on, and why (none, where they were kept)
     metrics = json.loads((src.with_name("bracket-report") / "metrics.json").read_text(encoding="utf-8"))
     rows = [r for r in metrics["layers"] if r["kind"] == "solid"]
     assert rows and all((r["engine"] == "swarm") == (r["gave_way"] is not None) for r in rows), rows
     assert all(r["gave_way"]["engine"] == "levelset" for r in rows if r["gave_way"] is not None)
-    assert by_kind["sparse"] == {"levelset"} and "swarm" in by_kind["solid"], by_kind
-    # solid infill is tried with the level sets first; the bracket bends, so where a layer's fit is
-    # cut along its neutral axis they give way to the swarm, and only there
-    for jr in res.pipeline.jobs:
-        if jr.job.unit.kind != "solid":
-            continue
-        if jr.engine == "swarm":
-            assert jr.paths.stats["gave_way"]["engine"] == "levelset", jr.paths.stats
-            assert jr.paths.stats["gave_way"]["cut_mm"] > np.sqrt(jr.job.unit.fill_region.area)
-        else:
-            assert jr.engine == "levelset" and jr.paths.stats["give_way"] is False
-    line = res.verdict.line()
-    both = "levelset" in by_kind["solid"]  # a sliver of a layer the cut does not cross
-    assert f"with swarm (solid), levelset ({'solid, ' if both else ''}sparse);" in line, line
-    assert line in out.read_text(encoding="utf-8").split("\n", 2)[1]  # the file's header says the same
+    if choice.whole:
+        assert by_kind["solid"] == {"levelset"}, by_kind
+        assert all(jr.paths.stats["give_way"] is False for jr in res.pipeline.jobs if jr.job.unit.kind == "solid")
+        assert "with levelset;" in line, line
+    else:
+        assert "swarm" in by_kind["solid"], by_kind
+        for jr in res.pipeline.jobs:  # the swarm only where the cut runs along the layer
+            if jr.job.unit.kind != "solid":
+                continue
+            if jr.engine == "swarm":
+                assert jr.paths.stats["gave_way"]["engine"] == "levelset", jr.paths.stats
+                assert jr.paths.stats["gave_way"]["cut_mm"] > np.sqrt(jr.job.unit.fill_region.area)
+            else:
+                assert jr.engine == "levelset" and jr.paths.stats["give_way"] is False
+        both = "levelset" in by_kind["solid"]  # a sliver of a layer the cut does not cross
+        assert f"with swarm (solid), levelset ({'solid, ' if both else ''}sparse);" in line, line
 
     # an engine named by the user lays both kinds, and the verdict names it alone
     named = src.with_name("bracket.swarm.gcode")
@@ -119,6 +137,7 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_swarm_and_the_verdict_says_s
     assert res2.written and res2.error is None, res2.error
     assert _engines_by_kind(res2) == {"solid": {"swarm"}, "sparse": {"swarm"}}
     assert "with swarm;" in res2.verdict.line()
+    assert res2.solid is None and "solid infill:" not in res2.verdict.line()  # nothing gave way: no choice
 
 
 @pytest.mark.slow
@@ -131,6 +150,7 @@ def test_a_part_in_tension_gets_the_level_sets_on_solid_infill_too(tmp_path):
     assert _engines_by_kind(res) == {"solid": {"levelset"}}
     assert all(jr.paths.stats["give_way"] is False for jr in res.pipeline.jobs)
     assert " with levelset;" in res.verdict.line()
+    assert res.solid is None and "solid infill:" not in res.verdict.line()  # laid once: nothing to choose
     # named, the swarm lays it all, as before
     res2 = run_job(JobRequest(EXAMPLE / "ohs.gcode", EXAMPLE / "ohs.toml", output=tmp_path / "s.gcode",
                               cli={"cache": False, "engine": "swarm"}))
