@@ -33,6 +33,7 @@ from typing import Any
 
 __all__ = [
     "CANDIDATES", "MASS_TOLERANCE", "Choice", "Judge", "score", "mass_change", "run_choosing", "judge", "describe",
+    "figure",
 ]
 
 CANDIDATES = ("energy", "stack")
@@ -145,17 +146,22 @@ def run_choosing(
     return best[0], Choice(best[1], tuple(tried), tuple(off))
 
 
+def figure(name: str, stiffness: float | None, failure: float | None) -> str:
+    """One candidate's predicted ratios in the verdict's words (``name stiffness 1.155x, failure load 0.846x``)."""
+    if stiffness is None:
+        return f"{name} not predicted"
+    return f"{name} stiffness {stiffness:.3f}x, failure load " + (
+        "not predicted" if failure is None else f"{failure:.3f}x"
+    )
+
+
 def describe(choice: Choice) -> str:
     """The verdict's words for a choice: the criterion kept and every candidate's predicted ratios.
 
     These are the figures of ``loadpath compare``'s model that made the choice; the verdict's
     stiffness and failure-load change are the kept candidate's (the same model, :meth:`Judge.change`).
     """
-    figures = "; ".join(
-        f"{crit} stiffness {s:.3f}x, failure load " + ("not predicted" if f is None else f"{f:.3f}x")
-        if s is not None else f"{crit} not predicted"
-        for crit, s, f in choice.tried
-    )
+    figures = "; ".join(figure(crit, s, f) for crit, s, f in choice.tried)
     if all(s is None for _, s, _ in choice.tried):
         return f"'{choice.criterion}' (auto: nothing to judge by, the first candidate kept)"
     off = "".join(

@@ -33,7 +33,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from loadpath.plugin.density_choice import score
+from loadpath.plugin.density_choice import figure, score
 
 __all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe"]
 
@@ -111,9 +111,6 @@ class SolidChooser:
 
 def describe(choice: SolidChoice) -> str:
     """The verdict's words for a choice: the layout kept and both layouts' predicted ratios."""
-    figures = "; ".join(
-        f"{name} stiffness {s:.3f}x, failure load " + ("not predicted" if f is None else f"{f:.3f}x")
-        for name, s, f in choice.tried
-    )
+    figures = "; ".join(figure(*t) for t in choice.tried)
     kept = "level sets on every solid layer" if choice.whole else f"{choice.given_way} where the level sets gave way"
     return f"{kept} (by loadpath compare's model over the slicer's file: {figures})"
