@@ -102,7 +102,9 @@ CUT_WEIGHT = 0.05
 GIVE_WAY = 1.0
 """Solid infill whose cut is longer than this many times the square root of the region's area
 gives way (option ``give_way``): the pipeline lays it with the swarm instead where the level sets
-are only tried first (:attr:`loadpath.pipeline.PipelineOptions.solid_first`).  A bending
+are only tried first (:attr:`loadpath.pipeline.PipelineOptions.solid_first`), and the run lays the
+level sets there too and keeps what the mechanics model predicts better
+(:mod:`loadpath.plugin.solid_choice`).  A bending
 part's neutral axis runs the part's length: the cut measured 3.3, 3.1 and 5.5 on issue 15's 12 mm
 beam, L-bracket and shelf bracket, where the level sets' ends on it lowered the first-ply failure
 load (``benchmarks/printability_results.md``, eleventh round); around the open-hole specimen's
