@@ -63,7 +63,9 @@ def test_sparse_replaced_bracket_verdict_is_compares(bracket, tmp_path):
     cli = {"engine": "swarm", "replace": ("sparse",), "density": "stack", "cache": False}
     res = run_job(JobRequest(src, case, output=out, cli=cli))
     _agree(res, src, out, case)
-    assert res.verdict.failure_load > 0  # the old verdict said -13.6 %
+    # the old verdict said -13.6 %; compare's model gives +9.7 % to +19.0 % here with the force
+    # turned by up to 3e-4 rad (round-off moves the swarm's paths, 2026-12-05), so not below -5 %
+    assert res.verdict.failure_load > -0.05
 
 
 @pytest.mark.slow
