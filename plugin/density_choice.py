@@ -181,10 +181,13 @@ class Judge:
     further solve.
     """
 
-    def __init__(self, program: Any, loadcase: Any, workers: int = 1) -> None:
+    def __init__(
+        self, program: Any, loadcase: Any, workers: int = 1, progress: Callable[[str, int, int], None] | None = None
+    ) -> None:
         self.program = program
         self.loadcase = loadcase
         self.workers = workers
+        self.progress = progress  # ``progress("judge", done, total)`` around each evaluation
         self.meshes: dict = {}
         self.ref: Any = None
         self._seen: dict[int, tuple[Any, Any, float]] = {}  # id(result) -> (weakref, FileResult, seconds)
@@ -204,6 +207,8 @@ class Judge:
         from loadpath.procs import fork_map, forks
 
         t0 = time.perf_counter()
+        if self.progress:
+            self.progress("judge", 0, 1)
         out = parse(pres.data, strict=False)
         if self.ref is None and forks(self.workers, 2):
             # the slicer's file and the first candidate side by side: the same computations in two
@@ -221,6 +226,8 @@ class Judge:
                 )
             res = evaluate_file(out, self.loadcase, meshes=self.meshes, name="candidate", metrics=False)
         self._seen[id(pres)] = (weakref.ref(pres), res, time.perf_counter() - t0)
+        if self.progress:
+            self.progress("judge", 1, 1)
         return self._ratios(res)
 
     def _ratios(self, res: Any) -> tuple[float, float | None]:
@@ -257,7 +264,10 @@ def _evaluate_nth(k: int) -> Any:
     return evaluate_file(source, loadcase, name=name, metrics=False)
 
 
-def judge(program: Any, loadcase: Any, workers: int = 1) -> Judge:
+def judge(
+    program: Any, loadcase: Any, workers: int = 1, progress: Callable[[str, int, int], None] | None = None
+) -> Judge:
     """The :class:`Judge` of the slicer's program under a load case (``workers``: processes for its
-    first judgment, the slicer's file and the first candidate side by side)."""
-    return Judge(program, loadcase, workers)
+    first judgment, the slicer's file and the first candidate side by side; ``progress``: told of
+    each evaluation as stage ``"judge"``)."""
+    return Judge(program, loadcase, workers, progress)

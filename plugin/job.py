@@ -414,7 +414,7 @@ def _run(
         )
 
     # where the level sets give way on solid infill, both layouts are laid and judged (solid_choice)
-    judged = judge(program, lc, opts.workers)
+    judged = judge(program, lc, opts.workers, progress)
     chooser = SolidChooser(run_with, judged)
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
         pres, result.density = run_choosing(chooser, judged, opts)

@@ -66,6 +66,7 @@ class Progress:
         "fea": "stress analysis",
         "paths": "paths",
         "splice": "writing G-code",
+        "judge": "predicting",
     }
 
     def __init__(self, stream=None) -> None:

@@ -90,11 +90,14 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdic
     src, case = bracket
     out = src.with_name("bracket.auto.gcode")
     cli = {"replace": ("solid", "sparse"), "density": "uniform", "cache": False}
-    res = run_job(JobRequest(src, case, output=out, cli=cli, report=src.with_name("bracket-report")))
+    seen: list[tuple[str, int, int]] = []
+    res = run_job(JobRequest(src, case, output=out, cli=cli, report=src.with_name("bracket-report")),
+                  progress=lambda stage, done, total: seen.append((stage, done, total)))
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems
     by_kind = _engines_by_kind(res)
     assert by_kind["sparse"] == {"levelset"}, by_kind
+    assert seen.count(("judge", 1, 1)) == 2, seen  # the progress bar shows both layouts predicted
     # solid infill is tried with the level sets first; the bracket bends, so their fit is cut along
     # its neutral axis and they give way to the swarm there: the run lays the part both ways and
     # keeps what the model of loadpath compare predicts better (solid_choice), and says so
