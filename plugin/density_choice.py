@@ -201,9 +201,9 @@ class Judge:
 
         if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
             return None
-        seen = self._seen.get(id(pres))
-        if seen is not None and seen[0]() is pres and self.ref is not None:  # judged before: its figures
-            return self._ratios(seen[1])
+        seen = self._judged(pres)
+        if seen is not None:  # judged before: its figures
+            return self._ratios(seen[0])
         from loadpath.procs import fork_map, forks
 
         t0 = time.perf_counter()
@@ -247,10 +247,15 @@ class Judge:
         """
         from loadpath.stiffness.change import change_from_results
 
+        seen = self._judged(pres)
+        return None if seen is None else change_from_results(self.ref, *seen)
+
+    def _judged(self, pres: Any) -> tuple[Any, float] | None:
+        """``(FileResult, seconds)`` of a result this judged (the same object, not one with its id), or None."""
         seen = self._seen.get(id(pres))
         if seen is None or seen[0]() is not pres or self.ref is None:
             return None
-        return change_from_results(self.ref, seen[1], seen[2])
+        return seen[1], seen[2]
 
 
 _EVALUATE: list[tuple[Any, Any, str]] = []

@@ -295,7 +295,8 @@ def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None
 
     The model of ``loadpath compare`` (:mod:`loadpath.stiffness.model`) on the slicer's file and the
     run's output, so the verdict says what ``compare`` says of the same two files; ``known``: that
-    change already computed (``density = "auto"`` judged the kept candidate with it), used as is;
+    change already computed (``density = "auto"`` or the solid layout's choice judged the kept result
+    with it), used as is;
     ``workers``: processes for the two predictions of a body (the run's ``jobs``).
 
     Only 2D (plate) analyses of at most :data:`~loadpath.stiffness.change.VERDICT_SAMPLES` bead
@@ -436,7 +437,7 @@ def _run(
     # output is written: a failure of either costs nothing on disk
     t = time.perf_counter()
     asked = pres.changed and request.predict
-    known = judged.change(pres) if judged is not None and asked else None
+    known = judged.change(pres) if asked else None
     stiff, why = _prediction(pres, result.warnings, cache, lc, known, opts.workers) if asked else (None, "")
     # the printability counts reuse the output the prediction parsed; the report shows the same
     counts, counts_why = verdict_counts(pres)

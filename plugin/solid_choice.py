@@ -83,12 +83,13 @@ class SolidChooser:
     def __init__(self, run: Callable[[Any], Any], predict: Callable[[Any], Any]) -> None:
         self.run = run
         self.predict = predict
-        self.choices: dict[int, SolidChoice] = {}  # id(kept result) -> the choice that kept it
-        self._kept: list[Any] = []  # the results chosen (their ids stay theirs)
+        # id(kept result) -> (that result, the choice that kept it): held, so no other takes its id
+        self._chosen: dict[int, tuple[Any, SolidChoice]] = {}
 
     def choice(self, pres: Any) -> SolidChoice | None:
         """The choice that kept ``pres`` (a result this returned), or None (nothing gave way)."""
-        return self.choices.get(id(pres))
+        got = self._chosen.get(id(pres))
+        return got[1] if got is not None and got[0] is pres else None
 
     def __call__(self, options: Any) -> Any:
         pres = self.run(options)
@@ -104,8 +105,7 @@ class SolidChooser:
             return pres
         keep = score(*both) > score(*split)
         kept = whole if keep else pres
-        self._kept.append(kept)
-        self.choices[id(kept)] = SolidChoice(keep, other, (("level sets", *both), (other, *split)))
+        self._chosen[id(kept)] = (kept, SolidChoice(keep, other, (("level sets", *both), (other, *split))))
         return kept
 
 

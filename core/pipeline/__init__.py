@@ -491,14 +491,15 @@ def run(
     results = results[: len(jobs)]
     back = [k for k in range(len(jobs)) if results[k][0].stats.get("give_way")]
     if back:
-        again_of = [copies[phased.index(k)] for k in back if k in phased]
+        back_phased = [k for k in back if k in phased]  # their staggered copies are run again too
+        again_of = [copies[phased.index(k)] for k in back_phased]
         gave_way.update(id(j) for j in [*(jobs[k] for k in back), *again_of])
         got = engine_runs([jobs[k] for k in back] + again_of, [1.0] * (len(back) + len(again_of)))
         for k, res in zip(back, got[: len(back)], strict=True):
             cut = results[k][0].stats.get("cut_mm")
             res[0].stats["gave_way"] = {"engine": options.solid_first, "cut_mm": cut}
             results[k] = res
-        for k, res in zip([k for k in back if k in phased], got[len(back) :], strict=True):
+        for k, res in zip(back_phased, got[len(back) :], strict=True):
             shifted[k] = res[0]
     ran_by = [pick(j)[0] for j in jobs]
     clock.lap("paths")
