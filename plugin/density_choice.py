@@ -23,6 +23,12 @@ quicker prediction the verdict used to make (the engine's paths as beads every 0
 own mesh) ranked the bracket's two the other way (energy 1.077 / 0.950, stack 1.059 / 0.890, where
 ``compare`` finds 1.155 / 0.846 and 1.179 / 1.017).  Where the model is not run on every job (3D
 parts) the first candidate is kept.
+
+A near tie is settled at the printer (:func:`settle`).  The model's failure load of one part moves by
+up to 6 % between layouts laid from fields that differ by round-off (:data:`SPREAD`), so a candidate
+that ranks higher by less than that is not known to be better; of two such, the one that prints
+with fewer retractions in the replaced blocks is kept (:func:`retractions`), the higher-ranked one
+where they are not counted.
 """
 
 from __future__ import annotations
@@ -32,8 +38,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 __all__ = [
-    "CANDIDATES", "MASS_TOLERANCE", "Choice", "Judge", "score", "mass_change", "run_choosing", "judge", "describe",
-    "figure",
+    "CANDIDATES", "MASS_TOLERANCE", "SPREAD", "Choice", "Judge", "score", "tie", "settle", "settled",
+    "retractions", "mass_change", "run_choosing", "judge", "describe", "figure",
 ]
 
 CANDIDATES = ("energy", "stack")
@@ -42,6 +48,13 @@ CANDIDATES = ("energy", "stack")
 MASS_TOLERANCE = 0.02
 """Largest share by which a candidate may change the plastic of the infill it was to replace and still
 lay the slicer's mass (issue 15: the total plastic within 2 % of the slicer's sparse infill)."""
+
+
+SPREAD = 0.06
+"""Share by which the mechanics model's failure load of one part moves between layouts laid from
+fields that differ by round-off: ``benchmarks/printability_results.md``, fifteenth round (the force
+turned by 0.0003 to 0.001 rad, the 2.4 mm bent parts at 100 %: up to 5.6 %).  A candidate ranking
+higher by less is in a tie (:func:`tie`)."""
 
 
 @dataclass(frozen=True)
@@ -58,11 +71,15 @@ class Choice:
     off_mass : tuple of (str, float)
         The candidates that did not lay the slicer's mass (:func:`mass_change` beyond
         :data:`MASS_TOLERANCE`), with their change (a share: 0.12 is 12 % more plastic).
+    retractions : tuple of (int or None)
+        Per candidate of ``tried``, in its order, its retractions in the replaced blocks where a tie
+        was settled by them (:func:`settle`); ``()`` where the model's ranks decided.
     """
 
     criterion: str
     tried: tuple[tuple[str, float | None, float | None], ...]
     off_mass: tuple[tuple[str, float], ...] = ()
+    retractions: tuple[int | None, ...] = ()
 
 
 def score(stiffness: float | None, failure: float | None, keeps_mass: bool = True) -> tuple[int, int, float]:
@@ -80,6 +97,44 @@ def score(stiffness: float | None, failure: float | None, keeps_mass: bool = Tru
         return (int(keeps_mass), -1, 0.0)
     f = 1.0 if failure is None else failure
     return (int(keeps_mass), int(stiffness >= 1.0 and f >= 1.0), stiffness * f)
+
+
+def tie(higher: tuple[float | None, float | None], lower: tuple[float | None, float | None]) -> bool:
+    """Whether ``higher`` (stiffness, failure-load ratios) ranks above ``lower`` by less than the model's
+    spread: not above ``lower`` with its failure load raised by :data:`SPREAD` (mass aside: callers
+    compare candidates that both lay it).  False where either is not predicted."""
+    if higher[0] is None or lower[0] is None or score(*higher) <= score(*lower):
+        return False
+    s, f = lower
+    return score(*higher) <= score(s, (1.0 if f is None else f) * (1.0 + SPREAD))
+
+
+def retractions(pres: Any) -> int | None:
+    """Retractions in a run's replaced blocks (:func:`loadpath.printability.verdict_counts`), or None."""
+    from loadpath.printability import verdict_counts
+
+    counts, _ = verdict_counts(pres)
+    return None if counts is None else int(counts["loadpath"]["retractions"])
+
+
+def settle(first: Any, second: Any) -> tuple[bool, tuple[int | None, int | None]]:
+    """A tie settled at the printer: whether ``second`` is kept over ``first``, the one ranked higher.
+
+    Parameters
+    ----------
+    first, second : PipelineResult
+        Two results in a :func:`tie`, ``first`` the one ranked higher.
+
+    Returns
+    -------
+    keep_second : bool
+        True where ``second`` prints with fewer retractions in the replaced blocks; False where it
+        does not, or where either is not counted (the higher rank stands).
+    counts : (int or None, int or None)
+        Their retractions, in the order given.
+    """
+    n = (retractions(first), retractions(second))
+    return (None not in n and n[1] < n[0]), n  # type: ignore[operator]
 
 
 def mass_change(pres: Any) -> float | None:
@@ -120,7 +175,7 @@ def run_choosing(
     result : PipelineResult
     choice : Choice
     """
-    best = None
+    ranked = []  # (rank, -order, result, criterion, ratios, keeps mass)
     tried: list[tuple[str, float | None, float | None]] = []
     off: list[tuple[str, float]] = []
     own_mass = getattr(options.density, "fill", None) is None
@@ -131,19 +186,21 @@ def run_choosing(
         keeps = share is None or abs(share) <= MASS_TOLERANCE
         if not keeps:
             off.append((crit, float(share)))
+        tried.append((crit, *(ratios or (None, None))))
+        if ratios is None and i > 0:
+            continue  # not judged: not kept
+        ranked.append((score(*(ratios or (None, None)), keeps), -i, pres, crit, ratios or (None, None), keeps))
         if ratios is None:
-            tried.append((crit, None, None))
-            if best is None:
-                best = (pres, crit, score(None, None, keeps))
-            if i == 0:
-                break  # nothing replaced or nothing to judge by: the first candidate stands
-            continue
-        tried.append((crit, *ratios))
-        rank = score(*ratios, keeps)
-        if best is None or rank > best[2]:
-            best = (pres, crit, rank)
-    assert best is not None
-    return best[0], Choice(best[1], tuple(tried), tuple(off))
+            break  # nothing replaced or nothing to judge by: the first candidate stands
+    ranked.sort(key=lambda r: r[:2], reverse=True)  # the higher rank first, the earlier candidate on equal ranks
+    best = ranked[0]
+    retr: tuple[int | None, ...] = ()
+    if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][4]):
+        second, n = settle(best[2], ranked[1][2])  # a tie within the model's spread: the printer decides
+        order = [c for c, *_ in tried]
+        retr = tuple(n[0] if c == best[3] else n[1] for c in order)
+        best = ranked[1] if second else best
+    return best[2], Choice(best[3], tuple(tried), tuple(off), retr)
 
 
 def figure(name: str, stiffness: float | None, failure: float | None) -> str:
@@ -168,7 +225,15 @@ def describe(choice: Choice) -> str:
         f"; {crit} laid {share:+.0%} of the slicer's plastic (blocks kept as sliced), not its mass"
         for crit, share in choice.off_mass
     )
-    return f"'{choice.criterion}' (auto, by loadpath compare's model over the slicer's file: {figures}{off})"
+    return f"'{choice.criterion}' (auto, by loadpath compare's model over the slicer's file: {figures}{off}" + (
+        f"; {settled(choice.retractions)})" if choice.retractions else ")")
+
+
+def settled(counts: tuple[int | None, ...]) -> str:
+    """The verdict's words for a tie settled at the printer (``counts``: each layout's retractions,
+    in the order the figures name them)."""
+    said = "retractions " + " against ".join(map(str, counts)) if None not in counts else "retractions not counted"
+    return f"a tie within the model's {SPREAD:.0%} spread: {said}"
 
 
 class Judge:

@@ -26,15 +26,13 @@ the second criterion; made for each, every layout the run chose from before is s
 ranked.  A part the model does not judge on every run (3D analyses) keeps the swarm where the level
 sets gave way.
 
-A near tie is settled at the printer.  The model's failure load of one part moves by up to 6 % between
-layouts laid from fields that differ by round-off (the force turned by 0.0003 to 0.001 rad, the 2.4 mm
-parts above), while the swarm's fragments cost three to five times the level sets' retractions on
-the same files.  So the swarm's layout is kept only where its rank beats the level sets' with their
-failure load raised by that spread (:data:`SPREAD`); closer than that, the layout with fewer
-retractions in the replaced blocks is kept (:func:`loadpath.printability.verdict_counts`; the level
-sets where a file is over the counts' budget).  On the PrusaSlicer L-bracket above, one run judged
-the level sets 1.008 / 0.925 and the swarm 1.007 / 0.954 (485 retractions against the slicer's 25):
-the median of the three runs ranked them the other way.
+A near tie is settled at the printer, as ``density = "auto"`` settles its own
+(:func:`loadpath.plugin.density_choice.tie`): the model's failure load of one part moves by up to 6 %
+between layouts laid from fields that differ by round-off, while the swarm's fragments cost three to
+five times the level sets' retractions on the same files.  On the PrusaSlicer L-bracket above, one
+run judged the level sets 1.008 / 0.925 and the swarm 1.007 / 0.954 and kept the swarm, with 485
+retractions against the level sets' 149 (the slicer's: 25); the median of the three runs had ranked
+them the other way.
 """
 
 from __future__ import annotations
@@ -43,13 +41,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from loadpath.plugin.density_choice import figure, score
+from loadpath.plugin.density_choice import figure, score, settle, settled, tie
 
-__all__ = ["SolidChoice", "SolidChooser", "SPREAD", "gave_way", "describe", "keep_whole"]
-
-SPREAD = 0.06
-"""Share by which the mechanics model's failure load of one part moves between layouts laid from
-fields that differ by round-off (module docstring): a closer rank is a tie, settled by retractions."""
+__all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe"]
 
 
 @dataclass(frozen=True)
@@ -67,7 +61,7 @@ class SolidChoice:
         failure-load ratios over the slicer's file.
     retractions : tuple of (int or None, int or None)
         Per layout, in the same order: retractions in its replaced blocks, where they settled a tie
-        (:func:`keep_whole`); ``()`` where the model's ranks decided.
+        (:func:`loadpath.plugin.density_choice.settle`); ``()`` where the model's ranks decided.
     """
 
     whole: bool
@@ -121,54 +115,19 @@ class SolidChooser:
         both = self.predict(whole) if whole.changed else None
         if both is None:
             return pres
-        keep, tie = keep_whole(both, split)
+        keep = score(*both) >= score(*split)
         retr: tuple[int | None, ...] = ()
-        if tie:  # within the model's spread: the layout that prints with fewer retractions
-            retr = (_retractions(whole), _retractions(pres))
-            keep = None in retr or retr[0] <= retr[1]  # type: ignore[operator]
+        if not keep and tie(split, both):  # within the model's spread: the printer decides
+            keep, (n_split, n_whole) = settle(pres, whole)
+            retr = (n_whole, n_split)
         kept = whole if keep else pres
         self._chosen[id(kept)] = (kept, SolidChoice(keep, other, (("level sets", *both), (other, *split)), retr))
         return kept
-
-
-def keep_whole(whole: tuple[float, float | None], split: tuple[float, float | None]) -> tuple[bool, bool]:
-    """Whether the model's ranks keep the level sets on every solid layer, and whether it is a tie.
-
-    Parameters
-    ----------
-    whole, split : (float, float or None)
-        Predicted stiffness and failure-load ratios over the slicer's file: the level sets on every
-        solid layer, and the layout where they gave way.
-
-    Returns
-    -------
-    keep : bool
-        True where the level sets rank at least as high (:func:`~loadpath.plugin.density_choice.score`).
-    tie : bool
-        True where the other layout ranks higher, but not once the level sets' failure load is
-        raised by :data:`SPREAD` (the printer decides: :class:`SolidChooser`).
-    """
-    if score(*whole) >= score(*split):
-        return True, False
-    s, f = whole
-    return False, score(*split) <= score(s, (1.0 if f is None else f) * (1.0 + SPREAD))
-
-
-def _retractions(pres: Any) -> int | None:
-    """Retractions in a run's replaced blocks (:func:`loadpath.printability.verdict_counts`), or None."""
-    from loadpath.printability import verdict_counts
-
-    counts, _ = verdict_counts(pres)
-    return None if counts is None else int(counts["loadpath"]["retractions"])
 
 
 def describe(choice: SolidChoice) -> str:
     """The verdict's words for a choice: the layout kept and both layouts' predicted ratios."""
     figures = "; ".join(figure(*t) for t in choice.tried)
     kept = "level sets on every solid layer" if choice.whole else f"{choice.given_way} where the level sets gave way"
-    why = ""
-    if choice.retractions:  # a tie settled at the printer: the kept layout's retractions first
-        n = choice.retractions if choice.whole else choice.retractions[::-1]
-        why = f"; a tie within the model's {SPREAD:.0%} spread: " + (
-            f"{n[0]} retractions against {n[1]}" if None not in n else "retractions not counted")
+    why = f"; {settled(choice.retractions)}" if choice.retractions else ""
     return f"{kept} (by loadpath compare's model over the slicer's file: {figures}{why})"

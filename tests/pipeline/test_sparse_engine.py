@@ -22,9 +22,9 @@ from loadpath import engines, gcode, loadcase
 from loadpath.errors import LoadCaseError, SettingsError
 from loadpath.loadcase import ToolpathOptions
 from loadpath.plugin import settings as settings_mod
+from loadpath.plugin.density_choice import score, tie
 from loadpath.plugin.job import JobRequest, run_job
 from loadpath.plugin.solid_choice import describe as describe_solid
-from loadpath.plugin.solid_choice import keep_whole
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples"
 
@@ -105,12 +105,11 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdic
     assert choice is not None and choice.given_way == "swarm", choice
     (name_w, s_w, f_w), (name_s, s_s, f_s) = choice.tried
     assert (name_w, name_s) == ("level sets", "swarm")
-    keep, tie = keep_whole((s_w, f_w), (s_s, f_s))
-    if tie:  # within the model's spread: fewer retractions in the replaced blocks decided
+    if tie((s_s, f_s), (s_w, f_w)):  # the swarm ahead within the model's spread: fewer retractions decided
         n = choice.retractions
-        assert len(n) == 2 and choice.whole == (None in n or n[0] <= n[1]), choice
+        assert len(n) == 2 and choice.whole == (None not in n and n[0] < n[1]), choice
     else:
-        assert choice.whole == keep and choice.retractions == (), choice
+        assert choice.whole == (score(s_w, f_w) >= score(s_s, f_s)) and choice.retractions == (), choice
     kept = (s_w, f_w) if choice.whole else (s_s, f_s)
     assert res.verdict.stiffness == pytest.approx(kept[0] - 1.0, abs=1e-3)
     assert res.verdict.failure_load == pytest.approx(kept[1] - 1.0, abs=1e-3)

@@ -4,9 +4,10 @@ The choice on real slices: tests/pipeline/test_sparse_strength.py."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
-from loadpath.plugin.density_choice import Choice, describe, score
+from loadpath.plugin.density_choice import SPREAD, Choice, describe, run_choosing, score, tie
 
 
 def test_no_loss_ranks_first_then_the_product():
@@ -34,6 +35,62 @@ def test_the_verdict_names_the_kept_criterion_and_the_figures_that_chose_it():
     assert "failure load not predicted" in describe(Choice("energy", (("energy", 1.2, None),)))
     off = describe(Choice("energy", (("energy", 1.14, 1.238), ("stack", 1.243, 1.333)), (("stack", 0.38),)))
     assert off.endswith("; stack laid +38% of the slicer's plastic (blocks kept as sliced), not its mass)")
+
+
+def test_a_rank_closer_than_the_model_spread_is_a_tie():
+    # the L-bracket's single run (bench_printability, PrusaSlicer 100 %): swarm 1.007 / 0.954 over
+    # level sets 1.008 / 0.925, 3 % apart on failure load
+    assert tie((1.007, 0.954), (1.008, 0.925))
+    # issue 15's 12 mm beam, CuraEngine 20 %: the swarm's 3.004x against 2.193x is no tie
+    assert not tie((1.51, 3.004), (1.50, 2.193))
+    # just inside and just outside the spread, on failure load alone; the lower never ties the higher
+    assert tie((1.0, 1.2 * (1 + SPREAD) * 0.999), (1.0, 1.2))
+    assert not tie((1.0, 1.2 * (1 + SPREAD) * 1.001), (1.0, 1.2))
+    assert not tie((1.0, 1.2), (1.0, 1.25)) and not tie((1.0, 1.2), (1.0, 1.2))
+    # no loss against a loss: a tie only within the spread
+    assert tie((1.0, 1.01), (1.0, 0.96)) and not tie((1.0, 1.0), (1.0, 0.90))
+    # a missing failure load counts as unchanged; nothing predicted is never a tie
+    assert tie((1.0, 1.03), (1.0, None)) and not tie((None, None), (1.0, 1.0))
+
+
+class _Run:
+    """A pipeline result as run_choosing reads it: changed, no splice (mass unknown: kept), and the
+    verdict's counts made beside the check."""
+
+    def __init__(self, crit: str, retractions: int | None) -> None:
+        self.crit, self.changed, self.splice = crit, True, None
+        self.counts = (None, "over budget") if retractions is None else ({"loadpath": {"retractions": retractions}}, "")
+
+
+@dataclass(frozen=True)
+class _Density:
+    criterion: str = "energy"
+    fill: None = None
+
+
+@dataclass(frozen=True)
+class _Options:  # run_choosing replaces the density's criterion (dataclasses.replace)
+    density: _Density = _Density()
+
+
+def _choose(figures: dict, retractions: dict):
+    runs = {c: _Run(c, n) for c, n in retractions.items()}
+    return run_choosing(lambda o: runs[o.density.criterion], lambda r: figures[r.crit], _Options())
+
+
+def test_a_tie_between_candidates_goes_to_the_one_with_fewer_retractions():
+    # the L-bracket at PrusaSlicer 40 % (bench_sparse): energy 1.686 / 1.458, stack 1.665 / 1.451
+    figures = {"energy": (1.686, 1.458), "stack": (1.665, 1.451)}
+    pres, choice = _choose(figures, {"energy": 44, "stack": 30})
+    assert pres.crit == "stack" and choice.criterion == "stack" and choice.retractions == (44, 30)
+    assert describe(choice).endswith("; a tie within the model's 6% spread: retractions 44 against 30)")
+    pres, choice = _choose(figures, {"energy": 30, "stack": 44})
+    assert pres.crit == "energy" and choice.retractions == (30, 44)
+    pres, choice = _choose(figures, {"energy": 44, "stack": None})  # not counted: the rank stands
+    assert pres.crit == "energy" and describe(choice).endswith("retractions not counted)")
+    # beyond the spread the rank decides, whatever the retractions (the 12 mm beam at PrusaSlicer 40 %)
+    pres, choice = _choose({"energy": (1.760, 3.050), "stack": (1.759, 3.329)}, {"energy": 10, "stack": 99})
+    assert pres.crit == "stack" and choice.retractions == () and "retractions" not in describe(choice)
 
 
 def test_the_first_judgment_side_by_side_gives_the_same_figures(tmp_path):
