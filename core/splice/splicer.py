@@ -341,6 +341,9 @@ def splice(
     )
 
 
+NO_PATHS = "no new path fits in it"
+"""Why a block the engine laid nothing in is kept as sliced (the run's warnings group these)."""
+
 _WORK: list[tuple] = []
 """What :func:`splice` hands to :func:`_splice_batch` (inherited by the forked workers, not pickled):
 ``(program, sorted fills, options, plan options, style)``."""
@@ -385,6 +388,8 @@ def _splice_block(
     plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
     aim = b.e * fill.volume_scale
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
+    if options.volume_tol is not None and aim > 0 and plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm bits)
+        return fill.block, [], None, f"{NO_PATHS} ({b.length:.1f} mm of the slicer's bead)"
     if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
         return (
             fill.block,

@@ -435,6 +435,34 @@ def test_block_whose_paths_miss_the_volume_is_kept_and_reported(sliced):
     assert check.problems == []
 
 
+def test_blocks_no_path_fits_in_are_kept_and_grouped_in_the_warnings(sliced):
+    """A block the engine laid nothing in (a sliver: PrusaSlicer's 0.6 mm solid bits on a tall
+    specimen) is kept as sliced and said so; many of them make one warning, not one each."""
+    from loadpath.pipeline import _kept_as_sliced
+    from loadpath.splice import BlockFill
+    from loadpath.splice.splicer import NO_PATHS
+
+    program = gcode.read(sliced("prusa", "ohs", "solid"))
+    blocks = infill_blocks(program)
+    result, out, check = run_splice(program, [BlockFill(i, ()) for i in blocks[:5]])
+    assert [k for k, _ in result.skipped] == blocks[:5] and check.problems == []
+    assert all(why.startswith(NO_PATHS + " (") for _, why in result.skipped)
+    b = program.block(blocks[0])
+    assert result.skipped[0][1] == f"{NO_PATHS} ({b.length:.1f} mm of the slicer's bead)"
+    few = _kept_as_sliced(program, result.skipped[:3])
+    assert few == [f"layer {program.block(k).layer + 1}, {program.block(k).feature}: kept as sliced ({why})"
+                   for k, why in result.skipped[:3]]
+    other = (blocks[6], "a mode change")
+    many = _kept_as_sliced(program, [*result.skipped, other])
+    layers = sorted({program.block(k).layer + 1 for k in blocks[:5]})
+    longest = max(program.block(k).length for k in blocks[:5])
+    assert many == [
+        f"layer {program.block(other[0]).layer + 1}, {program.block(other[0]).feature}: kept as sliced (a mode change)",
+        f"5 blocks kept as sliced, no new path fits in them (at most {longest:.1f} mm of the slicer's "
+        f"bead each; layers {', '.join(map(str, layers))})",
+    ]
+
+
 def test_blocks_spliced_in_worker_processes_give_the_same_bytes(sliced):
     """``splice(..., workers=2)`` writes each block in forked workers: the same bytes, reports and
     kept blocks as one process, in block order (one block's fill thins to a third of the lines so
