@@ -341,7 +341,7 @@ def splice(
     )
 
 
-NO_PATHS = "no new path fits in it"
+NO_PATHS = "no new path fits in its"
 """Why a block the engine laid nothing in is kept as sliced (the run's warnings group these)."""
 
 _WORK: list[tuple] = []
@@ -389,14 +389,14 @@ def _splice_block(
     aim = b.e * fill.volume_scale
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
     if options.volume_tol is not None and aim > 0 and plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm bits)
-        return fill.block, [], None, f"{NO_PATHS} ({b.length:.1f} mm of the slicer's bead)"
+        return fill.block, [], None, f"{NO_PATHS} {b.length:.1f} mm of bead"
     if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
         return (
             fill.block,
             [],
             None,
-            f"the new paths would extrude {plan.filament / aim:.0%} of the {whose} "
-            "(the engine covered too little or too much of the region)",
+            f"the new paths would extrude {plan.filament / aim:.0%} of the {whose}: the engine covered "
+            f"too {'much' if plan.filament > aim else 'little'} of the region",
         )
     style = replace(style, path_xy_decimals=options.xy_decimals, e_decimals=options.e_decimals)
     arcs = None
