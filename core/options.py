@@ -197,6 +197,17 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         maximum=50.0,
     ),
     Field(
+        "tie_spread",
+        "float",
+        0.06,
+        "fraction",
+        "two layouts the mechanics model ranks closer than this share of failure load are a tie, kept by "
+        "fewer retractions (density 'auto'; solid layers where the level sets gave way); 0: the model's "
+        "rank alone. Default: how far round-off moves the model's failure load between layouts",
+        minimum=0.0,
+        maximum=0.5,
+    ),
+    Field(
         "width_min",
         "float",
         0.6,

@@ -37,6 +37,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
+from loadpath.options import field
+
 __all__ = [
     "CANDIDATES", "MASS_TOLERANCE", "SPREAD", "Choice", "Judge", "score", "tie", "settle", "settled",
     "retractions", "mass_change", "run_choosing", "judge", "describe", "figure",
@@ -50,11 +52,12 @@ MASS_TOLERANCE = 0.02
 lay the slicer's mass (issue 15: the total plastic within 2 % of the slicer's sparse infill)."""
 
 
-SPREAD = 0.06
+SPREAD: float = field("tie_spread").default
 """Share by which the mechanics model's failure load of one part moves between layouts laid from
 fields that differ by round-off: ``benchmarks/printability_results.md``, fifteenth round (the force
 turned by 0.0003 to 0.001 rad, the 2.4 mm bent parts at 100 %: up to 5.6 %).  A candidate ranking
-higher by less is in a tie (:func:`tie`)."""
+higher by less is in a tie (:func:`tie`); the setting ``tie_spread`` (its owner,
+:mod:`loadpath.options`) sets another share for a run, 0 for the model's rank alone."""
 
 
 @dataclass(frozen=True)
@@ -74,12 +77,15 @@ class Choice:
     retractions : tuple of (int or None)
         Per candidate of ``tried``, in its order, its retractions in the replaced blocks where a tie
         was settled by them (:func:`settle`); ``()`` where the model's ranks decided.
+    spread : float
+        The share within which ranks were a tie (setting ``tie_spread``).
     """
 
     criterion: str
     tried: tuple[tuple[str, float | None, float | None], ...]
     off_mass: tuple[tuple[str, float], ...] = ()
     retractions: tuple[int | None, ...] = ()
+    spread: float = SPREAD
 
 
 def score(stiffness: float | None, failure: float | None, keeps_mass: bool = True) -> tuple[int, int, float]:
@@ -99,14 +105,17 @@ def score(stiffness: float | None, failure: float | None, keeps_mass: bool = Tru
     return (int(keeps_mass), int(stiffness >= 1.0 and f >= 1.0), stiffness * f)
 
 
-def tie(higher: tuple[float | None, float | None], lower: tuple[float | None, float | None]) -> bool:
+def tie(
+    higher: tuple[float | None, float | None], lower: tuple[float | None, float | None], spread: float = SPREAD
+) -> bool:
     """Whether ``higher`` (stiffness, failure-load ratios) ranks above ``lower`` by less than the model's
-    spread: not above ``lower`` with its failure load raised by :data:`SPREAD` (mass aside: callers
-    compare candidates that both lay it).  False where either is not predicted."""
-    if higher[0] is None or lower[0] is None or score(*higher) <= score(*lower):
+    spread: not above ``lower`` with its failure load raised by ``spread`` (a share, :data:`SPREAD`;
+    mass aside: callers compare candidates that both lay it).  False where either is not predicted
+    or ``spread`` is 0."""
+    if spread <= 0 or higher[0] is None or lower[0] is None or score(*higher) <= score(*lower):
         return False
     s, f = lower
-    return score(*higher) <= score(s, (1.0 if f is None else f) * (1.0 + SPREAD))
+    return score(*higher) <= score(s, (1.0 if f is None else f) * (1.0 + spread))
 
 
 def retractions(pres: Any) -> int | None:
@@ -156,6 +165,7 @@ def run_choosing(
     run: Callable[[Any], Any],
     predict: Callable[[Any], tuple[float, float | None] | None],
     options: Any,
+    spread: float = SPREAD,
 ) -> tuple[Any, Choice]:
     """Run the pipeline once per candidate and keep the better one (module docstring).
 
@@ -169,6 +179,8 @@ def run_choosing(
     options : PipelineOptions
         With ``density`` set (its criterion is replaced by each candidate's).  Where its ``fill`` is
         set (the user asked for another mass) the mass does not rank the candidates.
+    spread : float
+        Ties within this share of failure load go to fewer retractions (:func:`tie`, :func:`settle`).
 
     Returns
     -------
@@ -195,12 +207,12 @@ def run_choosing(
     ranked.sort(key=lambda r: r[:2], reverse=True)  # the higher rank first, the earlier candidate on equal ranks
     best = ranked[0]
     retr: tuple[int | None, ...] = ()
-    if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][4]):
+    if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][4], spread):
         second, n = settle(best[2], ranked[1][2])  # a tie within the model's spread: the printer decides
         order = [c for c, *_ in tried]
         retr = tuple(n[0] if c == best[3] else n[1] for c in order)
         best = ranked[1] if second else best
-    return best[2], Choice(best[3], tuple(tried), tuple(off), retr)
+    return best[2], Choice(best[3], tuple(tried), tuple(off), retr, spread)
 
 
 def figure(name: str, stiffness: float | None, failure: float | None) -> str:
@@ -226,14 +238,18 @@ def describe(choice: Choice) -> str:
         for crit, share in choice.off_mass
     )
     return f"'{choice.criterion}' (auto, by loadpath compare's model over the slicer's file: {figures}{off}" + (
-        f"; {settled(choice.retractions)})" if choice.retractions else ")")
+        f"; {settled(choice.retractions, choice.spread)})" if choice.retractions else ")")
 
 
-def settled(counts: tuple[int | None, ...]) -> str:
+def settled(counts: tuple[int | None, ...], spread: float = SPREAD) -> str:
     """The verdict's words for a tie settled at the printer (``counts``: each layout's retractions,
-    in the order the figures name them)."""
-    said = "retractions " + " against ".join(map(str, counts)) if None not in counts else "retractions not counted"
-    return f"a tie within the model's {SPREAD:.0%} spread: {said}"
+    in the order the figures name them; ``spread``: the share within which the ranks tied)."""
+    head = f"a tie within the model's {spread:.0%} spread"
+    if None in counts:
+        return f"{head}: retractions not counted, the higher rank kept"
+    if len(set(counts)) == 1:
+        return f"{head}, {counts[0]} retractions each: the higher rank kept"
+    return f"{head}: retractions " + " against ".join(map(str, counts))
 
 
 class Judge:

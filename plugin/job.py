@@ -416,9 +416,9 @@ def _run(
 
     # where the level sets give way on solid infill, both layouts are laid and judged (solid_choice)
     judged = judge(program, lc, opts.workers, progress)
-    chooser = SolidChooser(run_with, judged)
+    chooser = SolidChooser(run_with, judged, s.tie_spread)
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
-        pres, result.density = run_choosing(chooser, judged, opts)
+        pres, result.density = run_choosing(chooser, judged, opts, s.tie_spread)
     else:
         pres = chooser(opts)
     result.solid = chooser.choice(pres)

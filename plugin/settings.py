@@ -269,6 +269,7 @@ class Settings:
     density_exponent: float | None = None
     sparse_fill: float | None = None
     density_max_pitch: float = 8.0
+    tie_spread: float = 0.06
     width_min: float = 0.6
     width_max: float = 1.6
     link_max: float = 2.0

@@ -41,7 +41,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from loadpath.plugin.density_choice import figure, score, settle, settled, tie
+from loadpath.plugin.density_choice import SPREAD, figure, score, settle, settled, tie
 
 __all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe"]
 
@@ -62,12 +62,15 @@ class SolidChoice:
     retractions : tuple of (int or None, int or None)
         Per layout, in the same order: retractions in its replaced blocks, where they settled a tie
         (:func:`loadpath.plugin.density_choice.settle`); ``()`` where the model's ranks decided.
+    spread : float
+        The share within which ranks were a tie (setting ``tie_spread``).
     """
 
     whole: bool
     given_way: str
     tried: tuple[tuple[str, float, float | None], ...]
     retractions: tuple[int | None, ...] = ()
+    spread: float = SPREAD
 
 
 def gave_way(pres: Any) -> str | None:
@@ -90,11 +93,14 @@ class SolidChooser:
     predict : callable
         ``predict(pipeline_result) -> (stiffness ratio, failure-load ratio) or None``
         (:class:`loadpath.plugin.density_choice.Judge`: a result judged twice is evaluated once).
+    spread : float
+        Ties within this share of failure load go to fewer retractions (setting ``tie_spread``).
     """
 
-    def __init__(self, run: Callable[[Any], Any], predict: Callable[[Any], Any]) -> None:
+    def __init__(self, run: Callable[[Any], Any], predict: Callable[[Any], Any], spread: float = SPREAD) -> None:
         self.run = run
         self.predict = predict
+        self.spread = spread
         # id(kept result) -> (that result, the choice that kept it): held, so no other takes its id
         self._chosen: dict[int, tuple[Any, SolidChoice]] = {}
 
@@ -117,11 +123,12 @@ class SolidChooser:
             return pres
         keep = score(*both) >= score(*split)
         retr: tuple[int | None, ...] = ()
-        if not keep and tie(split, both):  # within the model's spread: the printer decides
+        if not keep and tie(split, both, self.spread):  # within the model's spread: the printer decides
             keep, (n_split, n_whole) = settle(pres, whole)
             retr = (n_whole, n_split)
         kept = whole if keep else pres
-        self._chosen[id(kept)] = (kept, SolidChoice(keep, other, (("level sets", *both), (other, *split)), retr))
+        tried = (("level sets", *both), (other, *split))
+        self._chosen[id(kept)] = (kept, SolidChoice(keep, other, tried, retr, self.spread))
         return kept
 
 
@@ -129,5 +136,5 @@ def describe(choice: SolidChoice) -> str:
     """The verdict's words for a choice: the layout kept and both layouts' predicted ratios."""
     figures = "; ".join(figure(*t) for t in choice.tried)
     kept = "level sets on every solid layer" if choice.whole else f"{choice.given_way} where the level sets gave way"
-    why = f"; {settled(choice.retractions)}" if choice.retractions else ""
+    why = f"; {settled(choice.retractions, choice.spread)}" if choice.retractions else ""
     return f"{kept} (by loadpath compare's model over the slicer's file: {figures}{why})"

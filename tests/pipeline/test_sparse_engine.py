@@ -146,6 +146,15 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdic
     assert "with swarm;" in res2.verdict.line()
     assert res2.solid is None and "solid infill:" not in res2.verdict.line()  # nothing gave way: no choice
 
+    # tie_spread = 0: the model's rank alone, the same two layouts judged
+    rank = src.with_name("bracket.rank.gcode")
+    res3 = run_job(JobRequest(src, case, output=rank, cli={**cli, "tie_spread": 0.0}))
+    assert res3.written and res3.error is None, res3.error
+    c3 = res3.solid
+    assert c3 is not None and c3.retractions == () and "a tie" not in res3.verdict.line()
+    (_, s_w, f_w), (_, s_s, f_s) = c3.tried
+    assert c3.whole == (score(s_w, f_w) >= score(s_s, f_s)), c3
+
 
 @pytest.mark.slow
 def test_a_part_in_tension_gets_the_level_sets_on_solid_infill_too(tmp_path):

@@ -51,6 +51,9 @@ def test_a_rank_closer_than_the_model_spread_is_a_tie():
     assert tie((1.0, 1.01), (1.0, 0.96)) and not tie((1.0, 1.0), (1.0, 0.90))
     # a missing failure load counts as unchanged; nothing predicted is never a tie
     assert tie((1.0, 1.03), (1.0, None)) and not tie((None, None), (1.0, 1.0))
+    # the setting tie_spread: another share, or 0 for the model's rank alone
+    assert tie((1.007, 0.954), (1.008, 0.925), 0.04) and not tie((1.007, 0.954), (1.008, 0.925), 0.02)
+    assert not tie((1.0, 1.0001), (1.0, 1.0), 0.0)
 
 
 class _Run:
@@ -73,9 +76,9 @@ class _Options:  # run_choosing replaces the density's criterion (dataclasses.re
     density: _Density = _Density()
 
 
-def _choose(figures: dict, retractions: dict):
+def _choose(figures: dict, retractions: dict, spread: float = SPREAD):
     runs = {c: _Run(c, n) for c, n in retractions.items()}
-    return run_choosing(lambda o: runs[o.density.criterion], lambda r: figures[r.crit], _Options())
+    return run_choosing(lambda o: runs[o.density.criterion], lambda r: figures[r.crit], _Options(), spread)
 
 
 def test_a_tie_between_candidates_goes_to_the_one_with_fewer_retractions():
@@ -87,7 +90,14 @@ def test_a_tie_between_candidates_goes_to_the_one_with_fewer_retractions():
     pres, choice = _choose(figures, {"energy": 30, "stack": 44})
     assert pres.crit == "energy" and choice.retractions == (30, 44)
     pres, choice = _choose(figures, {"energy": 44, "stack": None})  # not counted: the rank stands
-    assert pres.crit == "energy" and describe(choice).endswith("retractions not counted)")
+    assert pres.crit == "energy" and describe(choice).endswith("retractions not counted, the higher rank kept)")
+    pres, choice = _choose(figures, {"energy": 18, "stack": 18})  # as many: the rank stands
+    assert pres.crit == "energy" and describe(choice).endswith(", 18 retractions each: the higher rank kept)")
+    # tie_spread = 0: the rank alone; a wider spread is named in the verdict
+    pres, choice = _choose(figures, {"energy": 44, "stack": 30}, 0.0)
+    assert pres.crit == "energy" and choice.retractions == () and "tie" not in describe(choice)
+    pres, choice = _choose(figures, {"energy": 44, "stack": 30}, 0.1)
+    assert pres.crit == "stack" and "a tie within the model's 10% spread" in describe(choice)
     # beyond the spread the rank decides, whatever the retractions (the 12 mm beam at PrusaSlicer 40 %)
     pres, choice = _choose({"energy": (1.760, 3.050), "stack": (1.759, 3.329)}, {"energy": 10, "stack": 99})
     assert pres.crit == "stack" and choice.retractions == () and "retractions" not in describe(choice)

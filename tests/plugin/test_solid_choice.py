@@ -16,6 +16,7 @@ def test_the_verdict_says_a_tie_was_settled_by_retractions():
         "stiffness 1.008x, failure load 0.925x; swarm stiffness 1.007x, failure load 0.954x; a tie within "
         "the model's 6% spread: retractions 149 against 485)"
     )
-    assert describe(SolidChoice(False, "swarm", tried, (None, 485))).endswith(": retractions not counted)")
+    assert describe(SolidChoice(False, "swarm", tried, (None, 485))).endswith(
+        ": retractions not counted, the higher rank kept)")
     # decided by the ranks: no word of retractions
     assert "retractions" not in describe(SolidChoice(False, "swarm", tried))
