@@ -254,24 +254,38 @@ def settled(counts: tuple[int | None, ...], spread: float = SPREAD) -> str:
 
 class Judge:
     """``predict`` for :func:`run_choosing`: the model of ``loadpath compare`` on the slicer's program
-    and each candidate's output (:func:`loadpath.stiffness.evaluate_file`, one mesh for all).
+    and each candidate's output.
 
     Only plate (2D) analyses are judged: a 3D body's prediction samples every layer into
     tetrahedra (minutes on a tall part), so there the first candidate stands.  What it evaluated
     stays for the verdict (:meth:`change`): the kept candidate's figures are the verdict's, with no
     further solve.
+
+    With the run's cache (and a cache key for every body's analysis), each file is predicted as the
+    verdict predicts one (:func:`loadpath.stiffness.change.predicted_change`, the same model and
+    figures): every prediction is kept, so a repeated run, or a re-slice whose beads moved by less
+    than a tenth of a millimetre, judges its candidates from the cache (issue 17: the sparse gusset
+    run again, 5.9 s in process, of which the judgments were 63 %).  Without one, each candidate and
+    the slicer's file once (:func:`loadpath.stiffness.evaluate_file`, one mesh for all).
     """
 
     def __init__(
-        self, program: Any, loadcase: Any, workers: int = 1, progress: Callable[[str, int, int], None] | None = None
+        self,
+        program: Any,
+        loadcase: Any,
+        workers: int = 1,
+        progress: Callable[[str, int, int], None] | None = None,
+        cache: Any = None,
     ) -> None:
         self.program = program
         self.loadcase = loadcase
         self.workers = workers
         self.progress = progress  # ``progress("judge", done, total)`` around each evaluation
+        self.cache = cache
         self.meshes: dict = {}
         self.ref: Any = None
-        self._seen: dict[int, tuple[Any, Any, float]] = {}  # id(result) -> (weakref, FileResult, seconds)
+        # id(result) -> (weakref, FileResult or StiffnessChange, seconds)
+        self._seen: dict[int, tuple[Any, Any, float]] = {}
 
     def __call__(self, pres: Any) -> tuple[float, float | None] | None:
         import time
@@ -290,6 +304,12 @@ class Judge:
         t0 = time.perf_counter()
         if self.progress:
             self.progress("judge", 0, 1)
+        if self.cache is not None and pres.fea_keys and set(pres.fea_keys) >= set(pres.analyses):
+            change = self._predicted(pres)
+            self._seen[id(pres)] = (weakref.ref(pres), change, time.perf_counter() - t0)
+            if self.progress:
+                self.progress("judge", 1, 1)
+            return self._ratios(change)
         out = parse(pres.data, strict=False)
         if self.ref is None and forks(self.workers, 2):
             # the slicer's file and the first candidate side by side: the same computations in two
@@ -311,10 +331,32 @@ class Judge:
             self.progress("judge", 1, 1)
         return self._ratios(res)
 
+    def _predicted(self, pres: Any) -> Any:
+        """The verdict's :class:`~loadpath.stiffness.change.StiffnessChange` of a result, its predictions
+        read from the run's cache or solved and kept there (no budget: every 2D part is judged)."""
+        from loadpath.stiffness.change import predicted_change
+
+        return predicted_change(
+            pres.analyses,
+            self.program,
+            lambda: pres.output,  # parsed once, kept on the result (the verdict's counts read it too)
+            {o.name: o.code for o in pres.geometry.objects},
+            pres.geometry.filament_diameter,
+            loadcase=self.loadcase,
+            cache=self.cache,
+            fea_keys=pres.fea_keys,
+            budget=float("inf"),
+            workers=self.workers,
+        )
+
     def _ratios(self, res: Any) -> tuple[float, float | None]:
         """Stiffness and failure-load ratios of an evaluated candidate over the slicer's file."""
+        from loadpath.stiffness.change import StiffnessChange
         from loadpath.stiffness.compare import row
 
+        if isinstance(res, StiffnessChange):
+            fail = res.failure_load
+            return 1.0 + float(res.absolute), (1.0 + float(fail) if fail is not None and fail == fail else None)
         r = row(res, self.ref)
         fail = r.relative_failure_load
         return float(r.relative_stiffness), (float(fail) if fail == fail else None)
@@ -326,15 +368,20 @@ class Judge:
         (both are ``compare``'s model on the slicer's file and the output's beads; the verdict line
         the run inserts is a comment, no bead).
         """
-        from loadpath.stiffness.change import change_from_results
+        from loadpath.stiffness.change import StiffnessChange, change_from_results
 
         seen = self._judged(pres)
-        return None if seen is None else change_from_results(self.ref, *seen)
+        if seen is None:
+            return None
+        if isinstance(seen[0], StiffnessChange):  # predicted as the verdict predicts
+            return seen[0]
+        return change_from_results(self.ref, *seen)
 
     def _judged(self, pres: Any) -> tuple[Any, float] | None:
-        """``(FileResult, seconds)`` of a result this judged (the same object, not one with its id), or None."""
+        """``(FileResult or StiffnessChange, seconds)`` of a result this judged (the same object, not
+        one with its id), or None."""
         seen = self._seen.get(id(pres))
-        if seen is None or seen[0]() is not pres or self.ref is None:
+        if seen is None or seen[0]() is not pres:
             return None
         return seen[1], seen[2]
 
@@ -351,9 +398,13 @@ def _evaluate_nth(k: int) -> Any:
 
 
 def judge(
-    program: Any, loadcase: Any, workers: int = 1, progress: Callable[[str, int, int], None] | None = None
+    program: Any,
+    loadcase: Any,
+    workers: int = 1,
+    progress: Callable[[str, int, int], None] | None = None,
+    cache: Any = None,
 ) -> Judge:
     """The :class:`Judge` of the slicer's program under a load case (``workers``: processes for its
     first judgment, the slicer's file and the first candidate side by side; ``progress``: told of
-    each evaluation as stage ``"judge"``)."""
-    return Judge(program, loadcase, workers, progress)
+    each evaluation as stage ``"judge"``; ``cache``: the run's, where its predictions are kept)."""
+    return Judge(program, loadcase, workers, progress, cache)

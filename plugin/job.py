@@ -415,7 +415,7 @@ def _run(
         )
 
     # where the level sets give way on solid infill, both layouts are laid and judged (solid_choice)
-    judged = judge(program, lc, opts.workers, progress)
+    judged = judge(program, lc, opts.workers, progress, cache)
     chooser = SolidChooser(run_with, judged, s.tie_spread)
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
         pres, result.density = run_choosing(chooser, judged, opts, s.tie_spread)

@@ -130,3 +130,29 @@ class _Result:
 
     def __init__(self, data: bytes, analyses: dict) -> None:
         self.data, self.analyses = data, analyses
+
+
+def test_a_judgment_through_the_run_cache_gives_the_same_figures_and_is_kept(tmp_path):
+    """With the run's cache the Judge predicts as the verdict does (predicted_change): the same
+    ratios, bit for bit, as the model of compare on the two files, and a later judge of the same
+    output (a repeated run) reads both predictions from the cache."""
+    from loadpath import gcode, loadcase
+    from loadpath.cache import Cache
+    from loadpath.plugin.density_choice import judge
+    from loadpath.plugin.job import JobRequest, run_job
+
+    repo = Path(__file__).resolve().parents[2]
+    src, case = repo / "examples" / "ohs.gcode", repo / "examples" / "ohs.toml"
+    run_cache = Cache(tmp_path / "cache")
+    res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode", predict=False, cache=run_cache))
+    assert res.written and res.pipeline.fea_keys, res.error
+    pres = res.pipeline
+    program, lc = gcode.read(src), loadcase.read(case)
+    plain = judge(program, lc, 2)
+    kept = judge(program, lc, 2, cache=Cache(tmp_path / "cache"))
+    assert kept(pres) == plain(pres)
+    assert kept.change(pres).absolute == plain.change(pres).absolute
+    assert kept.change(pres).failure_load == plain.change(pres).failure_load
+    again = Cache(tmp_path / "cache")
+    assert judge(program, lc, 1, cache=again)(pres) == plain(pres)
+    assert again.stats.hits.get("prediction") == 2 and not again.stats.misses.get("prediction"), again.stats
