@@ -105,9 +105,11 @@ def score(stiffness: float | None, failure: float | None, keeps_mass: bool = Tru
     return (int(keeps_mass), int(stiffness >= 1.0 and f >= 1.0), stiffness * f)
 
 
-def tie(
-    higher: tuple[float | None, float | None], lower: tuple[float | None, float | None], spread: float = SPREAD
-) -> bool:
+Ratios = tuple[float | None, float | None]
+"""Predicted stiffness and failure-load ratios over the slicer's file (None: not predicted)."""
+
+
+def tie(higher: Ratios, lower: Ratios, spread: float = SPREAD) -> bool:
     """Whether ``higher`` (stiffness, failure-load ratios) ranks above ``lower`` by less than the model's
     spread: not above ``lower`` with its failure load raised by ``spread`` (a share, :data:`SPREAD`;
     mass aside: callers compare candidates that both lay it).  False where either is not predicted
@@ -201,10 +203,11 @@ def run_choosing(
         tried.append((crit, *(ratios or (None, None))))
         if ratios is None and i > 0:
             continue  # not judged: not kept
-        ranked.append((score(*(ratios or (None, None)), keeps), -i, pres, crit, ratios or (None, None), keeps))
+        got = ratios or (None, None)
+        ranked.append((score(*got, keeps), -i, pres, crit, got, keeps))
         if ratios is None:
             break  # nothing replaced or nothing to judge by: the first candidate stands
-    ranked.sort(key=lambda r: r[:2], reverse=True)  # the higher rank first, the earlier candidate on equal ranks
+    ranked.sort(key=lambda r: r[:2], reverse=True)  # higher rank first; on equal ranks the earlier
     best = ranked[0]
     retr: tuple[int | None, ...] = ()
     if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][4], spread):
@@ -237,8 +240,9 @@ def describe(choice: Choice) -> str:
         f"; {crit} laid {share:+.0%} of the slicer's plastic (blocks kept as sliced), not its mass"
         for crit, share in choice.off_mass
     )
-    return f"'{choice.criterion}' (auto, by loadpath compare's model over the slicer's file: {figures}{off}" + (
-        f"; {settled(choice.retractions, choice.spread)})" if choice.retractions else ")")
+    tied = f"; {settled(choice.retractions, choice.spread)}" if choice.retractions else ""
+    model = "auto, by loadpath compare's model over the slicer's file"
+    return f"'{choice.criterion}' ({model}: {figures}{off}{tied})"
 
 
 def settled(counts: tuple[int | None, ...], spread: float = SPREAD) -> str:
@@ -263,10 +267,11 @@ class Judge:
 
     With the run's cache (and a cache key for every body's analysis), each file is predicted as the
     verdict predicts one (:func:`loadpath.stiffness.change.predicted_change`, the same model and
-    figures): every prediction is kept, so a repeated run, or a re-slice whose beads moved by less
-    than a tenth of a millimetre, judges its candidates from the cache (issue 17: the sparse gusset
-    run again, 5.9 s in process, of which the judgments were 63 %).  Without one, each candidate and
-    the slicer's file once (:func:`loadpath.stiffness.evaluate_file`, one mesh for all).
+    figures): every prediction is kept, so a run of the same file again, or of a re-slice whose beads
+    moved by less than a tenth of a millimetre, judges its candidates from the cache (issue 17: the
+    sparse gusset run again in process, 5.9 -> 2.2 s; a re-slice at other speeds that moves its
+    regions lays new paths, and those are judged again).  Without one, each candidate and the
+    slicer's file once (:func:`loadpath.stiffness.evaluate_file`, one mesh for all).
     """
 
     def __init__(
@@ -356,7 +361,8 @@ class Judge:
 
         if isinstance(res, StiffnessChange):
             fail = res.failure_load
-            return 1.0 + float(res.absolute), (1.0 + float(fail) if fail is not None and fail == fail else None)
+            known = fail is not None and fail == fail
+            return 1.0 + float(res.absolute), (1.0 + float(fail) if known else None)
         r = row(res, self.ref)
         fail = r.relative_failure_load
         return float(r.relative_stiffness), (float(fail) if fail == fail else None)

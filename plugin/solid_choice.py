@@ -97,7 +97,9 @@ class SolidChooser:
         Ties within this share of failure load go to fewer retractions (setting ``tie_spread``).
     """
 
-    def __init__(self, run: Callable[[Any], Any], predict: Callable[[Any], Any], spread: float = SPREAD) -> None:
+    def __init__(
+        self, run: Callable[[Any], Any], predict: Callable[[Any], Any], spread: float = SPREAD
+    ) -> None:
         self.run = run
         self.predict = predict
         self.spread = spread

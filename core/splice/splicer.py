@@ -388,7 +388,7 @@ def _splice_block(
     plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
     aim = b.e * fill.volume_scale
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
-    if options.volume_tol is not None and aim > 0 and plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm bits)
+    if options.volume_tol is not None and aim > 0 and plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm)
         return fill.block, [], None, f"{NO_PATHS} {b.length:.1f} mm of bead"
     if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
         return (

@@ -62,7 +62,8 @@ class _Run:
 
     def __init__(self, crit: str, retractions: int | None) -> None:
         self.crit, self.changed, self.splice = crit, True, None
-        self.counts = (None, "over budget") if retractions is None else ({"loadpath": {"retractions": retractions}}, "")
+        counted = {"loadpath": {"retractions": retractions}}
+        self.counts = (None, "over budget") if retractions is None else (counted, "")
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,8 @@ def test_a_tie_between_candidates_goes_to_the_one_with_fewer_retractions():
     pres, choice = _choose(figures, {"energy": 30, "stack": 44})
     assert pres.crit == "energy" and choice.retractions == (30, 44)
     pres, choice = _choose(figures, {"energy": 44, "stack": None})  # not counted: the rank stands
-    assert pres.crit == "energy" and describe(choice).endswith("retractions not counted, the higher rank kept)")
+    assert pres.crit == "energy"
+    assert describe(choice).endswith("retractions not counted, the higher rank kept)")
     pres, choice = _choose(figures, {"energy": 18, "stack": 18})  # as many: the rank stands
     assert pres.crit == "energy" and describe(choice).endswith(", 18 retractions each: the higher rank kept)")
     # tie_spread = 0: the rank alone; a wider spread is named in the verdict

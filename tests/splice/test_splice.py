@@ -453,11 +453,12 @@ def test_blocks_no_path_fits_in_are_kept_and_grouped_in_the_warnings(sliced):
     assert few == [f"layer {program.block(k).layer + 1}, {program.block(k).feature}: kept as sliced ({why})"
                    for k, why in result.skipped[:3]]
     other = (blocks[6], "a mode change")
+    b6 = program.block(blocks[6])
     many = _kept_as_sliced(program, [*result.skipped, other])
     layers = sorted({program.block(k).layer + 1 for k in blocks[:5]})
     longest = max(program.block(k).length for k in blocks[:5])
     assert many == [
-        f"layer {program.block(other[0]).layer + 1}, {program.block(other[0]).feature}: kept as sliced (a mode change)",
+        f"layer {b6.layer + 1}, {b6.feature}: kept as sliced (a mode change)",
         f"5 blocks kept as sliced, no new path fits in them (at most {longest:.1f} mm of the slicer's "
         f"bead each; layers {', '.join(map(str, layers))})",
     ]
