@@ -201,9 +201,10 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         "float",
         0.06,
         "fraction",
-        "two layouts the mechanics model ranks closer than this share of failure load are a tie, kept by "
-        "fewer retractions (density 'auto'; solid layers where the level sets gave way); 0: the model's "
-        "rank alone. Default: how far round-off moves the model's failure load between layouts",
+        "two layouts the mechanics model ranks closer than this share of failure load (and 1 % of "
+        "stiffness) are a tie, kept by fewer retractions (density 'auto'; solid layers where the level "
+        "sets gave way); 0: the model's rank alone. Default: how far round-off moves the model's "
+        "failure load between layouts",
         minimum=0.0,
         maximum=0.5,
     ),
