@@ -416,10 +416,12 @@ def _run(
 
     # where the level sets give way on solid infill, both layouts are laid and judged (solid_choice)
     judged = judge(program, lc, opts.workers, progress, cache)
-    chooser = SolidChooser(run_with, judged, s.tie_spread)
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
+        # a tie is settled once, between the candidates: the solid layout inside each goes by rank
+        chooser = SolidChooser(run_with, judged, 0.0)
         pres, result.density = run_choosing(chooser, judged, opts, s.tie_spread)
     else:
+        chooser = SolidChooser(run_with, judged, s.tie_spread)
         pres = chooser(opts)
     result.solid = chooser.choice(pres)
     result.pipeline = pres
