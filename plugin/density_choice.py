@@ -40,8 +40,8 @@ from typing import Any
 from loadpath.options import field
 
 __all__ = [
-    "CANDIDATES", "MASS_TOLERANCE", "SPREAD", "STIFFNESS_SPREAD", "Choice", "Judge", "score", "tie", "settle", "settled",
-    "retractions", "mass_change", "run_choosing", "judge", "describe", "figure",
+    "CANDIDATES", "MASS_TOLERANCE", "SPREAD", "STIFFNESS_SPREAD", "Choice", "Judge", "score", "tie", "settle",
+    "settled", "retractions", "mass_change", "run_choosing", "judge", "describe", "figure",
 ]
 
 CANDIDATES = ("energy", "stack")
@@ -303,25 +303,30 @@ class Judge:
         import time
         import weakref
 
-        from loadpath.gcode import parse
-        from loadpath.stiffness.compare import evaluate_file
-
         if any(getattr(an, "analysis", "2d") != "2d" for an in pres.analyses.values()):
             return None
         seen = self._judged(pres)
         if seen is not None:  # judged before: its figures
             return self._ratios(seen[0])
-        from loadpath.procs import fork_map, forks
-
         t0 = time.perf_counter()
         if self.progress:
             self.progress("judge", 0, 1)
         if self.cache is not None and pres.fea_keys and set(pres.fea_keys) >= set(pres.analyses):
-            change = self._predicted(pres)
-            self._seen[id(pres)] = (weakref.ref(pres), change, time.perf_counter() - t0)
-            if self.progress:
-                self.progress("judge", 1, 1)
-            return self._ratios(change)
+            res = self._predicted(pres)
+        else:
+            res = self._evaluated(pres)
+        self._seen[id(pres)] = (weakref.ref(pres), res, time.perf_counter() - t0)
+        if self.progress:
+            self.progress("judge", 1, 1)
+        return self._ratios(res)
+
+    def _evaluated(self, pres: Any) -> Any:
+        """``compare``'s :class:`~loadpath.stiffness.compare.FileResult` of a result's output (the
+        slicer's file evaluated once, beside the first candidate where there are two workers)."""
+        from loadpath.gcode import parse
+        from loadpath.procs import fork_map, forks
+        from loadpath.stiffness.compare import evaluate_file
+
         out = parse(pres.data, strict=False)
         if self.ref is None and forks(self.workers, 2):
             # the slicer's file and the first candidate side by side: the same computations in two
@@ -332,16 +337,12 @@ class Judge:
                 self.ref, res = fork_map(_evaluate_nth, [0, 1], 2)
             finally:
                 _EVALUATE.clear()
-        else:
-            if self.ref is None:
-                self.ref = evaluate_file(
-                    self.program, self.loadcase, meshes=self.meshes, name="slicer", metrics=False
-                )
-            res = evaluate_file(out, self.loadcase, meshes=self.meshes, name="candidate", metrics=False)
-        self._seen[id(pres)] = (weakref.ref(pres), res, time.perf_counter() - t0)
-        if self.progress:
-            self.progress("judge", 1, 1)
-        return self._ratios(res)
+            return res
+        if self.ref is None:
+            self.ref = evaluate_file(
+                self.program, self.loadcase, meshes=self.meshes, name="slicer", metrics=False
+            )
+        return evaluate_file(out, self.loadcase, meshes=self.meshes, name="candidate", metrics=False)
 
     def _predicted(self, pres: Any) -> Any:
         """The verdict's :class:`~loadpath.stiffness.change.StiffnessChange` of a result, its predictions

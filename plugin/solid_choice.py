@@ -36,10 +36,10 @@ them the other way.
 
 With ``density = "auto"`` the layout is chosen within each density candidate by the model's rank
 alone, and the tie is settled once, between the candidates
-(:func:`loadpath.plugin.density_choice.run_choosing`): settled inside the ``stack`` candidate of issue 15's 12 mm beam at PrusaSlicer 20 %, it gave that
-candidate the level sets' 1.361 / 1.748 instead of the swarm's 1.366 / 1.797, so ``energy`` ranked
-first with 503 retractions in the replaced blocks, against 476 (and the higher failure load) kept
-otherwise.
+(:func:`loadpath.plugin.density_choice.run_choosing`): settled inside the ``stack`` candidate of
+issue 15's 12 mm beam at PrusaSlicer 20 %, it gave that candidate the level sets' 1.361 / 1.748
+instead of the swarm's 1.366 / 1.797, so ``energy`` ranked first with 503 retractions in the
+replaced blocks, against 476 (and the higher failure load) kept otherwise.
 """
 
 from __future__ import annotations

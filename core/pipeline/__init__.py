@@ -618,16 +618,18 @@ def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: 
     than ``most`` of them (a 1000-layer PrusaSlicer specimen has 18 solid bits of 0.6 mm)."""
     from loadpath.splice.splicer import NO_PATHS
 
-    slivers = [(program.block(k), why) for k, why in skipped if why.startswith(NO_PATHS)]
+    kept = [(program.block(k), why) for k, why in skipped]
+    slivers = [b for b, why in kept if why.startswith(NO_PATHS)]
+    grouped = len(slivers) > most
     out = [
         f"layer {b.layer + 1}, {b.feature}: kept as sliced ({why})"
-        for b, why in ((program.block(k), why) for k, why in skipped)
-        if len(slivers) <= most or not why.startswith(NO_PATHS)
+        for b, why in kept
+        if not (grouped and why.startswith(NO_PATHS))
     ]
-    if len(slivers) > most:
-        layers = sorted({b.layer + 1 for b, _ in slivers})
+    if grouped:
+        layers = sorted({b.layer + 1 for b in slivers})
         shown = ", ".join(map(str, layers[:8])) + (f" and {len(layers) - 8} more" if len(layers) > 8 else "")
-        longest = max(b.length for b, _ in slivers)
+        longest = max(b.length for b in slivers)
         out.append(
             f"{len(slivers)} blocks kept as sliced, no new path fits in them (at most "
             f"{longest:.1f} mm of the slicer's bead each; layers {shown})"

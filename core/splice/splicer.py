@@ -388,16 +388,17 @@ def _splice_block(
     plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
     aim = b.e * fill.volume_scale
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
-    if options.volume_tol is not None and aim > 0 and plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm)
-        return fill.block, [], None, f"{NO_PATHS} {b.length:.1f} mm of bead"
-    if options.volume_tol is not None and aim > 0 and abs(plan.filament / aim - 1) > options.volume_tol:
-        return (
-            fill.block,
-            [],
-            None,
-            f"the new paths would extrude {plan.filament / aim:.0%} of the {whose}: the engine covered "
-            f"too {'much' if plan.filament > aim else 'little'} of the region",
-        )
+    if options.volume_tol is not None and aim > 0:
+        if plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm solid bits)
+            return fill.block, [], None, f"{NO_PATHS} {b.length:.1f} mm of bead"
+        if abs(plan.filament / aim - 1) > options.volume_tol:
+            return (
+                fill.block,
+                [],
+                None,
+                f"the new paths would extrude {plan.filament / aim:.0%} of the {whose}: the engine covered "
+                f"too {'much' if plan.filament > aim else 'little'} of the region",
+            )
     style = replace(style, path_xy_decimals=options.xy_decimals, e_decimals=options.e_decimals)
     arcs = None
     if options.arcs is not None and arcs_allowed(program.config):
