@@ -21,10 +21,13 @@ re-export with other speeds or temperatures deposits nearly the same beads, not 
 2.5 moved 4 of the shipped example's 7657 beads by up to 0.06 mm and changed 8 volumes by up to
 0.005 mm³ (``benchmarks/bench_latency.py``'s re-slice), which missed both predictions and made the
 verdict 2.4 of the re-export's 2.9 s.  So each prediction is also kept under :func:`near_key`
-(everything but the beads' positions and volumes) with its beads, and a run whose beads match those
-bead for bead within :data:`NEAR_MM` (ends) and :data:`NEAR_VOLUME` (cross-section) uses it
-(``cache.stats`` counts a ``near`` hit): its figures are those of beads within a tenth of a millimetre, far below what the
-model resolves (its strength is averaged over two bead widths, its mesh is a millimetre).
+(everything but the beads' count, order, positions and volumes) with its beads, and a run whose beads
+lay the same material in the same places uses it (:mod:`loadpath.stiffness.near`: within a tenth of
+a millimetre and 5 % at every node of a 1 mm grid, in any order; ``cache.stats`` counts a ``near``
+hit): its figures are those of beads within a tenth of a millimetre, far below what the model
+resolves (its strength is averaged over two bead widths, its mesh is a millimetre).  Matched bead
+for bead (until 2026-12-06), a re-slice of a 40-layer gyroid gusset missed: PrusaSlicer wrote a
+third of its layers' perimeters and sparse lines in another order (:mod:`loadpath.stiffness.near`).
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
 from loadpath.stiffness.deposits import Deposits, Stack, from_program
 from loadpath.stiffness.model import body_mesh, file_card, mesh_key, sample_count, solve_body
+from loadpath.stiffness.near import Beads, group_bytes, match
 from loadpath.stiffness.predict import StiffnessOptions
 
 __all__ = [
@@ -49,8 +53,6 @@ __all__ = [
     "change_from_results",
     "prediction_key",
     "near_key",
-    "NEAR_MM",
-    "NEAR_VOLUME",
     "VERDICT_SAMPLES",
     "TooCostly",
 ]
@@ -176,19 +178,15 @@ def prediction_key(
     return digest([*head, *_field_bytes(deposits, names)])
 
 
-NEAR_MM = 0.1
-"""Largest move of a bead end (mm) with which a kept prediction is used for another file's beads."""
-
-NEAR_VOLUME = 0.05
-"""Largest change of a bead's cross-section (its volume per length), as a share of it, with which a
-kept prediction is used."""
-
 NEAR_BEADS = 400_000
-"""Most beads whose positions are kept for a near match (20 bytes each; a larger file matches
-exactly only)."""
+"""Most beads kept for a near match (:class:`loadpath.stiffness.near.Beads`, 21 bytes each; a larger
+file matches exactly only)."""
 
-_NEAR_FIELDS = ("z0", "height", "layer", "role")
-"""What :func:`near_key` names exactly (the rest, positions and volumes, is matched within tolerances)."""
+
+NEAR_KEEP = 3
+"""Most predictions kept under one near key.  The key names layers and roles, not beads, so the
+slicer's file and a run's output (the replaced infill is solid infill in both) share it: a run that
+judges two layouts keeps three predictions there."""
 
 
 def _parts(deposits: Deposits | Stack) -> Iterator[Deposits]:
@@ -209,36 +207,15 @@ def near_key(
     fea_key: str, deposits: Deposits | Stack, options: StiffnessOptions, card: MaterialCard | None
 ) -> str:
     """Key of a prediction's beads for a near match: :func:`prediction_key`'s, with the beads named by
-    their count, layers, roles, bottoms and heights only (their positions and volumes are compared
-    within :data:`NEAR_MM` and :data:`NEAR_VOLUME`, :func:`_near`)."""
+    their layers and roles at their bottoms and heights only (:func:`loadpath.stiffness.near.group_bytes`:
+    not their count or order; where their material lies is compared, :func:`loadpath.stiffness.near.match`)."""
     from loadpath.cache import code_stamp, digest, source_stamp
 
     head = ["prediction near", code_stamp(), source_stamp("stiffness"), fea_key, repr(options), repr(card)]
-    return digest([*head, *_field_bytes(deposits, _NEAR_FIELDS)])
-
-
-def _beads(deposits: Deposits | Stack) -> tuple[np.ndarray, np.ndarray]:
-    """The beads' ends ``(n, 4)`` (start x, y, end x, y; mm) and volumes ``(n,)`` (mm³), float32."""
     deps = list(_parts(deposits))
-    ends = np.concatenate([np.hstack([d.start, d.end]) for d in deps]) if deps else np.zeros((0, 4))
-    vol = np.concatenate([d.volume for d in deps]) if deps else np.zeros(0)
-    return ends.astype(np.float32), vol.astype(np.float32)
-
-
-def _near(kept: tuple[np.ndarray, np.ndarray], beads: tuple[np.ndarray, np.ndarray]) -> bool:
-    """Every bead within :data:`NEAR_MM` (each end, each axis) and :data:`NEAR_VOLUME` of the kept one's."""
-    (e0, v0), (e1, v1) = kept, beads
-    if e0.shape != e1.shape or v0.shape != v1.shape:
-        return False
-    if len(e0) and float(np.max(np.abs(e0 - e1))) > NEAR_MM + 1e-4:  # float32's rounding at 300 mm
-        return False
-    # a bead's volume follows its length, which the ends' moves change: compare the cross-sections
-    # (a bead shorter than a twentieth of a millimetre counts as that long)
-    def section(e: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.abs(v) / np.maximum(np.hypot(e[:, 2] - e[:, 0], e[:, 3] - e[:, 1]), 0.05)
-
-    a0, a1 = section(e0, v0), section(e1, v1)
-    return bool(np.all(np.abs(a1 - a0) <= NEAR_VOLUME * a0 + 1e-9))
+    cols = [np.concatenate([getattr(d, f) for d in deps]) if deps else np.zeros(0)
+            for f in ("layer", "role", "z0", "height")]
+    return digest([*head, group_bytes(*cols)])
 
 
 def _keys(  # type: ignore[no-untyped-def]
@@ -251,25 +228,42 @@ def _keys(  # type: ignore[no-untyped-def]
 
 def _lookup(cache, keys: tuple[str, str], deposits: Deposits | Stack):  # type: ignore[no-untyped-def]
     """The cache's prediction of these beads: under their exact key (``keys``: :func:`_keys`), else the
-    one kept under their near key when its beads match (:func:`_near`); None if neither."""
+    one kept under their near key when its beads lay the same material (:func:`loadpath.stiffness.near.match`);
+    None if neither."""
     hit = cache.get("prediction", keys[0])
     if isinstance(hit, _Predicted):
         return hit
-    rec = cache.get("near", keys[1])
-    if not (isinstance(rec, tuple) and len(rec) == 3 and _near((rec[1], rec[2]), _beads(deposits))):
+    kept = _near_record(cache, keys[1])
+    if not kept or sum(len(d) for d in _parts(deposits)) > NEAR_BEADS:
         return None
-    hit = cache.get("prediction", rec[0])
-    return hit if isinstance(hit, _Predicted) else None
+    beads = Beads.of(_parts(deposits))
+    for key, other in kept:
+        if match(other, beads):
+            hit = cache.get("prediction", key)
+            if not isinstance(hit, _Predicted):
+                return None
+            cache.put("prediction", keys[0], hit)  # these beads' own key: found at once from now on
+            return hit
+    return None
+
+
+def _near_record(cache, key: str) -> list[tuple[str, Beads]]:  # type: ignore[no-untyped-def]
+    """The predictions kept under a near key: ``(exact key, beads)``, newest first (none: empty)."""
+    rec = cache.get("near", key)
+    if not isinstance(rec, list):
+        return []
+    return [r for r in rec if isinstance(r, tuple) and len(r) == 2 and isinstance(r[1], Beads)]
 
 
 def _keep(  # type: ignore[no-untyped-def]
     cache, keys: tuple[str, str], deposits: Deposits | Stack, value
 ) -> None:
     """Keep a prediction under its exact key and, for a file of at most :data:`NEAR_BEADS` beads, its
-    beads under their near key (``keys``: :func:`_keys`)."""
+    beads under their near key (``keys``: :func:`_keys`; the newest :data:`NEAR_KEEP` there)."""
     cache.put("prediction", keys[0], value)
     if sum(len(d) for d in _parts(deposits)) <= NEAR_BEADS:
-        cache.put("near", keys[1], (keys[0], *_beads(deposits)))
+        kept = [r for r in _near_record(cache, keys[1]) if r[0] != keys[0]]
+        cache.put("near", keys[1], [(keys[0], Beads.of(_parts(deposits))), *kept][:NEAR_KEEP])
 
 
 def _cached(deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> bool:  # type: ignore[no-untyped-def]
