@@ -171,6 +171,20 @@ def fea_key(rb: Any, pitch: float | None) -> str:
     supports, loads, material, frame and object (not its ``[toolpath]`` table), the pitch the
     default mesh size comes from (to 1 µm), and :func:`code_stamp`.
     """
+    parts = _fea_parts(rb, pitch)
+    for slab in rb.body.slabs:
+        parts.append(geometry_bytes(slab.outline))
+    return digest(parts)
+
+
+def fea_near_key(rb: Any, pitch: float | None) -> str:
+    """Key of a body's stress analysis for a near match: :func:`fea_key`'s without the outlines, which
+    :func:`loadpath.pipeline.near_body` compares within ``TOL.region_reuse_mm``."""
+    return digest(["near", *_fea_parts(rb, pitch)])
+
+
+def _fea_parts(rb: Any, pitch: float | None) -> list[bytes | str]:
+    """What :func:`fea_key` and :func:`fea_near_key` both name: all but the slabs' outlines."""
     lc = rb.loadcase
     parts: list[bytes | str] = [
         "fea",
@@ -180,10 +194,13 @@ def fea_key(rb: Any, pitch: float | None) -> str:
         repr((lc.version, lc.supports, lc.loads, lc.material, lc.frame, lc.object)),
         repr(getattr(rb, "origin", None)),
     ]
-    for slab in rb.body.slabs:
-        parts.append(f"{slab.z0:.4f} {slab.z1:.4f}")
-        parts.append(geometry_bytes(slab.outline))
-    return digest(parts)
+    parts += [f"{slab.z0:.4f} {slab.z1:.4f}" for slab in rb.body.slabs]
+    return parts
+
+
+NEAR_KEEP = 3
+"""Most entries kept under one near key (:meth:`Cache.keep_near`): a run that judges two layouts
+keeps the slicer's prediction and both layouts' under one (their layers and roles are the same)."""
 
 
 @dataclass
@@ -280,6 +297,28 @@ class Cache:
         if evict:
             self.evict()
         return True
+
+    def near(self, kind: str, key: str) -> list[tuple[str, Any]]:
+        """The entries kept under a near key (:meth:`keep_near`): ``(exact key, probe)``, newest first.
+
+        A near key names what a result depends on but for what is matched within tolerances (a
+        re-slice moves the slicer's geometry by micrometres); the caller compares each probe, then
+        reads the result under its exact key (:func:`loadpath.stiffness.change.near_key`,
+        :func:`loadpath.pipeline.paths.job_near_key`, the links' near key).
+        """
+        rec = self.get(kind, key)
+        if not isinstance(rec, list):
+            return []
+        return [r for r in rec if isinstance(r, tuple) and len(r) == 2 and isinstance(r[0], str)]
+
+    def keep_near(self, kind: str, key: str, exact: str, probe: Any, most: int = NEAR_KEEP) -> bool:
+        """Add ``(exact, probe)`` to the entries under near key ``key`` (the newest ``most`` stay).
+
+        Read, then written whole: two runs keeping at once may lose one of their entries (a later
+        run then misses it and makes it again), never tear one.
+        """
+        kept = [r for r in self.near(kind, key) if r[0] != exact]
+        return self.put(kind, key, [(exact, probe), *kept][:most], evict=False)
 
     def entries(self) -> list[tuple[float, int, Path]]:
         """``(mtime, bytes, path)`` of every entry, least recently used first."""

@@ -61,6 +61,7 @@ from loadpath.pipeline.paths import (
     clip_to,
     lies_in,
     job_key,
+    job_near_key,
     lays_phase,
     plan_jobs,
     reuses,
@@ -81,6 +82,7 @@ from loadpath.pipeline.units import (
 from loadpath.splice import BlockFill, SpliceOptions, SpliceResult, splice
 from loadpath.splice.plan import PlanOptions, simplify
 from loadpath.splice.verify import SpliceCheck, check_output
+from loadpath.tolerances import TOL
 from loadpath.toolpath import Path, Toolpaths
 
 __all__ = ["PipelineOptions", "PipelineResult", "EngineRun", "run", "STAGES"]
@@ -460,19 +462,14 @@ def run(
 
     def engine_runs(todo: list[Job], factors: list[float]) -> list[tuple[Toolpaths, float]]:
         picked = [pick(j) for j in todo]
-        keys = None
+        keys = near = None
         if cache is not None:
-            keys = [
-                job_key(
-                    j,
-                    name,
-                    params,
-                    _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
-                    retry,
-                    f,
-                )
+            args = [
+                (j, name, params, _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
+                 retry, f)
                 for j, (name, params), f in zip(todo, picked, factors, strict=True)
             ]
+            keys, near = [job_key(*a) for a in args], [job_near_key(*a) for a in args]
         return run_jobs(
             todo,
             [name for name, _ in picked],
@@ -484,6 +481,7 @@ def run(
             cache=cache,
             keys=keys,
             pitch_factor=factors,
+            near_keys=near,
         )
 
     results = engine_runs(jobs + copies, [1.0] * (len(jobs) + len(copies)))
@@ -638,21 +636,45 @@ def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: 
 
 
 def _analysis(rb, pitch: float | None, analyze: Callable[..., Any], cache) -> tuple[Any, str]:
-    """Return a body's analysis (from the cache when it holds it, else solved and kept) and its key."""
+    """Return a body's analysis (from the cache when it holds it, else solved and kept) and its key.
+
+    A body whose slabs' outlines lie within ``TOL.region_reuse_mm`` of a kept analysis's
+    (:func:`near_body`; the rest of :func:`loadpath.cache.fea_key` the same) takes that analysis
+    and its key, so that the paths and predictions kept under it serve this run too: PrusaSlicer
+    2.5 on all its threads moves a part's perimeters by micrometres from one slice to the next.
+    """
     import dataclasses
 
     if cache is None:
         return analyze(rb, pitch=pitch), ""
-    from loadpath.cache import fea_key
+    from loadpath.cache import fea_key, fea_near_key
     from loadpath.fea import Analysis
 
-    key = fea_key(rb, pitch)
+    key, near = fea_key(rb, pitch), fea_near_key(rb, pitch)
     hit = cache.get("fea", key)
+    if not isinstance(hit, Analysis):
+        for kept, outlines in cache.near("near-fea", near):
+            if near_body(outlines, rb):
+                hit = cache.get("fea", kept)
+                if isinstance(hit, Analysis):
+                    key = kept
+                    break
     if isinstance(hit, Analysis):
         return dataclasses.replace(hit, resolved=rb, _cache={}), key
     a = analyze(rb, pitch=pitch)
     cache.put("fea", key, dataclasses.replace(a, _cache={}))
+    cache.keep_near("near-fea", near, key, [shapely.to_wkb(slab.outline) for slab in rb.body.slabs])
     return a, key
+
+
+def near_body(outlines: object, rb, tol: float = TOL.region_reuse_mm) -> bool:  # type: ignore[no-untyped-def]
+    """Whether a kept analysis's slab outlines (WKB, :func:`_analysis`) lie within ``tol`` of the
+    body's, slab by slab (:func:`reuses`)."""
+    slabs = rb.body.slabs
+    if not (isinstance(outlines, list) and len(outlines) == len(slabs)):
+        return False
+    return all(isinstance(w, bytes) and reuses(s.outline, shapely.from_wkb(w), tol)
+               for w, s in zip(outlines, slabs, strict=True))
 
 
 def _field_id(fea_key: str, kind: str, unit: Unit, principal: str) -> str:
@@ -732,7 +754,8 @@ def _simplify_paths(paths, plan: PlanOptions) -> tuple[Path, ...]:
 
 
 def _link_key(
-    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None
+    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None,
+    near: bool = False,
 ) -> str:
     """Key of one :func:`link_paths` call in the cache: the paths' and the region's exact bytes, the pitch.
 
@@ -741,14 +764,16 @@ def _link_key(
     (:func:`_field_id`: the analysis's key, its cut and the principal stress, which determine it),
     else its stress at every path vertex (sampling it was 0.26 s of a cached 100-layer run).  The
     options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by their repr;
-    the code by :func:`loadpath.cache.code_stamp`.
+    the code by :func:`loadpath.cache.code_stamp`.  ``near``: the key for a near match, without the
+    region (:func:`_near_links` compares it within :data:`loadpath.tolerances.TOL` ``region_reuse_mm``).
     """
     from loadpath.cache import code_stamp, digest
     from loadpath.engines.linking import LinkOptions
 
     lo = link_options if link_options is not None else LinkOptions()
-    parts: list[bytes | str] = ["links", code_stamp(), repr(lo), repr(float(pitch))]
-    parts.append(shapely.to_wkb(region, hex=False) if region is not None else b"none")
+    parts: list[bytes | str] = ["links near" if near else "links", code_stamp(), repr(lo), repr(float(pitch))]
+    if not near:
+        parts.append(shapely.to_wkb(region, hex=False) if region is not None else b"none")
     for p in paths:
         parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
         parts.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
@@ -794,6 +819,10 @@ def _link_all(
                 continue
             first[key] = i
             hit = cache.get("links", key)
+            if not (isinstance(hit, tuple) and len(hit) == 2) and tasks[i][1] is not None:
+                hit = _near_links(cache, _link_key(*tasks[i], field_id=ids[i], near=True), tasks[i][1])
+                if hit is not None:
+                    kept[0] += cache.put("links", key, hit, evict=False)  # found at once from now on
             if isinstance(hit, tuple) and len(hit) == 2:
                 out[i] = hit
                 continue
@@ -809,8 +838,24 @@ def _link_all(
     for i in todo:
         if keys[i] is not None:
             kept[0] += cache.put("links", keys[i], out[i], evict=False)
+            if tasks[i][1] is not None:
+                near = _link_key(*tasks[i], field_id=ids[i], near=True)
+                kept[0] += cache.keep_near("near-links", near, keys[i], shapely.to_wkb(tasks[i][1]))
     # a repeated key takes its first task's runs
     return [o if o is not None else out[first[k]] for o, k in zip(out, keys, strict=True)]  # type: ignore
+
+
+def _near_links(cache: Any, near_key: str, region) -> tuple | None:  # type: ignore[no-untyped-def]
+    """The linked runs kept for the same paths in a region within ``TOL.region_reuse_mm`` of
+    ``region`` (:func:`reuses`: as a layer prints its run's representative's runs) that lie in it
+    (:func:`lies_in`), or None.  A re-slice by PrusaSlicer moves a region by micrometres; the engine's
+    paths then come from the cache (:func:`loadpath.pipeline.paths.near_input`), and so do their links."""
+    for key, wkb in cache.near("near-links", near_key):
+        if isinstance(wkb, bytes) and reuses(region, shapely.from_wkb(wkb)):
+            hit = cache.get("links", key)
+            if isinstance(hit, tuple) and len(hit) == 2 and lies_in(hit[0], region):
+                return hit
+    return None
 
 
 def _fills(

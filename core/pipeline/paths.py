@@ -67,6 +67,9 @@ __all__ = [
     "default_workers",
     "length_target",
     "job_key",
+    "job_near_key",
+    "near_input",
+    "input_probe",
     "volume_scale",
     "reuses",
     "lies_in",
@@ -251,26 +254,99 @@ def job_key(
     density field (:func:`density_bytes`) and, for a fixed-width job, the slicer's extruded length
     it matches and its flow width (the machine fact the engines receive, :func:`_machine_of`; to 1 µm).
     """
-    from loadpath.cache import code_stamp, digest, geometry_bytes
+    from loadpath.cache import digest, geometry_bytes
 
-    inp = job.input
-    target = length_target(job)
-    merged = {**params, **job.params}
+    inp, target = job.input, length_target(job)
     return digest(
         [
-            "paths",
-            code_stamp(),
-            engine,
-            repr(sorted((str(k), repr(v)) for k, v in merged.items())),
-            field_id,
-            f"{inp.pitch:.6f} {inp.seed} {length_retry!r}" + ("" if pitch_factor == 1.0 else f" x{pitch_factor!r}"),
+            *_job_parts(job, engine, params, field_id, length_retry, pitch_factor),
             "none" if target is None else f"{target:.3f}",
-            f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid",
             geometry_bytes(inp.region),
             geometry_bytes(inp.load_entry),
             density_bytes(inp.density),
         ]
     )
+
+
+def _job_parts(
+    job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float, pitch_factor: float
+) -> list[str]:
+    """What :func:`job_key` and :func:`job_near_key` both name: the code, engine and parameters, the
+    field, the pitch, seed and retry, the flow width."""
+    from loadpath.cache import code_stamp
+
+    inp = job.input
+    merged = {**params, **job.params}
+    return [
+        "paths",
+        code_stamp(),
+        engine,
+        repr(sorted((str(k), repr(v)) for k, v in merged.items())),
+        field_id,
+        f"{inp.pitch:.6f} {inp.seed} {length_retry!r}" + ("" if pitch_factor == 1.0 else f" x{pitch_factor!r}"),
+        f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid",
+    ]
+
+
+def job_near_key(
+    job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float, pitch_factor: float = 1.0
+) -> str:
+    """Key of an engine run's paths for a near match: :func:`job_key`'s without the region, the load
+    entry, the length matched and the density field, which :func:`near_input` compares within
+    tolerances (:meth:`loadpath.cache.Cache.near`)."""
+    from loadpath.cache import digest
+
+    return digest(["near", *_job_parts(job, engine, params, field_id, length_retry, pitch_factor)])
+
+
+NEAR_LENGTH = 1e-3
+"""Largest relative change of the slicer's extruded length a fixed-width job matches with which an
+engine run's kept paths serve it (the splicer's flow correction takes up to 15 %)."""
+
+
+def input_probe(job: Job) -> tuple:
+    """What :func:`near_input` compares: the job's region and load entry (WKB), the length it
+    matches, and its density field's pitch per cell (None without one)."""
+    inp = job.input
+    wkb = [None if g is None else shapely.to_wkb(g) for g in (inp.region, inp.load_entry)]
+    df = inp.density
+    dens = None if df is None else (tuple(np.round(df.origin, 6)), round(float(df.cell), 6), np.asarray(df.pitch, float))
+    return wkb[0], wkb[1], length_target(job), dens
+
+
+def near_input(kept: tuple, job: Job, tol: float = TOL.region_reuse_mm) -> bool:
+    """Whether an engine run kept for the input ``kept`` (:func:`input_probe`) serves ``job``.
+
+    Its region and load entry within ``tol`` of the job's (:func:`reuses`: the tolerance within which
+    a layer prints its run's representative's paths as they are), the length it matched within
+    :data:`NEAR_LENGTH`, its density field on the same grid with every pitch within 0.1 %.  A re-slice
+    by PrusaSlicer 2.5 on all its threads moved a 40-layer gusset's solid-infill regions by up to
+    13.5 um, and 6 of its 13 engine runs were laid again.
+    """
+    if not (isinstance(kept, tuple) and len(kept) == 4):
+        return False
+    region, entry, target, dens = kept
+    inp = job.input
+    for wkb, geom in ((region, inp.region), (entry, inp.load_entry)):
+        if (wkb is None) != (geom is None):
+            return False
+        if wkb is not None and not reuses(geom, shapely.from_wkb(wkb), tol):
+            return False
+    now = length_target(job)
+    if (target is None) != (now is None) or (now is not None and abs(now - target) > NEAR_LENGTH * abs(target)):
+        return False
+    df = inp.density
+    if (dens is None) != (df is None):
+        return False
+    if df is None:
+        return True
+    origin, cell, pitch = dens
+    new = np.asarray(df.pitch, float)
+    if origin != tuple(np.round(df.origin, 6)) or cell != round(float(df.cell), 6) or pitch.shape != new.shape:
+        return False
+    both = np.isfinite(pitch) & np.isfinite(new)
+    return bool(np.array_equal(np.isfinite(pitch), np.isfinite(new))
+                and np.all(np.abs(new[both] - pitch[both]) <= 1e-3 * np.abs(pitch[both])))
 
 
 def density_bytes(df: Any) -> bytes:
@@ -387,6 +463,7 @@ def run_jobs(
     cache: Any = None,
     keys: Sequence[str] | None = None,
     pitch_factor: Sequence[float] | None = None,
+    near_keys: Sequence[str] | None = None,
 ) -> list[tuple[Toolpaths, float]]:
     """Run every job's engine; ``(paths, seconds)`` per job, in job order.
 
@@ -411,6 +488,10 @@ def run_jobs(
         Where the paths of earlier runs are kept; with ``keys`` (one :func:`job_key` per job) the
         jobs found there are not run (their seconds are 0), the others are run and kept.
     keys : sequence of str, optional
+    near_keys : sequence of str, optional
+        One :func:`job_near_key` per job: a job its exact key misses takes the paths kept for an
+        input :func:`near_input` accepts, when they lie in its region (:func:`lies_in`); each run
+        job is kept under its near key too.
     pitch_factor : sequence of float, optional
         Per job, the engine runs at the job's pitch times this (:func:`short_runs`); the job itself,
         and so the length its paths match (:func:`length_target`), stays as it is.
@@ -435,6 +516,10 @@ def run_jobs(
     if cache is not None and keys is not None:
         for i, k in enumerate(keys):
             hit = cache.get("paths", k)
+            if not isinstance(hit, Toolpaths) and near_keys is not None:
+                hit = _near_paths(cache, near_keys[i], jobs[i])
+                if hit is not None:
+                    cache.put("paths", k, hit, evict=False)  # found at once from now on
             if isinstance(hit, Toolpaths):
                 out[i] = (hit, 0.0)
     todo = [i for i in range(n) if out[i] is None]
@@ -462,9 +547,21 @@ def run_jobs(
             o = out[i]
             if o is not None:
                 cache.put("paths", keys[i], o[0], evict=False)
+                if near_keys is not None:
+                    cache.keep_near("near-paths", near_keys[i], keys[i], input_probe(jobs[i]))
         if todo:
             cache.evict()
     return [o for o in out if o is not None]
+
+
+def _near_paths(cache: Any, near_key: str, job: Job) -> Toolpaths | None:
+    """The paths kept for an input near ``job``'s (:func:`near_input`) that lie in its region, or None."""
+    for key, probe in cache.near("near-paths", near_key):
+        if near_input(probe, job):
+            hit = cache.get("paths", key)
+            if isinstance(hit, Toolpaths) and lies_in(hit.paths, job.input.region):
+                return hit
+    return None
 
 
 # ---------------------------------------------------------------------------------------------- reuse

@@ -183,12 +183,6 @@ NEAR_BEADS = 400_000
 file matches exactly only)."""
 
 
-NEAR_KEEP = 3
-"""Most predictions kept under one near key.  The key names layers and roles, not beads, so the
-slicer's file and a run's output (the replaced infill is solid infill in both) share it: a run that
-judges two layouts keeps three predictions there."""
-
-
 def _parts(deposits: Deposits | Stack) -> Iterator[Deposits]:
     """A :class:`Stack`'s parts one at a time (made as they are read), or the one :class:`Deposits`."""
     yield from (deposits if isinstance(deposits, Stack) else (deposits,))
@@ -233,12 +227,12 @@ def _lookup(cache, keys: tuple[str, str], deposits: Deposits | Stack):  # type: 
     hit = cache.get("prediction", keys[0])
     if isinstance(hit, _Predicted):
         return hit
-    kept = _near_record(cache, keys[1])
-    if not kept or sum(len(d) for d in _parts(deposits)) > NEAR_BEADS:
+    if sum(len(d) for d in _parts(deposits)) > NEAR_BEADS:
         return None
-    beads = Beads.of(_parts(deposits))
-    for key, other in kept:
-        if match(other, beads):
+    beads = None
+    for key, other in cache.near("near", keys[1]):
+        beads = Beads.of(_parts(deposits)) if beads is None else beads
+        if isinstance(other, Beads) and match(other, beads):
             hit = cache.get("prediction", key)
             if not isinstance(hit, _Predicted):
                 return None
@@ -247,23 +241,14 @@ def _lookup(cache, keys: tuple[str, str], deposits: Deposits | Stack):  # type: 
     return None
 
 
-def _near_record(cache, key: str) -> list[tuple[str, Beads]]:  # type: ignore[no-untyped-def]
-    """The predictions kept under a near key: ``(exact key, beads)``, newest first (none: empty)."""
-    rec = cache.get("near", key)
-    if not isinstance(rec, list):
-        return []
-    return [r for r in rec if isinstance(r, tuple) and len(r) == 2 and isinstance(r[1], Beads)]
-
-
 def _keep(  # type: ignore[no-untyped-def]
     cache, keys: tuple[str, str], deposits: Deposits | Stack, value
 ) -> None:
     """Keep a prediction under its exact key and, for a file of at most :data:`NEAR_BEADS` beads, its
-    beads under their near key (``keys``: :func:`_keys`; the newest :data:`NEAR_KEEP` there)."""
+    beads under their near key (``keys``: :func:`_keys`; :meth:`loadpath.cache.Cache.keep_near`)."""
     cache.put("prediction", keys[0], value)
     if sum(len(d) for d in _parts(deposits)) <= NEAR_BEADS:
-        kept = [r for r in _near_record(cache, keys[1]) if r[0] != keys[0]]
-        cache.put("near", keys[1], [(keys[0], Beads.of(_parts(deposits))), *kept][:NEAR_KEEP])
+        cache.keep_near("near", keys[1], keys[0], Beads.of(_parts(deposits)))
 
 
 def _cached(deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> bool:  # type: ignore[no-untyped-def]
