@@ -205,11 +205,14 @@ keeps the slicer's prediction and both layouts' under one (their layers and role
 
 @dataclass
 class CacheStats:
-    """Lookups of one :class:`Cache` object, per kind: ``hits``, ``misses``, ``corrupt`` (ignored entries)."""
+    """Lookups of one :class:`Cache` object, per kind: ``hits``, ``misses``, ``corrupt`` (ignored entries),
+    and ``kept`` (entries written: for an analysis, one solved; an exact miss served by a near match
+    is not one)."""
 
     hits: dict[str, int] = field(default_factory=dict)
     misses: dict[str, int] = field(default_factory=dict)
     corrupt: dict[str, int] = field(default_factory=dict)
+    kept: dict[str, int] = field(default_factory=dict)
 
     def count(self, table: dict[str, int], kind: str) -> None:
         table[kind] = table.get(kind, 0) + 1
@@ -294,6 +297,7 @@ class Cache:
             tmp.unlink(missing_ok=True)
             return False
         self._written += len(blob)
+        self.stats.count(self.stats.kept, kind)
         if evict:
             self.evict()
         return True
