@@ -43,7 +43,7 @@ from loadpath.stiffness.beads import layer_store
 from loadpath.stiffness.cards import MaterialCard
 from loadpath.stiffness.deposits import Deposits, Stack, from_program
 from loadpath.stiffness.model import body_mesh, file_card, mesh_key, sample_count, solve_body
-from loadpath.stiffness.near import Beads, group_bytes, match
+from loadpath.stiffness.near import Beads, agrees, group_bytes, match, summary
 from loadpath.stiffness.predict import StiffnessOptions
 
 __all__ = [
@@ -183,6 +183,13 @@ NEAR_BEADS = 400_000
 file matches exactly only)."""
 
 
+NEAR_KEEP = 12
+"""Most predictions kept under one near key.  The key names layers and roles, so the slicer's file
+and every layout a run judges share it (``density = "auto"`` with the solid choice: up to 9); only a
+summary of each is kept there (:func:`loadpath.stiffness.near.summary`), its beads under its
+exact key (``near-beads``)."""
+
+
 def _parts(deposits: Deposits | Stack) -> Iterator[Deposits]:
     """A :class:`Stack`'s parts one at a time (made as they are read), or the one :class:`Deposits`."""
     yield from (deposits if isinstance(deposits, Stack) else (deposits,))
@@ -230,8 +237,11 @@ def _lookup(cache, keys: tuple[str, str], deposits: Deposits | Stack):  # type: 
     if sum(len(d) for d in _parts(deposits)) > NEAR_BEADS:
         return None
     beads = None
-    for key, other in cache.near("near", keys[1]):
+    for key, kept in cache.near("near", keys[1]):
         beads = Beads.of(_parts(deposits)) if beads is None else beads
+        if not (isinstance(kept, tuple) and agrees(kept, beads)):
+            continue
+        other = cache.get("near-beads", key)
         if isinstance(other, Beads) and match(other, beads):
             hit = cache.get("prediction", key)
             if not isinstance(hit, _Predicted):
@@ -245,10 +255,13 @@ def _keep(  # type: ignore[no-untyped-def]
     cache, keys: tuple[str, str], deposits: Deposits | Stack, value
 ) -> None:
     """Keep a prediction under its exact key and, for a file of at most :data:`NEAR_BEADS` beads, its
-    beads under their near key (``keys``: :func:`_keys`; :meth:`loadpath.cache.Cache.keep_near`)."""
+    beads under their near key (``keys``: :func:`_keys`; :meth:`loadpath.cache.Cache.keep_near`, the beads themselves under
+    ``near-beads``)."""
     cache.put("prediction", keys[0], value)
     if sum(len(d) for d in _parts(deposits)) <= NEAR_BEADS:
-        cache.keep_near("near", keys[1], keys[0], Beads.of(_parts(deposits)))
+        beads = Beads.of(_parts(deposits))
+        cache.put("near-beads", keys[0], beads, evict=False)
+        cache.keep_near("near", keys[1], keys[0], summary(beads), most=NEAR_KEEP)
 
 
 def _cached(deposits: Deposits, options: StiffnessOptions, card, cache, key: str) -> bool:  # type: ignore[no-untyped-def]

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NEAR_MM", "NEAR_VOLUME", "NODE_SHARE", "CELL", "Beads", "group_bytes", "match"]
+__all__ = ["NEAR_MM", "NEAR_VOLUME", "NODE_SHARE", "CELL", "Beads", "group_bytes", "match", "summary", "agrees"]
 
 NEAR_MM = 0.1
 """Largest move of a bead's material (mm) with which a kept prediction is used for another file's beads."""
@@ -155,6 +155,25 @@ def _pieces(b: Beads, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     return b.codes()[w], mid, vol, turn[w]
 
 
+def summary(b: Beads) -> tuple[np.ndarray, np.ndarray]:
+    """A file's groups ``(g,)`` and each one's volume and orientation sums ``(g, 3)``: what
+    :func:`agrees` compares (kept beside a prediction's near key, a few hundred bytes a layer)."""
+    codes = np.unique(b.codes())
+    return codes, _group_sums(b, codes)
+
+
+def agrees(kept: tuple[np.ndarray, np.ndarray], beads: Beads) -> bool:
+    """Whether ``beads`` have the groups of a :func:`summary` and, in each, its volume and mean
+    direction within :data:`NEAR_VOLUME` of its volume: one pass over the beads, and most files
+    that share a near key differ there (the slicer's file and a run's output: the same plastic,
+    other directions; two density candidates: other places)."""
+    codes, s0 = kept
+    if not np.array_equal(codes, np.unique(beads.codes())):
+        return False
+    s1 = _group_sums(beads, codes)
+    return bool(np.all(np.abs(s1 - s0) <= NEAR_VOLUME * s0[:, :1] + 1e-9))
+
+
 def _group_digests(b: Beads, codes: np.ndarray) -> np.ndarray:
     """Each group's beads (ends and volumes, in order) as a digest ``(g,)`` (groups ``codes``, sorted)."""
     import hashlib
@@ -206,10 +225,7 @@ def match(kept: Beads, beads: Beads) -> bool:
     c0, c1 = np.unique(kept.codes()), np.unique(beads.codes())
     if not np.array_equal(c0, c1):
         return False
-    # each group's volume and mean direction first (one pass over the beads): most files that share
-    # a near key differ there (the slicer's file and a run's output: the same plastic, other directions)
-    s0, s1 = _group_sums(kept, c0), _group_sums(beads, c0)
-    if np.any(np.abs(s1 - s0) > NEAR_VOLUME * s0[:, :1] + 1e-9):
+    if not agrees(summary(kept), beads):
         return False
     # groups whose beads are the very same, in the same order, match: the grid only for the rest
     differ = _group_digests(kept, c0) != _group_digests(beads, c0)
