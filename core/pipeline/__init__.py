@@ -765,14 +765,16 @@ def _link_key(
     else its stress at every path vertex (sampling it was 0.26 s of a cached 100-layer run).  The
     options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by their repr;
     the code by :func:`loadpath.cache.code_stamp`.  ``near``: the key for a near match, without the
-    region (:func:`_near_links` compares it within :data:`loadpath.tolerances.TOL` ``region_reuse_mm``).
+    region and the pitch (:func:`_near_links` compares them within ``TOL.region_reuse_mm`` and
+    :data:`loadpath.pipeline.paths.NEAR_PITCH`).
     """
     from loadpath.cache import code_stamp, digest
     from loadpath.engines.linking import LinkOptions
 
     lo = link_options if link_options is not None else LinkOptions()
-    parts: list[bytes | str] = ["links near" if near else "links", code_stamp(), repr(lo), repr(float(pitch))]
+    parts: list[bytes | str] = ["links near" if near else "links", code_stamp(), repr(lo)]
     if not near:
+        parts.append(repr(float(pitch)))
         parts.append(shapely.to_wkb(region, hex=False) if region is not None else b"none")
     for p in paths:
         parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
@@ -820,7 +822,7 @@ def _link_all(
             first[key] = i
             hit = cache.get("links", key)
             if not (isinstance(hit, tuple) and len(hit) == 2) and tasks[i][1] is not None:
-                hit = _near_links(cache, _link_key(*tasks[i], field_id=ids[i], near=True), tasks[i][1])
+                hit = _near_links(cache, _link_key(*tasks[i], field_id=ids[i], near=True), tasks[i][1], tasks[i][2])
                 if hit is not None:
                     kept[0] += cache.put("links", key, hit, evict=False)  # found at once from now on
             if isinstance(hit, tuple) and len(hit) == 2:
@@ -840,18 +842,24 @@ def _link_all(
             kept[0] += cache.put("links", keys[i], out[i], evict=False)
             if tasks[i][1] is not None:
                 near = _link_key(*tasks[i], field_id=ids[i], near=True)
-                kept[0] += cache.keep_near("near-links", near, keys[i], shapely.to_wkb(tasks[i][1]))
+                kept[0] += cache.keep_near("near-links", near, keys[i], (shapely.to_wkb(tasks[i][1]), float(tasks[i][2])))
     # a repeated key takes its first task's runs
     return [o if o is not None else out[first[k]] for o, k in zip(out, keys, strict=True)]  # type: ignore
 
 
-def _near_links(cache: Any, near_key: str, region) -> tuple | None:  # type: ignore[no-untyped-def]
+def _near_links(cache: Any, near_key: str, region, pitch: float) -> tuple | None:  # type: ignore[no-untyped-def]
     """The linked runs kept for the same paths in a region within ``TOL.region_reuse_mm`` of
-    ``region`` (:func:`reuses`: as a layer prints its run's representative's runs) that lie in it
+    ``region`` (:func:`reuses`: as a layer prints its run's representative's runs), at a pitch within
+    :data:`loadpath.pipeline.paths.NEAR_PITCH` (measured from the slicer's file), that lie in it
     (:func:`lies_in`), or None.  A re-slice by PrusaSlicer moves a region by micrometres; the engine's
     paths then come from the cache (:func:`loadpath.pipeline.paths.near_input`), and so do their links."""
-    for key, wkb in cache.near("near-links", near_key):
-        if isinstance(wkb, bytes) and reuses(region, shapely.from_wkb(wkb)):
+    from loadpath.pipeline.paths import NEAR_PITCH
+
+    for key, probe in cache.near("near-links", near_key):
+        if not (isinstance(probe, tuple) and len(probe) == 2 and isinstance(probe[0], bytes)):
+            continue
+        wkb, was = probe
+        if abs(float(pitch) - was) <= NEAR_PITCH * abs(was) and reuses(region, shapely.from_wkb(wkb)):
             hit = cache.get("links", key)
             if isinstance(hit, tuple) and len(hit) == 2 and lies_in(hit[0], region):
                 return hit

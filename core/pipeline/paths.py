@@ -269,22 +269,26 @@ def job_key(
 
 
 def _job_parts(
-    job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float, pitch_factor: float
+    job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float, pitch_factor: float,
+    near: bool = False,
 ) -> list[str]:
     """What :func:`job_key` and :func:`job_near_key` both name: the code, engine and parameters, the
-    field, the pitch, seed and retry, the flow width."""
+    field, the seed and retry, and (``near`` False) the pitch and the flow width, which a near match
+    compares within tolerances (:func:`near_input`: the slicer's line spacing is measured from its file)."""
     from loadpath.cache import code_stamp
 
     inp = job.input
     merged = {**params, **job.params}
+    fixed = "fixed" if job.unit.fixed_width else "solid"
     return [
         "paths",
         code_stamp(),
         engine,
         repr(sorted((str(k), repr(v)) for k, v in merged.items())),
         field_id,
-        f"{inp.pitch:.6f} {inp.seed} {length_retry!r}" + ("" if pitch_factor == 1.0 else f" x{pitch_factor!r}"),
-        f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid",
+        (f"{inp.seed} {length_retry!r}" if near else f"{inp.pitch:.6f} {inp.seed} {length_retry!r}")
+        + ("" if pitch_factor == 1.0 else f" x{pitch_factor!r}"),
+        fixed if near else f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid",
     ]
 
 
@@ -292,26 +296,31 @@ def job_near_key(
     job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float, pitch_factor: float = 1.0
 ) -> str:
     """Key of an engine run's paths for a near match: :func:`job_key`'s without the region, the load
-    entry, the length matched and the density field, which :func:`near_input` compares within
-    tolerances (:meth:`loadpath.cache.Cache.near`)."""
+    entry, the length matched, the density field, the pitch and the flow width, which
+    :func:`near_input` compares within tolerances (:meth:`loadpath.cache.Cache.near`)."""
     from loadpath.cache import digest
 
-    return digest(["near", *_job_parts(job, engine, params, field_id, length_retry, pitch_factor)])
+    return digest(["near", *_job_parts(job, engine, params, field_id, length_retry, pitch_factor, near=True)])
 
 
 NEAR_LENGTH = 1e-3
-"""Largest relative change of the slicer's extruded length a fixed-width job matches with which an
-engine run's kept paths serve it (the splicer's flow correction takes up to 15 %)."""
+"""Largest relative change of the slicer's extruded length a fixed-width job matches, and of its
+density field's pitch in any cell, with which an engine run's kept paths serve it."""
+
+NEAR_PITCH = 0.01
+"""Largest relative change of a job's pitch and flow width (both measured from the slicer's file)
+with which an engine run's kept paths serve it: the gusset's solid pitch read 0.43 % apart on two
+slices of one STL; the splicer matches each block's plastic to the slicer's (up to 15 %)."""
 
 
 def input_probe(job: Job) -> tuple:
     """What :func:`near_input` compares: the job's region and load entry (WKB), the length it
-    matches, and its density field's pitch per cell (None without one)."""
+    matches, its density field's pitch per cell (None without one), its pitch and flow width."""
     inp = job.input
     wkb = [None if g is None else shapely.to_wkb(g) for g in (inp.region, inp.load_entry)]
     df = inp.density
     dens = None if df is None else (tuple(np.round(df.origin, 6)), round(float(df.cell), 6), np.asarray(df.pitch, float))
-    return wkb[0], wkb[1], length_target(job), dens
+    return wkb[0], wkb[1], length_target(job), dens, float(inp.pitch), float(job.unit.flow_width)
 
 
 def near_input(kept: tuple, job: Job, tol: float = TOL.region_reuse_mm) -> bool:
@@ -319,14 +328,18 @@ def near_input(kept: tuple, job: Job, tol: float = TOL.region_reuse_mm) -> bool:
 
     Its region and load entry within ``tol`` of the job's (:func:`reuses`: the tolerance within which
     a layer prints its run's representative's paths as they are), the length it matched within
-    :data:`NEAR_LENGTH`, its density field on the same grid with every pitch within 0.1 %.  A re-slice
+    :data:`NEAR_LENGTH`, its density field on the same grid (moved by at most ``tol``) with every
+    pitch within as much, its pitch and flow width within :data:`NEAR_PITCH`.  A re-slice
     by PrusaSlicer 2.5 on all its threads moved a 40-layer gusset's solid-infill regions by up to
     13.5 um, and 6 of its 13 engine runs were laid again.
     """
-    if not (isinstance(kept, tuple) and len(kept) == 4):
+    if not (isinstance(kept, tuple) and len(kept) == 6):
         return False
-    region, entry, target, dens = kept
+    region, entry, target, dens, pitch0, width0 = kept
     inp = job.input
+    for was, now in ((pitch0, float(inp.pitch)), (width0, float(job.unit.flow_width))):
+        if abs(now - was) > NEAR_PITCH * abs(was):
+            return False
     for wkb, geom in ((region, inp.region), (entry, inp.load_entry)):
         if (wkb is None) != (geom is None):
             return False
@@ -342,11 +355,12 @@ def near_input(kept: tuple, job: Job, tol: float = TOL.region_reuse_mm) -> bool:
         return True
     origin, cell, pitch = dens
     new = np.asarray(df.pitch, float)
-    if origin != tuple(np.round(df.origin, 6)) or cell != round(float(df.cell), 6) or pitch.shape != new.shape:
-        return False
+    moved = float(np.max(np.abs(np.asarray(origin) - np.asarray(df.origin, float))))
+    if moved > tol or abs(float(df.cell) - cell) > NEAR_LENGTH * cell or pitch.shape != new.shape:
+        return False  # the grid follows the region's bounds: moved with it, by micrometres
     both = np.isfinite(pitch) & np.isfinite(new)
     return bool(np.array_equal(np.isfinite(pitch), np.isfinite(new))
-                and np.all(np.abs(new[both] - pitch[both]) <= 1e-3 * np.abs(pitch[both])))
+                and np.all(np.abs(new[both] - pitch[both]) <= NEAR_LENGTH * np.abs(pitch[both])))
 
 
 def density_bytes(df: Any) -> bytes:
