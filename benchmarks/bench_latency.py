@@ -495,6 +495,36 @@ moved perimeters make the sparse gusset lay 21 of its 42 engine runs again, and 
 candidates again (no gain there).  Measured from the checkout itself: the same bench run from a
 second worktree through ``PYTHONPATH`` gave the 100-layer specimen's repeat 4.1 s against 1.75 s
 here, both codes alike (its repeats missed the cache; not looked into further).
+
+2026-12-06, 01:59-02:12 UTC (main aec0899, load 1.7), ``--repeats 3``::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    example                      10     0.14     4.10   30.2     0.55    4.0      357    0.25   2.51     0.1     6.7     0.8
+    specimen-100                100     0.30     4.61   15.6     1.73    5.8      375    2.31   3.00     0.5     7.6     2.8
+    gusset-gyroid30              40     0.32     8.35   26.0     2.66    8.3      353    2.32   1.07     0.5    12.1     3.4
+    gusset-gyroid30-sparse       40     0.33    11.70   35.5     7.91   24.0      334    2.32   0.39     0.5    17.6    11.9
+    gusset-100                   40     0.27    10.66   38.9     3.12   11.4      349    0.64   4.11     0.4    17.1     4.3
+    specimen-1000              1000     1.96    16.04    8.2    10.92    5.6      618   22.95   3.04     3.6    26.8    17.2
+
+What changed: near matches in the cache.  PrusaSlicer 2.5 on all its threads does not write the same
+file twice: a re-slice of the gusset writes a third of its layers' perimeters and sparse lines in
+another order, and moves its outlines and solid-infill regions by up to 13.5 um.  Every kept
+prediction (matched bead for bead) and 6 of its 13 engine runs (keyed on the region to 1 um) missed,
+so the repeat laid, linked and judged again.  Now a prediction serves a file that lays the same
+material (:mod:`loadpath.stiffness.near`), and an analysis, an engine run and a linking serve outlines
+and regions within ``TOL.region_reuse_mm`` (:func:`loadpath.pipeline.paths.near_input`).  The same
+files in process: the default gusset's repeat 4.0 -> 1.4-1.6 s, the sparse one's 4.7 -> 2.6 s.
+The bench's repeats vary with the slices PrusaSlicer happens to write: the default gusset 2.66 s
+here, 2.33 s (e35a188, 02:00) and 4.54 s (c2e8277, 02:21) in two more runs (7.52 and 7.68 s before,
+c6e8667 and 4adfcf0); the sparse gusset 7.91, 8.59 and 6.51 s (11.14 and 10.99 s before); the 100 %
+gusset 3.12, 3.25 and 6.02 s (6.39 and 4.07 s before).  Where it is still slow a unit's region moved
+further than its run's representative's and its paths are clipped and linked again: the clipped
+paths differ, so their links and the predictions of the layouts they are in are made again (the
+100 % gusset in process: 7 of 16 linkings, 2 of 3 predictions).  First runs are unchanged (the same
+work; ``bench_printability.py --engine default`` on the same slices with an empty cache: all 18 rows
+identical).  The 1000-layer file's first run is over 15 s on this machine today: 16.04 s here, 21.1 s
+at 00:35 and 22.4-25.0 s as a process (the code of c6e8667 alike, 25.9 s), against 14.71 s last
+night.
 """
 
 from __future__ import annotations
