@@ -199,8 +199,8 @@ def _fea_parts(rb: Any, pitch: float | None) -> list[bytes | str]:
 
 
 NEAR_KEEP = 3
-"""Most entries kept under one near key (:meth:`Cache.keep_near`): a run that judges two layouts
-keeps the slicer's prediction and both layouts' under one (their layers and roles are the same)."""
+"""Most entries kept under one near key by default (:meth:`Cache.keep_near`: analyses, engine runs,
+linkings; the predictions keep more, :data:`loadpath.stiffness.change.NEAR_KEEP`)."""
 
 
 @dataclass

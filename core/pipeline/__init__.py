@@ -464,11 +464,10 @@ def run(
         picked = [pick(j) for j in todo]
         keys = near = None
         if cache is not None:
-            args = [
-                (j, name, params, _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal),
-                 retry, f)
-                for j, (name, params), f in zip(todo, picked, factors, strict=True)
-            ]
+            args = []
+            for j, (name, params), f in zip(todo, picked, factors, strict=True):
+                fid = _field_id(fea_keys[j.unit.object], kind_of[j.unit.object], j.unit, j.principal)
+                args.append((j, name, params, fid, retry, f))
             keys, near = [job_key(*a) for a in args], [job_near_key(*a) for a in args]
         return run_jobs(
             todo,
@@ -822,7 +821,8 @@ def _link_all(
             first[key] = i
             hit = cache.get("links", key)
             if not (isinstance(hit, tuple) and len(hit) == 2) and tasks[i][1] is not None:
-                hit = _near_links(cache, _link_key(*tasks[i], field_id=ids[i], near=True), tasks[i][1], tasks[i][2])
+                near = _link_key(*tasks[i], field_id=ids[i], near=True)
+                hit = _near_links(cache, near, tasks[i][1], tasks[i][2])
                 if hit is not None:
                     kept[0] += cache.put("links", key, hit, evict=False)  # found at once from now on
             if isinstance(hit, tuple) and len(hit) == 2:
@@ -842,12 +842,15 @@ def _link_all(
             kept[0] += cache.put("links", keys[i], out[i], evict=False)
             if tasks[i][1] is not None:
                 near = _link_key(*tasks[i], field_id=ids[i], near=True)
-                kept[0] += cache.keep_near("near-links", near, keys[i], (shapely.to_wkb(tasks[i][1]), float(tasks[i][2])))
+                probe = (shapely.to_wkb(tasks[i][1]), float(tasks[i][2]))
+                kept[0] += cache.keep_near("near-links", near, keys[i], probe)
     # a repeated key takes its first task's runs
     return [o if o is not None else out[first[k]] for o, k in zip(out, keys, strict=True)]  # type: ignore
 
 
-def _near_links(cache: Any, near_key: str, region, pitch: float) -> tuple | None:  # type: ignore[no-untyped-def]
+def _near_links(  # type: ignore[no-untyped-def]
+    cache: Any, near_key: str, region, pitch: float
+) -> tuple | None:
     """The linked runs kept for the same paths in a region within ``TOL.region_reuse_mm`` of
     ``region`` (:func:`reuses`: as a layer prints its run's representative's runs), at a pitch within
     :data:`loadpath.pipeline.paths.NEAR_PITCH` (measured from the slicer's file), that lie in it

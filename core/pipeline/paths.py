@@ -279,7 +279,9 @@ def _job_parts(
 
     inp = job.input
     merged = {**params, **job.params}
-    fixed = "fixed" if job.unit.fixed_width else "solid"
+    width = f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid"
+    if near:
+        width = "fixed" if job.unit.fixed_width else "solid"
     return [
         "paths",
         code_stamp(),
@@ -288,12 +290,13 @@ def _job_parts(
         field_id,
         (f"{inp.seed} {length_retry!r}" if near else f"{inp.pitch:.6f} {inp.seed} {length_retry!r}")
         + ("" if pitch_factor == 1.0 else f" x{pitch_factor!r}"),
-        fixed if near else f"{job.unit.flow_width:.6f}" if job.unit.fixed_width else "solid",
+        width,
     ]
 
 
 def job_near_key(
-    job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float, pitch_factor: float = 1.0
+    job: Job, engine: str, params: Mapping[str, Any], field_id: str, length_retry: float,
+    pitch_factor: float = 1.0,
 ) -> str:
     """Key of an engine run's paths for a near match: :func:`job_key`'s without the region, the load
     entry, the length matched, the density field, the pitch and the flow width, which
@@ -319,7 +322,9 @@ def input_probe(job: Job) -> tuple:
     inp = job.input
     wkb = [None if g is None else shapely.to_wkb(g) for g in (inp.region, inp.load_entry)]
     df = inp.density
-    dens = None if df is None else (tuple(np.round(df.origin, 6)), round(float(df.cell), 6), np.asarray(df.pitch, float))
+    dens = None
+    if df is not None:
+        dens = (tuple(np.round(df.origin, 6)), round(float(df.cell), 6), np.asarray(df.pitch, float))
     return wkb[0], wkb[1], length_target(job), dens, float(inp.pitch), float(job.unit.flow_width)
 
 
@@ -346,7 +351,9 @@ def near_input(kept: tuple, job: Job, tol: float = TOL.region_reuse_mm) -> bool:
         if wkb is not None and not reuses(geom, shapely.from_wkb(wkb), tol):
             return False
     now = length_target(job)
-    if (target is None) != (now is None) or (now is not None and abs(now - target) > NEAR_LENGTH * abs(target)):
+    if (target is None) != (now is None):
+        return False
+    if now is not None and abs(now - target) > NEAR_LENGTH * abs(target):
         return False
     df = inp.density
     if (dens is None) != (df is None):

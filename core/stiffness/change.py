@@ -209,7 +209,8 @@ def near_key(
 ) -> str:
     """Key of a prediction's beads for a near match: :func:`prediction_key`'s, with the beads named by
     their layers and roles at their bottoms and heights only (:func:`loadpath.stiffness.near.group_bytes`:
-    not their count or order; where their material lies is compared, :func:`loadpath.stiffness.near.match`)."""
+    not their count or order; where their material lies is compared,
+    :func:`loadpath.stiffness.near.match`)."""
     from loadpath.cache import code_stamp, digest, source_stamp
 
     head = ["prediction near", code_stamp(), source_stamp("stiffness"), fea_key, repr(options), repr(card)]
@@ -229,8 +230,8 @@ def _keys(  # type: ignore[no-untyped-def]
 
 def _lookup(cache, keys: tuple[str, str], deposits: Deposits | Stack):  # type: ignore[no-untyped-def]
     """The cache's prediction of these beads: under their exact key (``keys``: :func:`_keys`), else the
-    one kept under their near key when its beads lay the same material (:func:`loadpath.stiffness.near.match`);
-    None if neither."""
+    one kept under their near key when its beads lay the same material
+    (:func:`loadpath.stiffness.near.match`); None if neither."""
     hit = cache.get("prediction", keys[0])
     if isinstance(hit, _Predicted):
         return hit

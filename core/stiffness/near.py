@@ -35,7 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NEAR_MM", "NEAR_VOLUME", "NODE_SHARE", "CELL", "Beads", "group_bytes", "match", "summary", "agrees"]
+__all__ = ["NEAR_MM", "NEAR_VOLUME", "NODE_SHARE", "CELL", "Beads", "group_bytes", "match"]
+__all__ += ["summary", "agrees"]
 
 NEAR_MM = 0.1
 """Largest move of a bead's material (mm) with which a kept prediction is used for another file's beads."""
