@@ -515,7 +515,7 @@ material (:mod:`loadpath.stiffness.near`), and an analysis, an engine run and a 
 and regions within ``TOL.region_reuse_mm`` (:func:`loadpath.pipeline.paths.near_input`).  The same
 files in process: the default gusset's repeat 4.0 -> 1.4-1.6 s, the sparse one's 4.7 -> 2.6 s.
 The bench's repeats vary with the slices PrusaSlicer happens to write: the default gusset 2.66 s
-here, 2.33 s (e35a188, 02:00) and 4.54 s (c2e8277, 02:21) in two more runs (7.52 and 7.68 s before,
+here, 2.33 s (e35a188, 02:10) and 4.54 s (c2e8277, 02:20) in two more runs (7.52 and 7.68 s before,
 c6e8667 and 4adfcf0); the sparse gusset 7.91, 8.59 and 6.51 s (11.14 and 10.99 s before); the 100 %
 gusset 3.12, 3.25 and 6.02 s (6.39 and 4.07 s before).  Where it is still slow a unit's region moved
 further than its run's representative's and its paths are clipped and linked again: the clipped
