@@ -753,8 +753,7 @@ def _simplify_paths(paths, plan: PlanOptions) -> tuple[Path, ...]:
 
 
 def _link_key(
-    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None,
-    near: bool = False,
+    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None
 ) -> str:
     """Key of one :func:`link_paths` call in the cache: the paths' and the region's exact bytes, the pitch.
 
@@ -763,28 +762,35 @@ def _link_key(
     (:func:`_field_id`: the analysis's key, its cut and the principal stress, which determine it),
     else its stress at every path vertex (sampling it was 0.26 s of a cached 100-layer run).  The
     options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by their repr;
-    the code by :func:`loadpath.cache.code_stamp`.  ``near``: the key for a near match, without the
-    region and the pitch (:func:`_near_links` compares them within ``TOL.region_reuse_mm`` and
-    :data:`loadpath.pipeline.paths.NEAR_PITCH`).
+    the code by :func:`loadpath.cache.code_stamp`.
     """
+    return _link_keys(paths, region, pitch, field, link_options, field_id)[0]
+
+
+def _link_keys(
+    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None
+) -> tuple[str, str]:
+    """:func:`_link_key` and the key for a near match, which names all but the region and the pitch
+    (:func:`_near_links` compares them within ``TOL.region_reuse_mm`` and
+    :data:`loadpath.pipeline.paths.NEAR_PITCH`): the paths (and the field) read once for both."""
     from loadpath.cache import code_stamp, digest
     from loadpath.engines.linking import LinkOptions
 
     lo = link_options if link_options is not None else LinkOptions()
-    parts: list[bytes | str] = ["links near" if near else "links", code_stamp(), repr(lo)]
-    if not near:
-        parts.append(repr(float(pitch)))
-        parts.append(shapely.to_wkb(region, hex=False) if region is not None else b"none")
+    body: list[bytes | str] = []
     for p in paths:
-        parts += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
-        parts.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
+        body += [p.kind, np.ascontiguousarray(p.points, dtype=float).tobytes()]
+        body.append(np.ascontiguousarray(p.pitch, dtype=float).tobytes())
     if field is not None and paths:  # the cuts read the field (LinkOptions.cut_stress)
         if field_id is not None:
-            parts.append(f"field {field_id}")
+            body.append(f"field {field_id}")
         else:
             mag = field.sample(np.concatenate([p.points for p in paths])).magnitude
-            parts.append(np.ascontiguousarray(mag, dtype=float).tobytes())
-    return digest(parts)
+            body.append(np.ascontiguousarray(mag, dtype=float).tobytes())
+    read = digest(body)
+    where = shapely.to_wkb(region, hex=False) if region is not None else b"none"
+    exact = digest(["links", code_stamp(), repr(lo), repr(float(pitch)), where, read])
+    return exact, digest(["links near", code_stamp(), repr(lo), read])
 
 
 _LINK_WORK: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
@@ -811,7 +817,8 @@ def _link_all(
     global _LINK_WORK
     out: list[tuple[tuple[Path, ...], dict] | None] = [None] * len(tasks)
     ids = field_ids if field_ids is not None else [None] * len(tasks)
-    keys = [_link_key(*t, field_id=f) for t, f in zip(tasks, ids, strict=True)] if cache is not None else [None] * len(tasks)
+    both = [_link_keys(*t, field_id=f) for t, f in zip(tasks, ids, strict=True)] if cache is not None else []
+    keys = [b[0] for b in both] if cache is not None else [None] * len(tasks)
     first: dict[str, int] = {}
     todo = []
     for i, key in enumerate(keys):
@@ -821,8 +828,7 @@ def _link_all(
             first[key] = i
             hit = cache.get("links", key)
             if not (isinstance(hit, tuple) and len(hit) == 2) and tasks[i][1] is not None:
-                near = _link_key(*tasks[i], field_id=ids[i], near=True)
-                hit = _near_links(cache, near, tasks[i][1], tasks[i][2])
+                hit = _near_links(cache, both[i][1], tasks[i][1], tasks[i][2])
                 if hit is not None:
                     kept[0] += cache.put("links", key, hit, evict=False)  # found at once from now on
             if isinstance(hit, tuple) and len(hit) == 2:
@@ -841,9 +847,8 @@ def _link_all(
         if keys[i] is not None:
             kept[0] += cache.put("links", keys[i], out[i], evict=False)
             if tasks[i][1] is not None:
-                near = _link_key(*tasks[i], field_id=ids[i], near=True)
                 probe = (shapely.to_wkb(tasks[i][1]), float(tasks[i][2]))
-                kept[0] += cache.keep_near("near-links", near, keys[i], probe)
+                kept[0] += cache.keep_near("near-links", both[i][1], keys[i], probe)
     # a repeated key takes its first task's runs
     return [o if o is not None else out[first[k]] for o, k in zip(out, keys, strict=True)]  # type: ignore
 
