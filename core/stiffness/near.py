@@ -132,6 +132,7 @@ def _pieces(b: Beads, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     p0 = (b.ends[:, :2].astype(float) - origin) / CELL
     p1 = (b.ends[:, 2:].astype(float) - origin) / CELL
     d = p1 - p0
+    length = np.hypot(*d.T)
     ts, owner = [np.zeros(n), np.ones(n)], [np.arange(n), np.arange(n)]
     for a in (0, 1):
         lo, hi = np.minimum(p0[:, a], p1[:, a]), np.maximum(p0[:, a], p1[:, a])
@@ -146,10 +147,9 @@ def _pieces(b: Beads, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     t, who = t[order], who[order]
     same = who[1:] == who[:-1]
     t0, t1, w = t[:-1][same], t[1:][same], who[:-1][same]
-    keep = (t1 > t0) | (np.hypot(*d[w].T) == 0)  # a bead of no length keeps its one piece
+    keep = (t1 > t0) | (length[w] == 0)  # a bead of no length keeps its one piece
     t0, t1, w = t0[keep], t1[keep], w[keep]
     mid = p0[w] + (0.5 * (t0 + t1))[:, None] * d[w]
-    length = np.hypot(*d.T)
     vol = b.volume.astype(float)[w] * np.where(length[w] > 0, t1 - t0, 1.0)
     u = d / np.maximum(length, 1e-12)[:, None]
     turn = np.column_stack([u[:, 0] ** 2 - u[:, 1] ** 2, 2.0 * u[:, 0] * u[:, 1]])
@@ -215,6 +215,11 @@ def _nodes(code: np.ndarray, mid: np.ndarray, vol: np.ndarray, turn: np.ndarray,
     return np.concatenate(keys), np.concatenate(vals)
 
 
+def _binned(keys: np.ndarray, vals: np.ndarray, n: int) -> np.ndarray:
+    """``vals`` ``(m, 3)`` summed per key ``(m,)`` into ``n`` bins: ``(n, 3)``."""
+    return np.stack([np.bincount(keys, vals[:, q], minlength=n) for q in range(vals.shape[1])], axis=1)
+
+
 def match(kept: Beads, beads: Beads) -> bool:
     """Whether ``beads`` lay the material of ``kept`` (module docstring).
 
@@ -223,11 +228,10 @@ def match(kept: Beads, beads: Beads) -> bool:
     """
     if len(kept) == 0 or len(beads) == 0:
         return len(kept) == len(beads)
-    c0, c1 = np.unique(kept.codes()), np.unique(beads.codes())
-    if not np.array_equal(c0, c1):
+    first = summary(kept)
+    if not agrees(first, beads):  # the same groups, each with its volume and direction
         return False
-    if not agrees(summary(kept), beads):
-        return False
+    c0 = first[0]
     # groups whose beads are the very same, in the same order, match: the grid only for the rest
     differ = _group_digests(kept, c0) != _group_digests(beads, c0)
     if not differ.any():
@@ -245,13 +249,11 @@ def match(kept: Beads, beads: Beads) -> bool:
     (k0, v0), (k1, v1) = sums
     size = len(c0) * nx * ny
     if size <= _DENSE:
-        a0 = np.stack([np.bincount(k0, v0[:, q], minlength=size) for q in range(3)], axis=1)
-        a1 = np.stack([np.bincount(k1, v1[:, q], minlength=size) for q in range(3)], axis=1)
+        a0, a1 = _binned(k0, v0, size), _binned(k1, v1, size)
         node_group = np.arange(size) // (nx * ny)
     else:
         keys, inv = np.unique(np.concatenate([k0, k1]), return_inverse=True)
-        a0 = np.stack([np.bincount(inv[: len(k0)], v0[:, q], minlength=len(keys)) for q in range(3)], axis=1)
-        a1 = np.stack([np.bincount(inv[len(k0) :], v1[:, q], minlength=len(keys)) for q in range(3)], axis=1)
+        a0, a1 = _binned(inv[: len(k0)], v0, len(keys)), _binned(inv[len(k0) :], v1, len(keys))
         node_group = keys // (nx * ny)
     # each group's median bead section (volume per length; a bead under 0.05 mm counts as that long)
     length = np.maximum(np.hypot(*(kept.ends[:, 2:] - kept.ends[:, :2]).astype(float).T), 0.05)
