@@ -274,10 +274,9 @@ class Judge:
 
     With the run's cache (and a cache key for every body's analysis), each file is predicted as the
     verdict predicts one (:func:`loadpath.stiffness.change.predicted_change`, the same model and
-    figures): every prediction is kept, so a run of the same file again, or of a re-slice whose beads
-    moved by less than a tenth of a millimetre, judges its candidates from the cache (issue 17: the
-    sparse gusset run again in process, 5.9 -> 2.2 s; a re-slice at other speeds that moves its
-    regions lays new paths, and those are judged again).  Without one, each candidate and the
+    figures): every prediction is kept, so a run of the same file again, or of a re-slice that lays
+    the same material (:mod:`loadpath.stiffness.near`), judges its candidates from the cache (issue
+    17: the sparse gusset run again in process, 5.9 -> 2.2 s; re-sliced at other speeds, 4.7 -> 2.6 s).  Without one, each candidate and the
     slicer's file once (:func:`loadpath.stiffness.evaluate_file`, one mesh for all).
     """
 
