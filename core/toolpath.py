@@ -100,10 +100,15 @@ class Toolpaths:
     paths : tuple of Path
     stats : dict
         Engine diagnostics (time per stage in s, solver statuses, counts); JSON-serialisable.
+    band : Polygon or MultiPolygon or None, mm
+        Where the paths end inside the region by design (the level-set engine's cut along a jump of
+        the followed direction): the linking joins the ends on it along its edge, as it joins the
+        ends on the region's edge (:func:`loadpath.engines.linking.link_paths`).  None: nowhere.
     """
 
     paths: tuple[Path, ...]
     stats: dict[str, Any] = field(default_factory=dict)
+    band: Region | None = None
 
     @property
     def total_length(self) -> float:

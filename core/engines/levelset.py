@@ -51,9 +51,13 @@ laid too, in pieces at least :data:`FILL_LENGTH` pitches long.  Sparse infill (t
 width, machine fact ``flow_width``) needs neither.  Path ends are carried on to the next bead or
 the edge (:func:`loadpath.engines.finish.ends.extend_ends`) as the other engines' are.
 
+The cut is returned as the paths' band (:attr:`Toolpaths.band`): on solid infill the linking joins
+the ends on it along its edge, a zig-zag along the neutral axis, as it joins them along the faces.
+
 Measured (``benchmarks/bench_printability.py``, real PrusaSlicer 2.5 slices, ``loadpath compare``'s
 model), retractions in the replaced blocks against the slicer's, level sets (swarm): 100 % solid
-bar 20 -> 50 (241), beam 10 -> 105 (555), bracket 25 -> 149 (488), two islands 20 -> 20 (125); 40 %
+bar 20 -> 50 (241), beam 10 -> 85 (555), bracket 25 -> 142 (488) (50, 105 and 149 before the
+band), two islands 20 -> 20 (125); 40 %
 sparse 16 -> 24, 8 -> 40, 20 -> 64, 16 -> 16; 30 % gyroid 30 -> 22 (66).  (On a bent part the level
 sets reach the faces at a few degrees: on solid infill the linking joins them along the edge beside
 the path that converges on it, ``LinkOptions.wedge``, which this engine's registry entry sets; not on
@@ -759,7 +763,7 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
         "contourings": steps,
         **{k: v for k, v in ends.items() if isinstance(v, (int, float))},
     }
-    return Toolpaths(paths=tuple(paths), stats=stats)
+    return Toolpaths(paths=tuple(paths), stats=stats, band=None if f.cut.is_empty else f.cut)
 
 
 def warm_up() -> float:

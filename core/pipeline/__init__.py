@@ -753,7 +753,8 @@ def _simplify_paths(paths, plan: PlanOptions) -> tuple[Path, ...]:
 
 
 def _link_key(
-    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None
+    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, band=None,
+    field_id: str | None = None,
 ) -> str:
     """Key of one :func:`link_paths` call in the cache: the paths' and the region's exact bytes, the pitch.
 
@@ -762,13 +763,15 @@ def _link_key(
     (:func:`_field_id`: the analysis's key, its cut and the principal stress, which determine it),
     else its stress at every path vertex (sampling it was 0.26 s of a cached 100-layer run).  The
     options (``link_options``, None: the defaults of :class:`LinkOptions`) are named by their repr;
-    the code by :func:`loadpath.cache.code_stamp`.
+    the code by :func:`loadpath.cache.code_stamp`; the engine's ``band`` (:attr:`Toolpaths.band`) by
+    its WKB.
     """
-    return _link_keys(paths, region, pitch, field, link_options, field_id)[0]
+    return _link_keys(paths, region, pitch, field, link_options, band, field_id)[0]
 
 
 def _link_keys(
-    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, field_id: str | None = None
+    paths: tuple[Path, ...], region, pitch: float, field=None, link_options=None, band=None,
+    field_id: str | None = None,
 ) -> tuple[str, str]:
     """:func:`_link_key` and the key for a near match, which names all but the region and the pitch
     (:func:`_near_links` compares them within ``TOL.region_reuse_mm`` and
@@ -787,26 +790,28 @@ def _link_keys(
         else:
             mag = field.sample(np.concatenate([p.points for p in paths])).magnitude
             body.append(np.ascontiguousarray(mag, dtype=float).tobytes())
+    if band is not None:  # the paths' ends on it are linked along its edge
+        body.append(shapely.to_wkb(band, hex=False))
     read = digest(body)
     where = shapely.to_wkb(region, hex=False) if region is not None else b"none"
     exact = digest(["links", code_stamp(), repr(lo), repr(float(pitch)), where, read])
     return exact, digest(["links near", code_stamp(), repr(lo), read])
 
 
-_LINK_WORK: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
+_LINK_WORK: list[tuple[tuple[Path, ...], Any, float, Any, Any, Any]] = []
 """The linkings :func:`_link_all` hands to its worker processes (inherited by fork, not pickled)."""
 
 
 def _link_one(i: int) -> tuple[tuple[Path, ...], dict]:
-    ps, region, pitch, fld, lo = _LINK_WORK[i]
-    return link_paths(ps, region, pitch, lo, field=fld)
+    ps, region, pitch, fld, lo, band = _LINK_WORK[i]
+    return link_paths(ps, region, pitch, lo, field=fld, band=band)
 
 
 def _link_all(
-    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]], cache: Any, workers: int, kept: list[int],
-    field_ids: Sequence[str | None] | None = None,
+    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any, Any]], cache: Any, workers: int,
+    kept: list[int], field_ids: Sequence[str | None] | None = None,
 ) -> list[tuple[tuple[Path, ...], dict]]:
-    """Link every ``(paths, region, pitch, field, link options)`` of ``tasks``: ``(runs, stats)`` of
+    """Link every ``(paths, region, pitch, field, link options, band)`` of ``tasks``: ``(runs, stats)`` of
     :func:`link_paths` each.
 
     With a ``cache``: what it holds under :func:`_link_key` is loaded, the same key twice in the
@@ -910,20 +915,28 @@ def _fills(
     # the engine's own linking options (its paths' geometry: loadpath.engines.registry.Engine.linking),
     # for solid infill only: on sparse infill the level sets' wedge links cost the 3-point beam of
     # bench_sparse its failure load (PrusaSlicer gyroid 20 %: 1.882 -> 1.346x the slicer's; gyroid
-    # 40 % 3.014 -> 2.154x), a link along each face beside the lines converging on it
+    # 40 % 3.014 -> 2.154x), a link along each face beside the lines converging on it.  The engine's
+    # band (Toolpaths.band) likewise: linked along it, sparse infill lost up to a fifth of its
+    # failure load on bench_sparse's shelf (PrusaSlicer gyroid 40 %: 1.726 -> 1.365x the slicer's;
+    # rectilinear 40 %: 1.901 -> 1.576x), the links' plastic taken from the lines at the slicer's mass,
+    # and its retractions did not fall (the 3-point beam's rose: 3.32 -> 3.80x at gyroid 40 %)
     base_opts = LinkOptions(free_hop=free_hop) if math.isfinite(free_hop) else LinkOptions(cut_reach=0.0)
     solid_opts = {e: replace(base_opts, **dict(engine_named(e).linking)) for e in set(engines)}
-    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any]] = []
+    tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any, Any]] = []
     task_fields: list[str | None] = []
 
     def task(
-        ps: tuple[Path, ...], u: Unit, fld: Any = None, fid: str | None = None, ji: int = 0
+        ps: tuple[Path, ...], u: Unit, fld: Any = None, fid: str | None = None, ji: int = 0, band: Any = None
     ) -> int | None:
-        """Index of the linking of job ``ji``'s ``ps`` in ``u``'s region (None: left as they are)."""
+        """Index of the linking of job ``ji``'s ``ps`` in ``u``'s region (None: left as they are);
+        ``band``: where the engine's paths end inside it (:attr:`Toolpaths.band`)."""
         if not options.link or len(ps) < 2:
             return None
-        lo = base_opts.for_bead(u.flow_width, u.pitch) if u.fixed_width else solid_opts[engines[ji]]
-        tasks.append((ps, u.fill_region, u.pitch, fld, lo))
+        if u.fixed_width:  # sparse: no band (above)
+            lo, band = base_opts.for_bead(u.flow_width, u.pitch), None
+        else:
+            lo = solid_opts[engines[ji]]
+        tasks.append((ps, u.fill_region, u.pitch, fld, lo, band))
         task_fields.append(fid)
         return len(tasks) - 1
 
@@ -935,8 +948,8 @@ def _fills(
         base_raw = _simplified(tp.paths, plan, cache)
         fld = getattr(job.input, "field", None)
         fid = field_ids[ji] if field_ids is not None else None
-        base_t = task(base_raw, job.unit, fld, fid, ji)
-        shifted_raw, shifted_t = None, None
+        base_t = task(base_raw, job.unit, fld, fid, ji, tp.band)
+        shifted_raw, shifted_t, shifted_band = None, None, None
         rows = []
         for k, u in enumerate(members):
             use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
@@ -944,10 +957,12 @@ def _fills(
                 u0 = job.unit
                 if by_engine:
                     shifted_raw = _simplified(shifted_paths[ji].paths, plan, cache)
+                    shifted_band = shifted_paths[ji].band
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
                     shifted_raw = _simplified(moved, plan, cache)
-                shifted_t = task(shifted_raw, u0, fld, fid, ji)
+                    shifted_band = tp.band
+                shifted_t = task(shifted_raw, u0, fld, fid, ji, shifted_band)
             clipped = clipped_t = None
             if not reuses(u.fill_region, job.unit.fill_region):
                 # a region that differs by more than rounding (a sliver, TOL.region_reuse_mm): the
@@ -955,7 +970,7 @@ def _fills(
                 # cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-                clipped_t = task(clipped, u, fld, fid, ji)
+                clipped_t = task(clipped, u, fld, fid, ji, shifted_band if use_shift else tp.band)
             rows.append((u, use_shift, clipped, clipped_t))
         planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
 
@@ -967,7 +982,7 @@ def _fills(
     # clip_to trimmed when every other layer was clipped; those layers are cut and linked in their
     # own region after all (a second, short linking)
     first_late = len(tasks)
-    for ji, (job, _, _, _, _, base_raw, base_t, shifted_raw, shifted_t, rows) in enumerate(planned):
+    for ji, (job, tp, _, _, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows) in enumerate(planned):
         fld = getattr(job.input, "field", None)
         fid = field_ids[ji] if field_ids is not None else None
         for i, (u, use_shift, clipped, _) in enumerate(rows):
@@ -978,7 +993,8 @@ def _fills(
             if lies_in(ps, u.fill_region):
                 continue
             clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid, ji))
+            band = shifted_paths[ji].band if use_shift and by_engine else tp.band
+            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid, ji, band))
     if len(tasks) > first_late:
         linked += _link_all(tasks[first_late:], cache, options.workers, kept, task_fields[first_late:])
 

@@ -365,3 +365,25 @@ def test_relief_options_are_checked():
         generate("levelset", EngineInput(region, field, PITCH), relief_floor=2.0)
     with pytest.raises(SettingsError, match="straight"):
         generate("levelset", EngineInput(region, field, PITCH), straight=-1.0)
+
+
+@pytest.mark.parametrize("size", [(60.0, 10.0), (80.0, 12.0)])
+def test_cantilever_prints_fewer_runs_linked_along_its_cut(size):
+    """Issue 19 on the closed-form cantilever: the level sets end on the neutral-axis cut, which the
+    engine returns as its band; linked along it, the layer prints as fewer runs, covering no less,
+    crossing nothing."""
+    length, height = size
+    region = box(0, 0, length, height)
+    field = AnalyticField(cantilever(height, length), region, scale=1.0)
+    tp = generate("levelset", EngineInput(region, field, PITCH))
+    assert tp.band is not None and tp.band.length > length  # the cut along the neutral axis
+    lo = LinkOptions(**engine_named("levelset").linking)
+    counts, covers = [], []
+    for band in (None, tp.band):
+        runs, _ = link_paths(tp.paths, region, PITCH, lo, band=band)
+        assert M.crossings(runs) == 0
+        assert all(region.buffer(1e-3).covers(shapely.LineString(r.points)) for r in runs)
+        counts.append(len(runs))
+        covers.append(M.coverage(Toolpaths(paths=runs), region).coverage)
+    assert counts[0] > counts[1], counts
+    assert covers[1] >= covers[0] - 1e-4, covers

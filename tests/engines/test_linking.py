@@ -8,6 +8,8 @@ that both ways of linking, made from one shared preparation, give what each give
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import shapely
@@ -218,3 +220,42 @@ def test_long_links_tested_in_batches_link_as_one_at_a_time(monkeypatch):
             got.append([(r.points.tobytes(), r.pitch.tobytes()) for r in runs])
         assert got[0] == got[1], engine
     assert any(tested) and not all(tested)  # long pairs tested in batches, clear and not
+
+
+def _converging(angle: float = 8.0, w: float = 0.45) -> tuple:
+    """Straight paths from the top edge of a 60 x 10 mm plate down onto a band along its middle,
+    ``angle`` degrees off it (a bending part's level sets meeting their jump cut): their ends on
+    the band lie ``w / sin(angle)`` apart, 7 pitches at 8 degrees."""
+    region = box(0, 0, 60, 10)
+    band = box(1.0, 4.9, 59.0, 5.1)
+    run = (9.8 - 5.1) / np.tan(np.radians(angle))
+    step = w / np.sin(np.radians(angle))
+    paths = [
+        Path(np.array([[x, 9.8], [x + run, 5.1]]), np.full(2, w), "continuous")
+        for x in 0.3 + step * np.arange(int((58.2 - run) / step) + 1)
+    ]
+    return region, band, paths
+
+
+def test_ends_on_the_engines_band_are_linked_along_it_into_one_zigzag():
+    """Issue 19: the level sets end on their jump cut (``Toolpaths.band``) many pitches apart, as
+    they end on a bending part's faces; given the band, the linking joins them along it as along
+    the edge, and the layer prints as one run instead of one per pair of paths."""
+    from loadpath.engines.registry import get as engine_named
+
+    region, band, paths = _converging()
+    lo = LinkOptions(**engine_named("levelset").linking)
+    alone, _ = link_paths(paths, region, 0.45, lo)
+    runs, st = link_paths(paths, region, 0.45, lo, band=band)
+    assert len(paths) == 8 and len(alone) == 4 and len(runs) == 1, (len(alone), len(runs))
+    assert st["boundary_links"] == st["links"] == len(paths) - 1
+    line = shapely.LineString(runs[0].points)
+    assert region.buffer(1e-3).covers(line) and line.is_simple
+    # the links run along the band's edge, outside it
+    assert line.intersection(band.buffer(-0.01)).length < 1e-6
+    # a band within ``band_depth`` pitches of the region's edge is not an edge of its own
+    near_edge, _ = link_paths(paths, region, 0.45, lo, band=box(0, 0, 60, 0.3))
+    assert [r.points.tobytes() for r in near_edge] == [r.points.tobytes() for r in alone]
+    off, _ = link_paths(paths, region, 0.45, replace(lo, band_depth=-1.0), band=band)
+    assert len(off) == len(alone)
+

@@ -352,6 +352,11 @@ def test_links_key_names_the_field_by_its_analysis():
     assert _link_key(paths, region, 0.45, field, lo, field_id="fea-1 2d min_abs") != a  # another principal
     assert _link_key(paths, region, 0.45, None, lo, field_id="fea-1 2d max_abs") != a  # no field: no cuts' stress
     assert _link_key(paths, region, 0.45, field, lo) != a and sampled  # no name: sampled, as before
+    # the engine's band (where its paths end inside the region) changes the links: named by its WKB
+    band = box(0.0, 4.9, 20.0, 5.1)
+    b = _link_key(paths, region, 0.45, field, lo, band=band, field_id="fea-1 2d max_abs")
+    assert b != a and b == _link_key(paths, region, 0.45, field, lo, band=box(0.0, 4.9, 20.0, 5.1),
+                                     field_id="fea-1 2d max_abs")
 
 
 def test_a_re_slice_that_lays_the_same_plastic_in_another_order_is_not_predicted_again(tmp_path, monkeypatch):

@@ -292,3 +292,30 @@ def test_batched_candidate_tests_link_real_layers_as_one_by_one(prusa_run):
         u = jr.units[0]
         laid += assert_links_as_one_by_one(list(jr.paths.paths), u.fill_region, u.pitch, every=k == 0)[0]
     assert laid > 0
+
+
+def test_level_sets_cut_at_the_neutral_axis_are_linked_along_their_band(sliced, monkeypatch):
+    """The bracket at 100 % under its pin load, the level-set engine (the product lays them first on
+    solid infill and keeps them where the model ranks them as well as the swarm,
+    ``loadpath.plugin.solid_choice``): they end on their jump cut, the engine hands that band to the linking
+    (``Toolpaths.band``) and the linking joins the ends along it; the runs cross nothing and the
+    splice checks stay clean."""
+    import loadpath.pipeline as pipeline_mod
+    from cases import BRACKET_PIN
+
+    bands, real = [], pipeline_mod.link_paths
+
+    def spy(paths, region, pitch, options, field=None, band=None):
+        bands.append(band)
+        return real(paths, region, pitch, options, field=field, band=band)
+
+    monkeypatch.setattr(pipeline_mod, "link_paths", spy)
+    program = gcode.read(sliced("prusa", "bracket", "solid"))
+    s = settings_mod.resolve(program)
+    opts = PipelineOptions(engine="levelset", workers=1)
+    res = run(program, loadcase.parse(BRACKET_PIN), opts, settings_mod.splice_options(s))
+    assert res.check is not None and not res.check.problems
+    assert any(b is not None and not b.is_empty for b in bands), len(bands)
+    assert any(jr.engine == "levelset" for jr in res.jobs)
+    for jr in res.jobs:
+        assert metrics.crossings(jr.printed) == 0

@@ -26,15 +26,27 @@ def test_for_bead_scales_the_clearance_by_the_beads_share_of_the_pitch():
 
 
 @pytest.mark.slow
-def test_sparse_runs_link_at_the_beads_share(tmp_path):
+def test_sparse_runs_link_at_the_beads_share(tmp_path, monkeypatch):
     src, case_path = slicing.gyroid_bracket(tmp_path, BRACKET_PIN)
     program = gcode.read(src)
     case = loadcase.read(case_path)
     splice = settings_mod.splice_options(settings_mod.resolve(program, toolpath=case.toolpath))
+    calls, real = [], pipeline.link_paths
+
+    def spy(paths, region, pitch, options, field=None, band=None):
+        calls.append((pitch, options, band))
+        return real(paths, region, pitch, options, field=field, band=band)
+
+    monkeypatch.setattr(pipeline, "link_paths", spy)
     res = pipeline.run(program, case, pipeline.PipelineOptions(replace=("sparse",), workers=1), splice)
     assert res.check is not None and not res.check.problems
     sparse = [jr for jr in res.jobs if jr.job.unit.kind == "sparse"]
     assert sparse
+    # sparse infill is linked without the engine's band: its links took plastic from the lines at the
+    # slicer's mass (bench_sparse's shelf, issue 19)
+    pitches = {jr.job.unit.pitch for jr in sparse}
+    mine = [b for p, _, b in calls if p in pitches]
+    assert mine and all(b is None for b in mine)
     wide = narrow = printed = 0
     for jr in sparse:
         u = jr.job.unit
