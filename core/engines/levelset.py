@@ -56,8 +56,8 @@ the ends on it along its edge, a zig-zag along the neutral axis, as it joins the
 
 Measured (``benchmarks/bench_printability.py``, real PrusaSlicer 2.5 slices, ``loadpath compare``'s
 model), retractions in the replaced blocks against the slicer's, level sets (swarm): 100 % solid
-bar 20 -> 50 (241), beam 10 -> 85 (555), bracket 25 -> 142 (488) (50, 105 and 149 before the
-band), two islands 20 -> 20 (125); 40 %
+bar 20 -> 45 (235), beam 10 -> 65 (525), bracket 25 -> 120 (485) (50, 105 and 149 before the band
+and the insertions, :mod:`loadpath.engines.insertion`), two islands 20 -> 20 (125); 40 %
 sparse 16 -> 24, 8 -> 40, 20 -> 64, 16 -> 16; 30 % gyroid 30 -> 22 (66).  (On a bent part the level
 sets reach the faces at a few degrees: on solid infill the linking joins them along the edge beside
 the path that converges on it, ``LinkOptions.wedge``, which this engine's registry entry sets; not on

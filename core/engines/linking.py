@@ -36,10 +36,11 @@ paths, where the stress is low (:mod:`loadpath.engines.cuts`, :attr:`LinkOptions
 Short pieces that cost a travel and add little are dropped first (:func:`drop_fragments`), and the
 runs left without a link that cover less than ``lone_area`` square pitches last (:func:`drop_lone`).
 
-Fewer runs ending inside the region (issue 19).  An engine may say where its paths end inside
+Two more things a layer's runs end on less (issue 19).  An engine may say where its paths end inside
 the region by design (:attr:`loadpath.toolpath.Toolpaths.band`: the level sets' cut along a bending
 part's neutral axis): the band's edge is then an edge like the region's (``band``,
-:attr:`LinkOptions.band_depth`).
+:attr:`LinkOptions.band_depth`).  And after the greedy passes a run may take the place of a link laid
+before it (:mod:`loadpath.engines.insertion`, :attr:`LinkOptions.insert`).
 
 The runs are returned in no particular order: the splicer orders them (nearest neighbour from the
 nozzle, then 2-opt; :func:`loadpath.splice.plan.order_paths`).
@@ -172,6 +173,11 @@ class LinkOptions:
         the edge (the cut along a loaded face) the ends keep the region's edge: linked along the
         band there, the bench's bar at PrusaSlicer 100 % lost 10 % of its failure load (1.035 ->
         0.928x the slicer's; retractions 50 -> 45).  Negative: no band.
+    insert : bool
+        After the greedy passes, runs are inserted into links laid before them
+        (:mod:`loadpath.engines.insertion`).  The pipeline turns it off for sparse infill: on the
+        bench's 30 % gyroid bar it made one run of two whose ends both lay across the part from
+        where the perimeters left the nozzle (travel 287 -> 637 mm, retractions 18 -> 18).
     """
 
     max_link: float = 3.0
@@ -194,6 +200,7 @@ class LinkOptions:
     cut_cross: int = 3
     wedge: float = 0.0
     band_depth: float = 3.0
+    insert: bool = True
 
     def __post_init__(self) -> None:
         lo, hi = LONE_AREA_RANGE
@@ -859,6 +866,7 @@ def _link(
     parent = list(range(n))
     link: dict[int, tuple[int, Points2]] = {}  # end -> (other end, link points from this end)
     laid = _Laid(_clear_reach(options, pitch))
+    samples: dict[tuple[int, int], Points2] = {}  # each link's samples (for the insertions)
 
     def accept(ea: int, eb: int, straight_ok: bool, edge_ok: bool) -> bool:
         if used[ea] or used[eb] or (allowed is not None and not (allowed[ea] and allowed[eb])):
@@ -877,6 +885,7 @@ def _link(
             stats["rejected_links"] = stats.get("rejected_links", 0) + 1
             return False
         laid.add(s)
+        samples[(min(ea, eb), max(ea, eb))] = s
         stats.setdefault("link_ends", []).append(
             (tuple(np.round(e_pt[ea], 9).tolist()), tuple(np.round(e_pt[eb], 9).tolist()), bool(boundary))
         )
@@ -927,6 +936,10 @@ def _link(
                 for k in ks:
                     accept(int(fa[k]), int(fb[k]), True, False)
 
+    if options.insert:
+        from loadpath.engines.insertion import insert_runs
+
+        insert_runs(layer, link, used, parent, samples, stats)
     runs, spans = _walk(ps, link, layer.e_w, options.link_width)
     stats["runs"] = len(runs)
     stats["links_at"] = spans

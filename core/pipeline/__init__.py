@@ -932,8 +932,8 @@ def _fills(
         ``band``: where the engine's paths end inside it (:attr:`Toolpaths.band`)."""
         if not options.link or len(ps) < 2:
             return None
-        if u.fixed_width:  # sparse: no band (above)
-            lo, band = base_opts.for_bead(u.flow_width, u.pitch), None
+        if u.fixed_width:  # sparse: no band (above), no runs inserted (LinkOptions.insert)
+            lo, band = replace(base_opts.for_bead(u.flow_width, u.pitch), insert=False), None
         else:
             lo = solid_opts[engines[ji]]
         tasks.append((ps, u.fill_region, u.pitch, fld, lo, band))

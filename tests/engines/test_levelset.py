@@ -9,6 +9,8 @@ retraction), coverage, alignment against the best straight infill.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import shapely
@@ -368,10 +370,10 @@ def test_relief_options_are_checked():
 
 
 @pytest.mark.parametrize("size", [(60.0, 10.0), (80.0, 12.0)])
-def test_cantilever_prints_fewer_runs_linked_along_its_cut(size):
+def test_cantilever_prints_fewer_runs_linked_along_its_cut_and_with_runs_inserted(size):
     """Issue 19 on the closed-form cantilever: the level sets end on the neutral-axis cut, which the
-    engine returns as its band; linked along it, the layer prints as fewer runs, covering no less,
-    crossing nothing."""
+    engine returns as its band; linked along it, and with runs inserted into links laid before them
+    (``LinkOptions.insert``), the layer prints as fewer runs, covering no less, crossing nothing."""
     length, height = size
     region = box(0, 0, length, height)
     field = AnalyticField(cantilever(height, length), region, scale=1.0)
@@ -379,11 +381,11 @@ def test_cantilever_prints_fewer_runs_linked_along_its_cut(size):
     assert tp.band is not None and tp.band.length > length  # the cut along the neutral axis
     lo = LinkOptions(**engine_named("levelset").linking)
     counts, covers = [], []
-    for band in (None, tp.band):
-        runs, _ = link_paths(tp.paths, region, PITCH, lo, band=band)
+    for band, insert in ((None, False), (tp.band, False), (tp.band, True)):
+        runs, _ = link_paths(tp.paths, region, PITCH, replace(lo, insert=insert), band=band)
         assert M.crossings(runs) == 0
         assert all(region.buffer(1e-3).covers(shapely.LineString(r.points)) for r in runs)
         counts.append(len(runs))
         covers.append(M.coverage(Toolpaths(paths=runs), region).coverage)
-    assert counts[0] > counts[1], counts
-    assert covers[1] >= covers[0] - 1e-4, covers
+    assert counts[0] > counts[1] > counts[2], counts
+    assert covers[2] >= covers[0] - 1e-4, covers

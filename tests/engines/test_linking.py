@@ -259,3 +259,23 @@ def test_ends_on_the_engines_band_are_linked_along_it_into_one_zigzag():
     off, _ = link_paths(paths, region, 0.45, replace(lo, band_depth=-1.0), band=band)
     assert len(off) == len(alone)
 
+
+def test_a_run_beside_a_link_laid_before_it_is_inserted_into_that_link():
+    """Two paths meet head-on and the greedy pass joins them first (0.4 mm); a third lies a pitch
+    beside them, its ends 1.7 mm (3.7 pitches) from theirs, too far for the first pass and with no
+    free end left for the second.  The insertion replaces the short link by two through it: one
+    run instead of two, crossing nothing, inside the region."""
+    w = 0.45
+    region = box(0, 0, 20, 2.5)
+    a = Path(np.array([[0.3, 1.0], [9.8, 1.0]]), np.full(2, w), "continuous")
+    b = Path(np.array([[10.2, 1.0], [19.7, 1.0]]), np.full(2, w), "continuous")
+    s = Path(np.array([[8.2, 1.45], [11.8, 1.45]]), np.full(2, w), "fill")
+    before, st0 = link_paths([a, b, s], region, w, LinkOptions(insert=False))
+    runs, st = link_paths([a, b, s], region, w, LinkOptions())
+    assert len(before) == 2 and st0.get("inserted", 0) == 0
+    assert len(runs) == 1 and st["inserted"] == 1 and st["links"] == st0["links"] + 1
+    np.testing.assert_allclose(
+        runs[0].points, [[0.3, 1.0], [9.8, 1.0], [8.2, 1.45], [11.8, 1.45], [10.2, 1.0], [19.7, 1.0]]
+    )
+    line = shapely.LineString(runs[0].points)
+    assert line.is_simple and region.covers(line)

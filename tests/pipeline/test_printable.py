@@ -298,8 +298,8 @@ def test_level_sets_cut_at_the_neutral_axis_are_linked_along_their_band(sliced, 
     """The bracket at 100 % under its pin load, the level-set engine (the product lays them first on
     solid infill and keeps them where the model ranks them as well as the swarm,
     ``loadpath.plugin.solid_choice``): they end on their jump cut, the engine hands that band to the linking
-    (``Toolpaths.band``) and the linking joins the ends along it; the runs cross nothing and the
-    splice checks stay clean."""
+    (``Toolpaths.band``) and the linking joins the ends along it and inserts runs into earlier links;
+    the runs cross nothing and the splice checks stay clean."""
     import loadpath.pipeline as pipeline_mod
     from cases import BRACKET_PIN
 
@@ -316,6 +316,7 @@ def test_level_sets_cut_at_the_neutral_axis_are_linked_along_their_band(sliced, 
     res = run(program, loadcase.parse(BRACKET_PIN), opts, settings_mod.splice_options(s))
     assert res.check is not None and not res.check.problems
     assert any(b is not None and not b.is_empty for b in bands), len(bands)
-    assert any(jr.engine == "levelset" for jr in res.jobs)
+    laid = [jr for jr in res.jobs if jr.engine == "levelset"]
+    assert laid and sum(jr.links.get("inserted", 0) for jr in laid) > 0
     for jr in res.jobs:
         assert metrics.crossings(jr.printed) == 0

@@ -42,11 +42,11 @@ def test_sparse_runs_link_at_the_beads_share(tmp_path, monkeypatch):
     assert res.check is not None and not res.check.problems
     sparse = [jr for jr in res.jobs if jr.job.unit.kind == "sparse"]
     assert sparse
-    # sparse infill is linked without the engine's band: its links took plastic from the lines at the
-    # slicer's mass (bench_sparse's shelf, issue 19)
+    # sparse infill is linked without the engine's band and without insertions (LinkOptions.insert):
+    # both took plastic from the lines at the slicer's mass (bench_sparse's shelf, issue 19)
     pitches = {jr.job.unit.pitch for jr in sparse}
-    mine = [b for p, _, b in calls if p in pitches]
-    assert mine and all(b is None for b in mine)
+    mine = [(o, b) for p, o, b in calls if p in pitches]
+    assert mine and all(not o.insert and b is None for o, b in mine)
     wide = narrow = printed = 0
     for jr in sparse:
         u = jr.job.unit
