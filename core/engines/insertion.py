@@ -137,10 +137,10 @@ def insert_runs(  # type: ignore[no-untyped-def]
             parent[_root(parent, x // 2)] = _root(parent, p // 2)
             gone.add(k)
             stats["links"] += 1
-            stats["boundary_links"] += int(b1) + int(b2) - int(_is_edge(old_pts))
+            was_edge = _relist(stats, e_pt, p, q, [(p, x, b1), (y, q, b2)])
+            stats["boundary_links"] += int(b1) + int(b2) - int(was_edge)
             stats["link_mm"] += _length(pts1) + _length(pts2) - _length(old_pts)
             stats["inserted"] = stats.get("inserted", 0) + 1
-            _relist(stats, e_pt, p, q, [(p, x, b1), (y, q, b2)])
             done += 1
             changed = True
         if not changed:
@@ -204,11 +204,6 @@ def _candidates(  # type: ignore[no-untyped-def]
 
 def _length(pts: Points2) -> float:
     return float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
-
-
-def _is_edge(pts: Points2) -> bool:
-    """A boundary link has inner vertices (the ring's); a straight one has two points."""
-    return len(pts) > 2
 
 
 def _try(  # type: ignore[no-untyped-def]
@@ -280,15 +275,16 @@ def _near_links(  # type: ignore[no-untyped-def]
     return False
 
 
-def _relist(stats: dict, e_pt: np.ndarray, p: int, q: int, new: list[tuple[int, int, bool]]) -> None:
-    """Keep ``stats["link_ends"]`` (the links by their end points) as the links now are."""
-    ends = stats.get("link_ends")
-    if ends is None:
-        return
+def _relist(stats: dict, e_pt: np.ndarray, p: int, q: int, new: list[tuple[int, int, bool]]) -> bool:
+    """Keep ``stats["link_ends"]`` (the links by their end points, whether along the edge) as the
+    links now are: the link ``p - q`` out, ``new`` in.  Returns whether ``p - q`` ran along the edge."""
+    ends = stats.setdefault("link_ends", [])
     a, b = _rounded(e_pt[p]), _rounded(e_pt[q])
+    was = [t for t in ends if {t[0], t[1]} == {a, b}]
     ends[:] = [t for t in ends if {t[0], t[1]} != {a, b}]
     for x, y, boundary in new:
         ends.append((_rounded(e_pt[x]), _rounded(e_pt[y]), bool(boundary)))
+    return bool(was and was[0][2])
 
 
 def _rounded(pt: np.ndarray) -> tuple:
