@@ -936,7 +936,7 @@ def _link(
                 for k in ks:
                     accept(int(fa[k]), int(fb[k]), True, False)
 
-    if options.insert:
+    if options.insert and allowed is None:  # (a relinking after cuts keeps the rest of the layer)
         from loadpath.engines.insertion import insert_runs
 
         insert_runs(layer, link, used, parent, samples, stats)
