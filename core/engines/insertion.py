@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 from loadpath._typing import Points2
+from loadpath.engines.linking import _clear_reach, _Laid, _length, _root, _rounded
 
 __all__ = ["insert_runs"]
 
@@ -84,8 +85,6 @@ def insert_runs(  # type: ignore[no-untyped-def]
     """
     from scipy.spatial import cKDTree
 
-    from loadpath.engines.linking import _clear_reach, _root
-
     o, pitch, e_pt = layer.options, layer.pitch, layer.e_pt
     reach = _clear_reach(o, pitch)
     long_mm = max(o.max_long_link, o.max_link) * pitch
@@ -107,7 +106,7 @@ def insert_runs(  # type: ignore[no-untyped-def]
             break
         changed = False
         gone: set[int] = set()
-        fresh: list[Points2] = []  # the links laid this round (not in the tree)
+        fresh = _Laid(reach)  # the links laid this round (not in the tree)
         for _cost, p, x, y, q, k in cands:
             if k in gone or used[x] or used[y] or link.get(p, (None,))[0] != q:
                 continue
@@ -122,9 +121,10 @@ def insert_runs(  # type: ignore[no-untyped-def]
                 continue
             if _near_links(tree, owner, k, gone, s2, reach):
                 continue
-            if any(_too_near(f, s1, reach) or _too_near(f, s2, reach) for f in fresh):
+            if fresh.near(s1) or fresh.near(s2):
                 continue
-            fresh += [s1, s2]
+            fresh.add(s1)
+            fresh.add(s2)
             # replace p - q by p - x and y - q
             old_pts = link[p][1]
             del link[p], link[q]
@@ -163,8 +163,6 @@ def _candidates(  # type: ignore[no-untyped-def]
     """
     from scipy.spatial import cKDTree
 
-    from loadpath.engines.linking import _root
-
     if hop > 0:
         free = np.array(chains, dtype=np.int64).ravel()
         pairs = cKDTree(e_pt[free]).query_pairs(hop, output_type="ndarray")
@@ -200,10 +198,6 @@ def _candidates(  # type: ignore[no-untyped-def]
         out.append((float(cost[i]), int(p[i]), int(x[i]), int(y[i]), int(q[i]), int(j[i] % nl)))
     out.sort()
     return out
-
-
-def _length(pts: Points2) -> float:
-    return float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
 
 
 def _try(  # type: ignore[no-untyped-def]
@@ -285,8 +279,3 @@ def _relist(stats: dict, e_pt: np.ndarray, p: int, q: int, new: list[tuple[int, 
     for x, y, boundary in new:
         ends.append((_rounded(e_pt[x]), _rounded(e_pt[y]), bool(boundary)))
     return bool(was and was[0][2])
-
-
-def _rounded(pt: np.ndarray) -> tuple:
-    """An end point as the linking names it in ``link_ends`` (to 1e-9 mm)."""
-    return tuple(np.round(pt, 9).tolist())

@@ -329,6 +329,16 @@ def _sample_step(pitch: float) -> float:
     return 0.25 * pitch
 
 
+def _rounded(pt: np.ndarray) -> tuple:
+    """An end point as ``stats["link_ends"]`` names it (to 1e-9 mm)."""
+    return tuple(np.round(pt, 9).tolist())
+
+
+def _length(pts: Points2) -> float:
+    """Length of a polyline (n, 2), mm."""
+    return float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+
+
 def _clear_reach(options: LinkOptions, pitch: float) -> float:
     """Within what distance of a link's sample a path's or another link's sample is too near, mm:
     the clearance less half a sampling step (an eighth of a pitch)."""
@@ -887,7 +897,7 @@ def _link(
         laid.add(s)
         samples[(min(ea, eb), max(ea, eb))] = s
         stats.setdefault("link_ends", []).append(
-            (tuple(np.round(e_pt[ea], 9).tolist()), tuple(np.round(e_pt[eb], 9).tolist()), bool(boundary))
+            (_rounded(e_pt[ea]), _rounded(e_pt[eb]), bool(boundary))
         )
         used[ea] = used[eb] = True
         parent[ra] = rb
@@ -895,7 +905,7 @@ def _link(
         link[eb] = (ea, pts[::-1])
         stats["links"] += 1
         stats["boundary_links"] += int(boundary)
-        stats["link_mm"] += float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+        stats["link_mm"] += _length(pts)
         return True
 
     allowed = None

@@ -926,16 +926,22 @@ def _fills(
     task_fields: list[str | None] = []
 
     def task(
-        ps: tuple[Path, ...], u: Unit, fld: Any = None, fid: str | None = None, ji: int = 0, band: Any = None
+        ps: tuple[Path, ...], u: Unit, fld: Any = None, fid: str | None = None, ji: int = 0,
+        shifted: bool = False,
     ) -> int | None:
         """Index of the linking of job ``ji``'s ``ps`` in ``u``'s region (None: left as they are);
-        ``band``: where the engine's paths end inside it (:attr:`Toolpaths.band`)."""
+        ``shifted``: ``ps`` are (from) the job's staggered copy."""
         if not options.link or len(ps) < 2:
             return None
-        if u.fixed_width:  # sparse: no band (above), no runs inserted (LinkOptions.insert)
-            lo, band = replace(base_opts.for_bead(u.flow_width, u.pitch), insert=False), None
+        band = None  # sparse: no band (above), no runs inserted (LinkOptions.insert)
+        if u.fixed_width:
+            lo = replace(base_opts.for_bead(u.flow_width, u.pitch), insert=False)
         else:
             lo = solid_opts[engines[ji]]
+            # where the engine's paths end inside the region (Toolpaths.band): its own staggered
+            # copy's, else the job's (a copy moved by stagger() keeps the job's band)
+            own = shifted_paths.get(ji)
+            band = own.band if shifted and own is not None and own.paths else results[ji][0].band
         tasks.append((ps, u.fill_region, u.pitch, fld, lo, band))
         task_fields.append(fid)
         return len(tasks) - 1
@@ -948,8 +954,8 @@ def _fills(
         base_raw = _simplified(tp.paths, plan, cache)
         fld = getattr(job.input, "field", None)
         fid = field_ids[ji] if field_ids is not None else None
-        base_t = task(base_raw, job.unit, fld, fid, ji, tp.band)
-        shifted_raw, shifted_t, shifted_band = None, None, None
+        base_t = task(base_raw, job.unit, fld, fid, ji)
+        shifted_raw, shifted_t = None, None
         rows = []
         for k, u in enumerate(members):
             use_shift = options.stagger and k % 2 == 1 and len(tp.paths) > 0
@@ -957,12 +963,10 @@ def _fills(
                 u0 = job.unit
                 if by_engine:
                     shifted_raw = _simplified(shifted_paths[ji].paths, plan, cache)
-                    shifted_band = shifted_paths[ji].band
                 else:
                     moved = stagger(tp.paths, u0.fill_region, 0.25 * u0.pitch, u0.pitch)
                     shifted_raw = _simplified(moved, plan, cache)
-                    shifted_band = tp.band
-                shifted_t = task(shifted_raw, u0, fld, fid, ji, shifted_band)
+                shifted_t = task(shifted_raw, u0, fld, fid, ji, True)
             clipped = clipped_t = None
             if not reuses(u.fill_region, job.unit.fill_region):
                 # a region that differs by more than rounding (a sliver, TOL.region_reuse_mm): the
@@ -970,7 +974,7 @@ def _fills(
                 # cut by the clipping)
                 raw = shifted_raw if use_shift else base_raw
                 clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-                clipped_t = task(clipped, u, fld, fid, ji, shifted_band if use_shift else tp.band)
+                clipped_t = task(clipped, u, fld, fid, ji, use_shift)
             rows.append((u, use_shift, clipped, clipped_t))
         planned.append((job, tp, secs, members, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows))
 
@@ -982,7 +986,7 @@ def _fills(
     # clip_to trimmed when every other layer was clipped; those layers are cut and linked in their
     # own region after all (a second, short linking)
     first_late = len(tasks)
-    for ji, (job, tp, _, _, by_engine, base_raw, base_t, shifted_raw, shifted_t, rows) in enumerate(planned):
+    for ji, (job, _, _, _, _, base_raw, base_t, shifted_raw, shifted_t, rows) in enumerate(planned):
         fld = getattr(job.input, "field", None)
         fid = field_ids[ji] if field_ids is not None else None
         for i, (u, use_shift, clipped, _) in enumerate(rows):
@@ -993,8 +997,7 @@ def _fills(
             if lies_in(ps, u.fill_region):
                 continue
             clipped = clip_to(raw, u.fill_region, 2.0 * u.pitch)
-            band = shifted_paths[ji].band if use_shift and by_engine else tp.band
-            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid, ji, band))
+            rows[i] = (u, use_shift, clipped, task(clipped, u, fld, fid, ji, use_shift))
     if len(tasks) > first_late:
         linked += _link_all(tasks[first_late:], cache, options.workers, kept, task_fields[first_late:])
 
