@@ -11,8 +11,14 @@ fewer on PrusaSlicer).  Typical places (issue 19):
 * a short piece beside the links of a zig-zag along the edge.
 
 A run is inserted only where it saves a retraction: a run with an end less than ``free_hop`` from
-another run's end is left as it is.  The pipeline inserts none on sparse infill
-(:attr:`loadpath.engines.linking.LinkOptions.insert`).
+another run's end is left as it is.
+
+Swaps (:func:`_swaps`): the same exchange with the two new ends on two different runs.  Along an
+edge the shortest-first pass can pair the ends out of step (``a-b``, ``c`` alone, ``d-e``, ``f`` alone:
+a fan of level sets and their half-way pieces along a clamped face); ``d-e`` gives way to ``c-d``
+and ``e-f``, its chain parts in two and each half joins one of the runs: one run fewer.
+
+The pipeline does neither on sparse infill (:attr:`loadpath.engines.linking.LinkOptions.insert`).
 
 Each new link passes the tests every link passes (:meth:`loadpath.engines.linking._Layer.geometry`:
 inside the region, clear of every path but near its own ends), keeps the clearance from every other
@@ -102,15 +108,18 @@ def insert_runs(  # type: ignore[no-untyped-def]
         owner = np.repeat(np.arange(len(keys)), [len(s) for s in all_s])
         tree = cKDTree(np.concatenate(all_s))
         cands = _candidates(chains, keys, link, parent, e_pt, near_mm, o.free_hop)
-        if not cands:
+        swaps = _swaps(chains, keys, link, parent, e_pt, near_mm, o.free_hop)
+        if not cands and not swaps:
             break
         changed = False
         gone: set[int] = set()
         fresh = _Laid(reach)  # the links laid this round (not in the tree)
-        for _cost, p, x, y, q, k in cands:
+        for _cost, p, x, y, q, k in cands + swaps:
             if k in gone or used[x] or used[y] or link.get(p, (None,))[0] != q:
                 continue
-            if _root(parent, p // 2) == _root(parent, x // 2):
+            swap = x // 2 != y // 2 and _root(parent, x // 2) != _root(parent, y // 2)
+            roots = {_root(parent, e // 2) for e in (p, x, y)}
+            if len(roots) != (3 if swap else 2):  # a loop (or x and y no longer one run's ends)
                 continue
             first = _try(layer, p, x, long_mm, edge_mm, edge_d)
             second = _try(layer, y, q, long_mm, edge_mm, edge_d) if first is not None else None
@@ -134,13 +143,17 @@ def insert_runs(  # type: ignore[no-untyped-def]
             samples[(min(p, x), max(p, x))] = s1
             samples[(min(y, q), max(y, q))] = s2
             used[x] = used[y] = True
-            parent[_root(parent, x // 2)] = _root(parent, p // 2)
+            if swap:  # the chain of p - q parted and both halves joined to other chains
+                parent[:] = _chains_of(len(parent), link)
+            else:
+                parent[_root(parent, x // 2)] = _root(parent, p // 2)
             gone.add(k)
             stats["links"] += 1
             was_edge = _relist(stats, e_pt, p, q, [(p, x, b1), (y, q, b2)])
             stats["boundary_links"] += int(b1) + int(b2) - int(was_edge)
             stats["link_mm"] += _length(pts1) + _length(pts2) - _length(old_pts)
-            stats["inserted"] = stats.get("inserted", 0) + 1
+            key = "swapped" if swap else "inserted"
+            stats[key] = stats.get(key, 0) + 1
             done += 1
             changed = True
         if not changed:
@@ -198,6 +211,71 @@ def _candidates(  # type: ignore[no-untyped-def]
         out.append((float(cost[i]), int(p[i]), int(x[i]), int(y[i]), int(q[i]), int(j[i] % nl)))
     out.sort()
     return out
+
+
+SWAP_NEAR = 3
+"""Free ends tried beside each end of a link for a swap (:func:`_swaps`), the nearest first."""
+
+
+def _swaps(  # type: ignore[no-untyped-def]
+    chains: list[tuple[int, int]], keys: list[tuple[int, int]], link: dict, parent: list[int],
+    e_pt: np.ndarray, near_mm: float, hop: float,
+) -> list[tuple[float, int, int, int, int, int]]:
+    """Links that two free chains could share: ``(cost, p, x, y, q, k)``, link ``k`` from ``p`` to ``q``
+    replaced by ``p - x`` and ``y - q``, ``x`` a free end of one chain within ``near_mm`` of ``p``, ``y``
+    one of another within ``near_mm`` of ``q``; cost as :func:`_candidates`', cheapest first.
+
+    Where the greedy linking pairs the ends along an edge out of step (``a-b``, ``c`` alone,
+    ``d-e``, ``f`` alone, the links along the edge), ``c`` and ``f`` each stay a run's end; the swap
+    ``c-d``, ``e-f`` joins both runs through the link's chain: the chain of ``d-e`` parts in two and
+    each half joins one run, one run fewer (typical: a fan of level sets and their half-way pieces
+    along a face).  Free ends less than ``hop`` mm from another chain's free end are left (the
+    travel between them is not retracted already).
+    """
+    from scipy.spatial import cKDTree
+
+    if len(chains) < 2 or not keys:
+        return []
+    free = np.array(chains, dtype=np.int64).ravel()
+    owner = np.repeat(np.arange(len(chains)), 2)
+    if hop > 0:
+        pairs = cKDTree(e_pt[free]).query_pairs(hop, output_type="ndarray")
+        pairs = pairs[owner[pairs[:, 0]] != owner[pairs[:, 1]]]
+        keep = np.ones(len(free), dtype=bool)
+        keep[pairs.ravel()] = False
+        free, owner = free[keep], owner[keep]
+    if len(free) < 2:
+        return []
+    kp = np.array(keys, dtype=np.int64)
+    old = np.array([_length(link[int(p)][1]) for p, _ in keys])
+    k = min(SWAP_NEAR, len(free))
+    tree = cKDTree(e_pt[free])
+    dp, ip = tree.query(e_pt[kp[:, 0]], k=k, distance_upper_bound=near_mm)
+    dq, iq = tree.query(e_pt[kp[:, 1]], k=k, distance_upper_bound=near_mm)
+    dp, ip, dq, iq = (np.reshape(a, (len(kp), k)) for a in (dp, ip, dq, iq))
+    out = []
+    for a in range(k):
+        for b in range(k):
+            ok = np.isfinite(dp[:, a]) & np.isfinite(dq[:, b])
+            j = np.flatnonzero(ok)
+            j = j[owner[ip[j, a]] != owner[iq[j, b]]]
+            for jj in j.tolist():
+                x, y = int(free[ip[jj, a]]), int(free[iq[jj, b]])
+                p, q = int(kp[jj, 0]), int(kp[jj, 1])
+                if len({_root(parent, e // 2) for e in (p, x, y)}) == 3:
+                    out.append((float(dp[jj, a] + dq[jj, b] - old[jj]), p, x, y, q, jj))
+    out.sort()
+    return out
+
+
+def _chains_of(n: int, link: dict) -> list[int]:
+    """Union-find parents of ``n`` paths joined by the links ``link`` (each set one chain)."""
+    parent = list(range(n))
+    for e, (f, _pts) in link.items():
+        ra, rb = _root(parent, e // 2), _root(parent, f // 2)
+        if ra != rb:
+            parent[ra] = rb
+    return parent
 
 
 def _try(  # type: ignore[no-untyped-def]

@@ -174,8 +174,9 @@ class LinkOptions:
         band there, the bench's bar at PrusaSlicer 100 % lost 10 % of its failure load (1.035 ->
         0.928x the slicer's; retractions 50 -> 45).  Negative: no band.
     insert : bool
-        After the greedy passes, runs are inserted into links laid before them
-        (:mod:`loadpath.engines.insertion`).  The pipeline turns it off for sparse infill: on the
+        After the greedy passes, runs are inserted into links laid before them, and two runs
+        share a link where their ends lie either side of it (:mod:`loadpath.engines.insertion`,
+        swaps).  The pipeline turns it off for sparse infill: on the
         bench's 30 % gyroid bar it made one run of two whose ends both lay across the part from
         where the perimeters left the nozzle (travel 287 -> 637 mm, retractions 18 -> 18).
     """

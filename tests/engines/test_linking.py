@@ -279,3 +279,46 @@ def test_a_run_beside_a_link_laid_before_it_is_inserted_into_that_link():
     )
     line = shapely.LineString(runs[0].points)
     assert line.is_simple and region.covers(line)
+
+
+def _fan(seed: int, jitter: float = 0.12) -> list[Path]:
+    """A face where level sets spread apart (as at a clamped edge): lines from edge to edge with a
+    half-way piece from the left edge into every gap, their ends along the left edge a little
+    uneven, so that the shortest links first pair them out of step."""
+    rng = np.random.default_rng(seed)
+    w, out = 0.45, []
+    x = np.linspace(0.12, 29.88, 60)
+    for k in range(21):
+        y = 0.5 + 0.9 * k
+        out.append(Path(np.column_stack([x, np.interp(x, [0, 8, 30], [y + rng.uniform(-jitter, jitter), y, y])]),
+                        np.full(60, w)))
+        if k < 20:
+            xf = np.linspace(0.12, 4.0 + rng.uniform(-0.5, 0.5), 10)
+            out.append(Path(np.column_stack([xf, np.full(10, y + 0.45 + rng.uniform(-jitter, jitter))]),
+                            np.full(10, w), "fill"))
+    return out
+
+
+def test_two_runs_ending_either_side_of_a_link_along_the_edge_share_it(monkeypatch):
+    """Along the left edge the greedy pass pairs the ends out of step (a-b, c alone, d-e, f alone):
+    each lone end is a run's.  A swap lays c-d and e-f instead of d-e, joining both runs through the
+    link's chain: fewer runs and fewer groups of runs a free hop (1 mm) joins, every path still
+    printed once, no run crossing itself or another, all inside the region."""
+    import loadpath.engines.insertion as insertion
+    from loadpath.engines.linking import hop_groups
+
+    region = box(0, 0, 30, 20)
+    paths = _fan(0)
+    runs, st = link_paths(paths, region, 0.45, LinkOptions())
+    monkeypatch.setattr(insertion, "_swaps", lambda *a, **k: [])
+    before, st0 = link_paths(paths, region, 0.45, LinkOptions())
+    assert st0.get("swapped", 0) == 0 and st["swapped"] >= 2
+    assert len(runs) <= len(before) - 2 and hop_groups(runs, 1.0) < hop_groups(before, 1.0)
+    # each link joins two chains (no loop): a swap's extra link is one run fewer
+    assert len(runs) == st["paths_in"] - st["dropped"] - st["links"] - st["lone_dropped"]
+    lines = [shapely.LineString(r.points) for r in runs]
+    assert all(region.covers(g) and g.is_simple for g in lines)
+    assert not any(lines[i].intersects(lines[j]) for i in range(len(lines)) for j in range(i))
+    every = np.concatenate([r.points for r in runs])
+    for p in paths:  # every path's vertices printed (in one run or another, either way)
+        assert shapely.distance(shapely.MultiPoint(every), shapely.points(p.points)).max() < 1e-9
