@@ -55,10 +55,11 @@ The cut is returned as the paths' band (:attr:`Toolpaths.band`): on solid infill
 the ends on it along its edge, a zig-zag along the neutral axis, as it joins them along the faces.
 
 Measured (``benchmarks/bench_printability.py``, real PrusaSlicer 2.5 slices, ``loadpath compare``'s
-model), retractions in the replaced blocks against the slicer's, level sets (swarm): 100 % solid
-bar 20 -> 45 (235), beam 10 -> 65 (525), bracket 25 -> 120 (485) (50, 105 and 149 before the band
-and the insertions, :mod:`loadpath.engines.insertion`), two islands 20 -> 20 (125); 40 %
-sparse 16 -> 24, 8 -> 40, 20 -> 64, 16 -> 16; 30 % gyroid 30 -> 22 (66).  (On a bent part the level
+model), retractions in the replaced blocks against the slicer's, level sets (swarm), the slices of
+2026-12-06: 100 % solid bar 20 -> 40 (210), beam 10 -> 65 (505), bracket 25 -> 115 (450) (on
+earlier slices 50, 105 and 149 before the band and the insertions and swaps,
+:mod:`loadpath.engines.insertion`), two islands 20 -> 20 (125); 40 % sparse 16 -> 28, 8 -> 44,
+20 -> 44, 16 -> 16; 30 % gyroid 30 -> 18.  (On a bent part the level
 sets reach the faces at a few degrees: on solid infill the linking joins them along the edge beside
 the path that converges on it, ``LinkOptions.wedge``, which this engine's registry entry sets; not on
 sparse infill, where it cost the 3-point beam its failure load.)  Predicted stiffness /
@@ -639,37 +640,6 @@ def _paths(
     return paths, total
 
 
-def _match(
-    f: LevelSetFit, inp: EngineInput, o: LevelSetOptions, inset: Region, scale: float, target: float, fixed: bool
-) -> tuple[list[Path], float, float, float, int]:
-    """The level sets with ``phi``'s scale brought to lay ``target`` mm (within :data:`MATCH_TOLERANCE`,
-    at most :data:`MATCH_STEPS` contourings from ``scale``): ``(paths, length, links, scale,
-    contourings)``, the contouring nearest the target when none is within.
-
-    On sparse infill (``fixed``) the links the linking stage will print along the edge count against
-    the slicer's plastic too (issue 15: on top of the lines they were 8-18 % of it).  The length is not
-    smooth in the scale: a level set comes or goes whole, and a few long ones (a wide pitch) jump past
-    the target at every scale, so the steps may overshoot, and the nearest is kept, not the last.
-    """
-    p0 = float(inp.pitch)
-    best: tuple[list[Path], float, float, float] = ([], 0.0, 0.0, scale)
-    err = np.inf
-    steps = 0
-    for _ in range(MATCH_STEPS):
-        paths, total = _paths(f, inp, o, inset, scale)
-        steps += 1
-        links = _edge_links(paths, inp.region, p0) if fixed else 0.0
-        have = total + links
-        if have <= 0:
-            break
-        if abs(have / target - 1.0) < err:
-            err, best = abs(have / target - 1.0), (paths, total, links, scale)
-        if err <= MATCH_TOLERANCE:
-            break
-        scale *= target / have
-    return (*best, steps)
-
-
 def _edge_links(paths: list[Path], region: Region, pitch: float) -> float:
     """Length the linking will print between the paths' ends along the edge, estimated, mm.
 
@@ -746,11 +716,25 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
     # scale * (integral of |grad phi| over the region) long, so one or two contourings suffice
     coarea = _integral(f, f.density, inset)
     scale = target / coarea if coarea > 0 else 1.0
+    steps = 0
+    paths: list[Path] = []
+    total = 0.0
     # the scale is matched on the level sets of phase 0, so a staggered copy (phase 0.5) lies
     # half-way between the paths of the layers it alternates with
-    paths, total, links, matched, steps = _match(f, inp, replace(o, phase=0.0), inset, scale, target, fixed)
+    base = replace(o, phase=0.0)
+    links = 0.0
+    for step in range(MATCH_STEPS):
+        paths, total = _paths(f, inp, base, inset, scale)
+        steps += 1
+        # sparse infill: the links the linking stage will print along the edge count against the
+        # slicer's plastic too (issue 15: on top of the lines they were 8-18 % of it)
+        links = _edge_links(paths, region, p0) if fixed else 0.0
+        have = total + links
+        if have <= 0 or abs(have / target - 1.0) <= MATCH_TOLERANCE or step == MATCH_STEPS - 1:
+            break
+        scale *= target / have
     if o.phase % 1.0:
-        paths, total = _paths(f, inp, o, inset, matched)
+        paths, total = _paths(f, inp, o, inset, scale)
     # each vertex's pitch measured from its neighbours (the fit's 1 / |grad phi| misses at ends and
     # on the cut; the level sets are evenly spaced, so no centring), the ends carried on to the
     # next bead
@@ -776,7 +760,7 @@ def generate(inp: EngineInput, **options: Any) -> Toolpaths:
         "cut_mm": round(f.cut_mm, 2),
         "give_way": False,
         "length_target_mm": round(target, 2),
-        "density_scale": round(matched, 4),
+        "density_scale": round(scale, 4),
         "contourings": steps,
         **{k: v for k, v in ends.items() if isinstance(v, (int, float))},
     }

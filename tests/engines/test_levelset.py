@@ -389,24 +389,3 @@ def test_cantilever_prints_fewer_runs_linked_along_its_cut_and_with_runs_inserte
         covers.append(M.coverage(Toolpaths(paths=runs), region).coverage)
     assert counts[0] > counts[1] > counts[2], counts
     assert covers[2] >= covers[0] - 1e-4, covers
-
-
-def test_the_length_match_keeps_the_contouring_nearest_the_target_when_none_is_within(monkeypatch):
-    """Level sets come and go whole, so a few long ones (a wide pitch) jump the length past the
-    target at every scale: the match keeps the nearest of its contourings, not the last one."""
-    import loadpath.engines.levelset as ls
-    from loadpath.toolpath import Path as ToolPath
-
-    line = ToolPath(np.array([[0.0, 0.0], [1.0, 0.0]]), np.ones(2))
-    lengths = {}
-
-    def contours(f, inp, o, inset, scale):  # 6 lines below a scale of 1.1, 10 above
-        lengths[scale] = 428.0 if scale < 1.1 else 700.0
-        return [line] * (6 if scale < 1.1 else 10), lengths[scale]
-
-    monkeypatch.setattr(ls, "_paths", contours)
-    inp = EngineInput(box(0, 0, 10, 10), AnalyticField(uniform(0.0), None), 1.0)
-    got, total, _, scale, steps = ls._match(None, inp, LevelSetOptions(), box(0, 0, 10, 10), 1.04, 560.0, False)
-    # 428, 700, 428, 700 mm: the last is 25 % over, the nearest 23.6 % under
-    assert steps == ls.MATCH_STEPS and list(lengths.values())[-1] == 700.0
-    assert total == 428.0 and len(got) == 6 and scale < 1.1
