@@ -114,7 +114,7 @@ def insert_runs(  # type: ignore[no-untyped-def]
         changed = False
         gone: set[int] = set()
         fresh = _Laid(reach)  # the links laid this round (not in the tree)
-        for _cost, p, x, y, q, k in cands + swaps:
+        for _cost, p, x, y, q, k in cands + swaps:  # the insertions first: each leaves no half-chain
             if k in gone or used[x] or used[y] or link.get(p, (None,))[0] != q:
                 continue
             swap = x // 2 != y // 2 and _root(parent, x // 2) != _root(parent, y // 2)
@@ -216,6 +216,9 @@ def _candidates(  # type: ignore[no-untyped-def]
 SWAP_NEAR = 3
 """Free ends tried beside each end of a link for a swap (:func:`_swaps`), the nearest first."""
 
+SWAP_TRIES = 3
+"""Swaps tried per free end and round, the cheapest first (:func:`_swaps`)."""
+
 
 def _swaps(  # type: ignore[no-untyped-def]
     chains: list[tuple[int, int]], keys: list[tuple[int, int]], link: dict, parent: list[int],
@@ -265,7 +268,14 @@ def _swaps(  # type: ignore[no-untyped-def]
                 if len({_root(parent, e // 2) for e in (p, x, y)}) == 3:
                     out.append((float(dp[jj, a] + dq[jj, b] - old[jj]), p, x, y, q, jj))
     out.sort()
-    return out
+    tried: dict[int, int] = {}
+    kept = []
+    for c in out:  # each free end in its SWAP_TRIES cheapest only: the links' tests are the cost
+        x, y = c[2], c[3]
+        if tried.get(x, 0) < SWAP_TRIES and tried.get(y, 0) < SWAP_TRIES:
+            tried[x], tried[y] = tried.get(x, 0) + 1, tried.get(y, 0) + 1
+            kept.append(c)
+    return kept
 
 
 def _chains_of(n: int, link: dict) -> list[int]:
