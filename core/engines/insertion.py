@@ -68,6 +68,19 @@ def _free_chains(n: int, link: dict) -> list[tuple[int, int]]:
     return out
 
 
+def _hopped(chains: list[tuple[int, int]], e_pt: np.ndarray, hop: float) -> np.ndarray:
+    """Which free ends lie less than ``hop`` mm from another chain's free end: (2 c,) bool, chain
+    ``i``'s two ends at ``2 i`` and ``2 i + 1`` (the travel between them goes without a retraction)."""
+    from scipy.spatial import cKDTree
+
+    out = np.zeros(2 * len(chains), dtype=bool)
+    if hop > 0 and chains:
+        free = np.array(chains, dtype=np.int64).ravel()
+        pairs = cKDTree(e_pt[free]).query_pairs(hop, output_type="ndarray")
+        out[pairs[pairs[:, 0] // 2 != pairs[:, 1] // 2].ravel()] = True
+    return out
+
+
 def insert_runs(  # type: ignore[no-untyped-def]
     layer, link: dict, used: np.ndarray, parent: list[int], samples: dict, stats: dict
 ) -> int:
@@ -87,7 +100,7 @@ def insert_runs(  # type: ignore[no-untyped-def]
         ``(min end, max end)`` -> the link's samples (m, 2) mm; changed in place.
     stats : dict
         ``links``, ``boundary_links``, ``link_mm`` and ``link_ends`` are kept up to date;
-        ``inserted`` counts the runs inserted.
+        ``inserted`` counts the runs inserted, ``swapped`` the swaps.
     """
     from scipy.spatial import cKDTree
 
@@ -107,8 +120,9 @@ def insert_runs(  # type: ignore[no-untyped-def]
         all_s = [samples[k] for k in keys]
         owner = np.repeat(np.arange(len(keys)), [len(s) for s in all_s])
         tree = cKDTree(np.concatenate(all_s))
-        cands = _candidates(chains, keys, link, parent, e_pt, near_mm, o.free_hop)
-        swaps = _swaps(chains, keys, link, parent, e_pt, near_mm, o.free_hop)
+        hopped = _hopped(chains, e_pt, o.free_hop)
+        cands = _candidates(chains, keys, link, parent, e_pt, near_mm, hopped)
+        swaps = _swaps(chains, keys, link, parent, e_pt, near_mm, hopped)
         if not cands and not swaps:
             break
         changed = False
@@ -163,27 +177,23 @@ def insert_runs(  # type: ignore[no-untyped-def]
 
 def _candidates(  # type: ignore[no-untyped-def]
     chains: list[tuple[int, int]], keys: list[tuple[int, int]], link: dict, parent: list[int],
-    e_pt: np.ndarray, near_mm: float, hop: float,
+    e_pt: np.ndarray, near_mm: float, hopped: np.ndarray,
 ) -> list[tuple[float, int, int, int, int, int]]:
     """Where each free chain might go: ``(cost, p, x, y, q, k)``, link ``k`` from end ``p`` to ``q``
     replaced by ``p - x`` and ``y - q`` (``x``, ``y`` the chain's free ends, each within ``near_mm`` of
     its partner), cost the new links' straight length less the old link's; each chain's
     :data:`TRIES` cheapest, cheapest first.
 
-    A chain with a free end less than ``hop`` mm from another chain's is left as it is: the travel
+    A chain with a free end less than a free hop from another chain's (``hopped``, :func:`_hopped`)
+    is left as it is: the travel
     between them goes without a retraction already, and inserted elsewhere it could leave the other
     chain apart (the bench's swarm layers: 43 -> 44 groups of runs).
     """
     from scipy.spatial import cKDTree
 
-    if hop > 0:
-        free = np.array(chains, dtype=np.int64).ravel()
-        pairs = cKDTree(e_pt[free]).query_pairs(hop, output_type="ndarray")
-        pairs = pairs[pairs[:, 0] // 2 != pairs[:, 1] // 2]
-        hopped = set((pairs // 2).ravel().tolist())
-        chains = [c for i, c in enumerate(chains) if i not in hopped]
-        if not chains:
-            return []
+    chains = [c for i, c in enumerate(chains) if not (hopped[2 * i] or hopped[2 * i + 1])]
+    if not chains:
+        return []
     nl = len(keys)
     kp = np.array(keys, dtype=np.int64)
     sides = np.concatenate([kp, kp[:, ::-1]])  # row j: (p, q) of link j % nl, either way
@@ -222,7 +232,7 @@ SWAP_TRIES = 3
 
 def _swaps(  # type: ignore[no-untyped-def]
     chains: list[tuple[int, int]], keys: list[tuple[int, int]], link: dict, parent: list[int],
-    e_pt: np.ndarray, near_mm: float, hop: float,
+    e_pt: np.ndarray, near_mm: float, hopped: np.ndarray,
 ) -> list[tuple[float, int, int, int, int, int]]:
     """Links that two free chains could share: ``(cost, p, x, y, q, k)``, link ``k`` from ``p`` to ``q``
     replaced by ``p - x`` and ``y - q``, ``x`` a free end of one chain within ``near_mm`` of ``p``, ``y``
@@ -232,21 +242,15 @@ def _swaps(  # type: ignore[no-untyped-def]
     ``d-e``, ``f`` alone, the links along the edge), ``c`` and ``f`` each stay a run's end; the swap
     ``c-d``, ``e-f`` joins both runs through the link's chain: the chain of ``d-e`` parts in two and
     each half joins one run, one run fewer (typical: a fan of level sets and their half-way pieces
-    along a face).  Free ends less than ``hop`` mm from another chain's free end are left (the
-    travel between them is not retracted already).
+    along a face).  Free ends less than a free hop from another chain's free end (``hopped``,
+    :func:`_hopped`) are left (the travel between them is not retracted already).
     """
     from scipy.spatial import cKDTree
 
     if len(chains) < 2 or not keys:
         return []
-    free = np.array(chains, dtype=np.int64).ravel()
-    owner = np.repeat(np.arange(len(chains)), 2)
-    if hop > 0:
-        pairs = cKDTree(e_pt[free]).query_pairs(hop, output_type="ndarray")
-        pairs = pairs[owner[pairs[:, 0]] != owner[pairs[:, 1]]]
-        keep = np.ones(len(free), dtype=bool)
-        keep[pairs.ravel()] = False
-        free, owner = free[keep], owner[keep]
+    free = np.array(chains, dtype=np.int64).ravel()[~hopped]
+    owner = np.repeat(np.arange(len(chains)), 2)[~hopped]
     if len(free) < 2:
         return []
     kp = np.array(keys, dtype=np.int64)
