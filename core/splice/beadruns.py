@@ -72,7 +72,23 @@ class RunOptions:
         slits between neighbouring beads (and more overlap on their other side).
         ``benchmarks/bench_lean.py``, 100 % PrusaSlicer and Cura, 4 parts and the example x 2
         engines: 40 % lowered the stiffness in all 18 cases (-0.24 to -3.0 %), coverage -0.8 to
-        -2.0 points, the failure load in 17.
+        -2.0 points, the failure load in 17.  Solid infill only: see ``sparse_resolution``.
+    sparse_resolution : float
+        The same for a block of linked sparse runs (printed at the slicer's bead width,
+        :attr:`loadpath.splice.BlockFill.flow_width`).  Their beads lie one to several bead widths
+        apart, so no slit opens between neighbours whatever the chords' sag; what the bound moves
+        is each line's direction, by up to ``sqrt(2 s / R)`` at a chord's ends on a curve of radius
+        ``R`` for a sag ``s``, and the predicted stiffness with it (as ``s``).
+        ``benchmarks/bench_sparse.py --thickness 12 --variants auto`` (40 files, issue 15) against
+        10 %: outputs of the rectilinear and grid files 1.51-4.68x -> 1.25-3.49x the input's bytes,
+        <= 1.5x on 27 of 40 files (20); stiffness within -0.33..+0.42 % on the 35 files whose
+        density choice (:mod:`loadpath.plugin.density_choice`) stayed, the other 5 chose the other
+        density (stiffness down to -2.6 %, failure load up to +4.5 % but one -3.3 %); geometric
+        means: stiffness 1.6749 -> 1.6716, failure load 2.0941 -> 2.1017; 12 of 40 failure loads
+        lower (the largest fall: the shelf at PrusaSlicer gyroid 20 %, 1.441 -> 1.298x); files at >= 1.5x
+        stiffness 28 and failure load 34, as before.  At 40 % (the unlinked bound) the outputs were
+        1.19-3.10x and the stiffness lower by up to 0.5 % (the twelfth round of
+        ``benchmarks/printability_results.md`` measured 40 % too, and kept 10 %).
     corridor : bool
         Simplify with :func:`loadpath.splice.corridor.corridor_fit` (kept vertices move within the
         bound) instead of Ramer-Douglas-Peucker.  ``benchmarks/bench_lean.py`` (18 cases as above)
@@ -108,12 +124,27 @@ class RunOptions:
     width_step: float = 0.15
     resolution: float = 0.40
     linked_resolution: float = 0.10
+    sparse_resolution: float = 0.25
     smooth: float = 5.0
     shift: float = 0.5
     short: float = 2.0
     min_segment: float = 0.05
     corridor: bool = False
     refit: bool = True
+
+    def bound(self, linked: bool, sparse: bool) -> float:
+        """The simplification bound of a block, a fraction of its flow width: ``resolution``, or
+        for linked runs ``linked_resolution`` (solid infill) or ``sparse_resolution`` (sparse).
+
+        Examples
+        --------
+        >>> o = RunOptions()
+        >>> o.bound(False, False), o.bound(True, False), o.bound(True, True)
+        (0.4, 0.1, 0.25)
+        """
+        if not linked:
+            return self.resolution
+        return self.sparse_resolution if sparse else self.linked_resolution
 
 
 def runs_of_widths(

@@ -135,7 +135,8 @@ class BlockFill:
         at ``volume_scale`` times the slicer's volume.
     linked : bool
         The paths are linked runs (:mod:`loadpath.engines.linking`): simplified within
-        :attr:`RunOptions.linked_resolution` instead of ``resolution``.
+        :attr:`RunOptions.linked_resolution` (solid infill) or :attr:`RunOptions.sparse_resolution`
+        (sparse: ``flow_width`` set) instead of ``resolution`` (:meth:`RunOptions.bound`).
     """
 
     block: int
@@ -383,8 +384,8 @@ def _splice_block(
     unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
     ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
     runs = options.runs
-    if fill.linked:  # linked runs: their own simplification bound (RunOptions.linked_resolution)
-        runs = replace(runs, resolution=runs.linked_resolution)
+    if fill.linked:  # linked runs: their own simplification bound (RunOptions.bound)
+        runs = replace(runs, resolution=runs.bound(True, fill.flow_width is not None))
     plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
     aim = b.e * fill.volume_scale
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"

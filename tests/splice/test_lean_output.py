@@ -10,6 +10,10 @@ hairpins misled the simplification's material test (lean 860,623 bytes against f
 464,347 against 715,873, unlinked 450,508 against 708,590).  Linked runs are now simplified
 within 10 % of the flow width (``RunOptions.linked_resolution``; 40 % lowered the predicted
 stiffness): the fine settings here take 5 % for them (lean 673,389 bytes against fine 1,001,032).
+
+Linked *sparse* runs take their own bound (``RunOptions.sparse_resolution``): their beads lie apart,
+so the slits that held the solid runs to 10 % cannot open; on a real 20 % gyroid L-bracket the lines
+printed fall and every printed vertex stays within the two bounds of the finer file's beads.
 """
 
 from __future__ import annotations
@@ -17,7 +21,10 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 import shapely
+import slicing
+from cases import BRACKET_PIN
 from loadpath import gcode, loadcase, pipeline
 from loadpath.cache import Cache
 from loadpath.splice.beadruns import RunOptions
@@ -84,3 +91,47 @@ def test_default_runs_write_fewer_lines_and_the_same_beads(sliced, tmp_path):
     r_loose = pipeline.run(program, case, opts, loose, cache=cache)
     assert not r_loose.check.problems
     assert len(r_loose.data) < 0.85 * len(r_lean.data)
+
+
+def _extrusions(data: bytes, ranges) -> list[np.ndarray]:
+    """The extruding moves of the given output line ranges, as (n, 4) arrays ``x0 y0 x1 y1``."""
+    moves = gcode.parse(data, strict=False).moves
+    out = []
+    for a, z in ranges:
+        m = moves[(moves["line"] >= a) & (moves["line"] < z) & moves["extrude"]]
+        out.append(np.column_stack([m["x0"], m["y0"], m["x1"], m["y1"]]))
+    return out
+
+
+@pytest.mark.slow
+def test_sparse_runs_take_their_own_bound(tmp_path):
+    """Linked sparse runs are simplified within ``RunOptions.sparse_resolution``, not the solid runs'
+    ``linked_resolution``: fewer lines, every printed vertex within the two bounds of the finer
+    file's beads, the same plastic per block (the beads lie apart, so no slit opens between them)."""
+    src, case_path = slicing.gyroid_bracket(tmp_path, BRACKET_PIN)
+    program = gcode.read(src)
+    case = loadcase.read(case_path)
+    lean = settings_mod.splice_options(settings_mod.resolve(program, toolpath=case.toolpath))
+    runs = lean.runs
+    assert runs.bound(True, True) == runs.sparse_resolution > runs.linked_resolution == runs.bound(True, False)
+    fine = dataclasses.replace(lean, runs=dataclasses.replace(runs, sparse_resolution=runs.linked_resolution))
+    opts = pipeline.PipelineOptions(replace=("sparse",), workers=1)
+    cache = Cache(tmp_path / "cache")
+    r_fine = pipeline.run(program, case, opts, fine, cache=cache)
+    r_lean = pipeline.run(program, case, opts, lean, cache=cache)
+    assert cache.stats.hits.get("paths", 0) > 0  # the same paths, spliced twice
+    assert not r_fine.check.problems and not r_lean.check.problems
+    blocks = [b.block for b in r_lean.splice.blocks]
+    assert blocks and blocks == [b.block for b in r_fine.splice.blocks]
+    n_lean = n_fine = 0
+    width = float(np.median([b.width_max for b in r_lean.splice.blocks]))
+    reach = (runs.sparse_resolution + runs.linked_resolution + 0.02) * width
+    for br_l, br_f in zip(r_lean.splice.blocks, r_fine.splice.blocks, strict=True):
+        assert br_l.filament_new == pytest.approx(br_f.filament_new, rel=0.03)
+        el = np.concatenate(_extrusions(r_lean.data, r_lean.splice.output_ranges(program, br_l.block)))
+        ef = np.concatenate(_extrusions(r_fine.data, r_fine.splice.output_ranges(program, br_f.block)))
+        n_lean, n_fine = n_lean + len(el), n_fine + len(ef)
+        beads = shapely.linestrings(np.stack([ef[:, :2], ef[:, 2:]], axis=1))
+        far = shapely.distance(shapely.union_all(beads), shapely.points(el[:, 2:]))
+        assert float(far.max()) <= reach, (br_l.block, float(far.max()), reach)
+    assert n_lean < 0.85 * n_fine, (n_lean, n_fine)
