@@ -113,7 +113,8 @@ def test_sparse_runs_take_their_own_bound(tmp_path):
     case = loadcase.read(case_path)
     lean = settings_mod.splice_options(settings_mod.resolve(program, toolpath=case.toolpath))
     runs = lean.runs
-    assert runs.bound(True, True) == runs.sparse_resolution > runs.linked_resolution == runs.bound(True, False)
+    assert runs.bound(True, True) == runs.sparse_resolution > runs.linked_resolution
+    assert runs.bound(True, False) == runs.linked_resolution
     fine = dataclasses.replace(lean, runs=dataclasses.replace(runs, sparse_resolution=runs.linked_resolution))
     opts = pipeline.PipelineOptions(replace=("sparse",), workers=1)
     cache = Cache(tmp_path / "cache")
