@@ -383,9 +383,8 @@ def _splice_block(
     )
     unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
     ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None
-    runs = options.runs
-    if fill.linked:  # linked runs: their own simplification bound (RunOptions.bound)
-        runs = replace(runs, resolution=runs.bound(True, fill.flow_width is not None))
+    # linked runs have their own simplification bound, solid or sparse (RunOptions.bound)
+    runs = replace(options.runs, resolution=options.runs.bound(fill.linked, fill.flow_width is not None))
     plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
     aim = b.e * fill.volume_scale
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
