@@ -231,6 +231,22 @@ def test_two_islands_and_determinism():
         assert any(island.buffer(1e-6).contains(shapely.LineString(p.points)) for p in a.paths)
 
 
+def test_the_fit_sets_phis_constant_itself_so_another_solver_gives_the_same_level_sets(monkeypatch):
+    # phi is defined up to a constant, which the solve holds only to ~1e-3 lines; the fit sets it
+    # (mean 0, the exact minimiser), so SuperLU's default column ordering gives the same field
+    import loadpath.fea.solver as solver
+    from scipy.sparse.linalg import splu
+
+    region, field = open_hole()
+    inp = EngineInput(region, field, PITCH)
+    ours = fit(inp, LevelSetOptions())
+    assert abs(np.nanmean(ours.phi)) < 1e-9 and ours.residual < 1e-8, (np.nanmean(ours.phi), ours.residual)
+    monkeypatch.setattr(solver, "symmetric_lu", lambda a: splu(a.tocsc()))  # scipy's own defaults
+    other = fit(inp, LevelSetOptions())
+    assert np.array_equal(np.isnan(ours.phi), np.isnan(other.phi))
+    assert np.nanmax(np.abs(ours.phi - other.phi)) < 1e-8, np.nanmax(np.abs(ours.phi - other.phi))
+
+
 def test_bad_options_and_regions_get_one_line():
     region = box(0, 0, 10, 10)
     field = AnalyticField(uniform(0.0), None)
