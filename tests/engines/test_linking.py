@@ -88,11 +88,11 @@ def test_both_ways_give_what_each_way_gives_alone(seed):
 def _zigzag_and_stubs() -> tuple[list[Path], Path, Path]:
     """21 straight paths a pitch apart on the left of a 20 x 10 mm plate (one zig-zag when linked),
     and two stubs on its empty right half, too far from any end to take a link: one of 2 pitches
-    (0.41 mm², under 3 square pitches) and one of 5 (1.0 mm², over)."""
+    (0.41 mm², under the default 5 square pitches, 1.01 mm²) and one of 6 (1.22 mm², over)."""
     w = 0.45
     lines = [Path(np.array([[x, 0.2], [x, 9.8]]), np.full(2, w)) for x in 0.225 + w * np.arange(21)]
     short = Path(np.array([[15.0, 8.0], [15.0 + 2 * w, 8.0]]), np.full(2, w), "fill")
-    long = Path(np.array([[15.0, 2.0], [15.0 + 5 * w, 2.0]]), np.full(2, w), "fill")
+    long = Path(np.array([[15.0, 2.0], [15.0 + 6 * w, 2.0]]), np.full(2, w), "fill")
     return lines, short, long
 
 
@@ -110,11 +110,11 @@ def test_lone_stubs_under_the_area_are_dropped_linked_runs_kept():
     kept, stats0 = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=0.0))
     assert stats0["lone_dropped"] == 0 and len(kept) == len(runs) + 1
     # a bound over the larger stub's area drops it too; the zig-zag is linked, so it stays; the two
-    # stubs are 1.6 % of the layer's area, the smaller 0.45 %: the default share (0.5 %) takes it only
-    wide = LinkOptions(lone_area=5.5, lone_share=0.02)
+    # stubs are 1.7 % of the layer's area, the smaller 0.44 %: the default share (0.5 %) takes it only
+    wide = LinkOptions(lone_area=6.5, lone_share=0.02)
     more, stats5 = link_paths([*lines, short, long], region, 0.45, wide)
     assert stats5["lone_dropped"] == 2 and len(more) == len(runs) - 1
-    capped, stats_c = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=5.5))
+    capped, stats_c = link_paths([*lines, short, long], region, 0.45, LinkOptions(lone_area=6.5))
     assert stats_c["lone_dropped"] == 1 and len(capped) == len(runs)
 
 
