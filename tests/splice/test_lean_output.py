@@ -42,18 +42,25 @@ force = [1000.0, 0.0, 0.0]
 """
 
 
-def _beads(program, result) -> dict[int, shapely.Geometry]:
-    """Per replaced block: the union of its printed beads in the output."""
+def _extrusions(program, result) -> dict[int, np.ndarray]:
+    """Per replaced block: its extruding moves in the output, ``(n, 5)``: x0 y0 x1 y1 width (mm)."""
     moves = gcode.parse(result.data, strict=False).moves
     out = {}
     for br in result.splice.blocks:
-        parts = []
+        sel = np.zeros(len(moves), dtype=bool)
         for a, z in result.splice.output_ranges(program, br.block):
-            m = moves[(moves["line"] >= a) & (moves["line"] < z) & moves["extrude"]]
-            a_, z_ = np.column_stack([m["x0"], m["y0"]]), np.column_stack([m["x1"], m["y1"]])
-            lines = shapely.linestrings(np.stack([a_, z_], axis=1))
-            parts.append(shapely.union_all(shapely.buffer(lines, m["width"] / 2, cap_style="flat")))
-        out[br.block] = shapely.union_all(parts)
+            sel |= (moves["line"] >= a) & (moves["line"] < z)
+        m = moves[sel & moves["extrude"]]
+        out[br.block] = np.column_stack([m["x0"], m["y0"], m["x1"], m["y1"], m["width"]])
+    return out
+
+
+def _beads(program, result) -> dict[int, shapely.Geometry]:
+    """Per replaced block: the union of its printed beads in the output."""
+    out = {}
+    for block, e in _extrusions(program, result).items():
+        lines = shapely.linestrings(np.stack([e[:, 0:2], e[:, 2:4]], axis=1))
+        out[block] = shapely.union_all(shapely.buffer(lines, e[:, 4] / 2, cap_style="flat"))
     return out
 
 
@@ -93,16 +100,6 @@ def test_default_runs_write_fewer_lines_and_the_same_beads(sliced, tmp_path):
     assert len(r_loose.data) < 0.85 * len(r_lean.data)
 
 
-def _extrusions(data: bytes, ranges) -> list[np.ndarray]:
-    """The extruding moves of the given output line ranges, as (n, 4) arrays ``x0 y0 x1 y1``."""
-    moves = gcode.parse(data, strict=False).moves
-    out = []
-    for a, z in ranges:
-        m = moves[(moves["line"] >= a) & (moves["line"] < z) & moves["extrude"]]
-        out.append(np.column_stack([m["x0"], m["y0"], m["x1"], m["y1"]]))
-    return out
-
-
 @pytest.mark.slow
 def test_sparse_runs_take_their_own_bound(tmp_path):
     """Linked sparse runs are simplified within ``RunOptions.sparse_resolution``, not the solid runs'
@@ -127,10 +124,10 @@ def test_sparse_runs_take_their_own_bound(tmp_path):
     n_lean = n_fine = 0
     width = float(np.median([b.width_max for b in r_lean.splice.blocks]))
     reach = (runs.sparse_resolution + runs.linked_resolution + 0.02) * width
+    ext_lean, ext_fine = _extrusions(program, r_lean), _extrusions(program, r_fine)
     for br_l, br_f in zip(r_lean.splice.blocks, r_fine.splice.blocks, strict=True):
         assert br_l.filament_new == pytest.approx(br_f.filament_new, rel=0.03)
-        el = np.concatenate(_extrusions(r_lean.data, r_lean.splice.output_ranges(program, br_l.block)))
-        ef = np.concatenate(_extrusions(r_fine.data, r_fine.splice.output_ranges(program, br_f.block)))
+        el, ef = ext_lean[br_l.block][:, :4], ext_fine[br_f.block][:, :4]
         n_lean, n_fine = n_lean + len(el), n_fine + len(ef)
         beads = shapely.linestrings(np.stack([ef[:, :2], ef[:, 2:]], axis=1))
         far = shapely.distance(shapely.union_all(beads), shapely.points(el[:, 2:]))
