@@ -11,9 +11,10 @@ Steps
    drop vertices closer than ``min_segment`` to the previous one (G-code prints 3 decimals; a
    segment must carry a visible amount of E).
 2. Order the paths greedily: from the current nozzle position, the nearest free path end next,
-   reversing the path when its far end is nearer (what slicers do for infill); then 2-opt
-   shortens the travel further (:func:`order_paths`).  The first path starts where the nozzle
-   is (the seam follows the previous block or layer).
+   reversing the path when its far end is nearer (what slicers do for infill); then 2-opt and,
+   on orders of up to :data:`MAX_OR_OPT` paths, Or-opt moves shorten the travel further
+   (:func:`order_paths`).  The first path starts where the nozzle is (the seam follows the
+   previous block or layer).
 3. Join consecutive paths into one chain with a printed **link** when the gap is at most
    ``link_max``, the straight link lies inside the replace region and crosses no other path
    (PrusaSlicer links its rectilinear lines the same way); otherwise the splicer travels.
@@ -333,13 +334,16 @@ def order_paths(
     free_travel: float = 0.0,
     retract_cost: float = 0.0,
 ) -> list[tuple[Points2, Floats]]:
-    """Print order from ``start``: greedy nearest neighbour, then 2-opt (paths reversed where nearer).
+    """Print order from ``start``: greedy nearest neighbour, then 2-opt and Or-opt (paths reversed where
+    nearer).
 
     The greedy order takes the cheapest free path end next (what slicers do for infill); 2-opt then
     reverses any stretch of the order (each path in it turned round) that lowers the cost of the
     travels ``end(k - 1) -> start(k)`` summed, the first travel from the nozzle included, for up to
-    ``passes`` passes (orders of more than ``max_2opt`` paths keep the greedy one).  A travel costs
-    its length, plus ``retract_cost`` when it is ``free_travel`` or longer (the slicer retracts it).
+    ``passes`` passes (orders of more than ``max_2opt`` paths keep the greedy one).  On orders of up
+    to :data:`MAX_OR_OPT` paths, :func:`_or_opt` then moves stretches of up to three paths elsewhere,
+    and 2-opt runs again after each pass that moved one.  A travel costs its length, plus
+    ``retract_cost`` when it is ``free_travel`` or longer (the slicer retracts it).
 
     Parameters
     ----------
@@ -402,7 +406,85 @@ def _order(
     seq = _greedy(heads, tails, start, cost) if table is None else _greedy_from_table(table, m)
     if 2 < m <= max_2opt:
         seq = _two_opt(seq, heads, tails, np.asarray(start, dtype=float), passes, cost, table)
+    if 2 < m <= MAX_OR_OPT and table is not None:
+        for _ in range(passes):  # a move's gain opens 2-opt moves and back, each pass after a gain
+            moved = _or_opt(seq, table, passes)
+            if moved == seq:
+                break
+            seq = _two_opt(moved, heads, tails, np.asarray(start, dtype=float), passes, cost, table)
     return seq
+
+
+MAX_OR_OPT = 24
+"""Longest order (paths) :func:`_or_opt` is run on.  The orders it helps most are the few long runs
+of a linked block (issue 19, ``benchmarks/bench_printability.py``: the cantilever's 6 and 10 runs
+a layer, whose 2-opt orders travelled 83.6 and 67.7 mm where no order of them travels less than
+71.4 and 65.6 mm; with the moves, those figures).  Its passes are a Python loop over the stretches
+with numpy steps over the places: on random ends, 2.5 ms an order of 6 paths, 4.7 ms of 10, 12.8 ms
+of 20 and 21 ms of 40 (2-opt alone 0.4-3.6 ms); the 1000-layer specimen's blocks of about 47 paths,
+each with a start of its own, keep the 2-opt order."""
+
+OR_SEGMENT = 3
+"""Longest stretch of consecutive paths :func:`_or_opt` moves elsewhere in the order."""
+
+
+def _or_opt(seq: list[tuple[int, bool]], table: np.ndarray, passes: int) -> list[tuple[int, bool]]:
+    """Or-opt on an open tour of oriented paths from a fixed start: move stretches of up to
+    :data:`OR_SEGMENT` consecutive paths to another place in the order, turned round or not.
+
+    2-opt only reverses stretches in place, so a long path that the greedy order took early (the
+    nearest end from the nozzle) and that would cost less travel printed last stays early: the
+    move it needs is a relocation.  For each stretch the best place is found at once over every
+    place in the rest of the order, from the same cost table (:func:`_cost_table`, ``(2m + 1,
+    2m + 1)``; heads ``0..m-1``, tails ``m..2m-1``, the start ``2m``).  Moves are taken while
+    they lower the cost by more than 1e-6, for up to ``passes`` passes.
+
+    Returns
+    -------
+    list of (path index, reversed)
+        The new order (``seq`` itself when no move helped).
+    """
+    m = len(seq)
+    c = np.zeros((2 * m + 2, 2 * m + 2))
+    c[: 2 * m + 1, : 2 * m + 1] = table  # the last row and column: "no path after", cost 0
+    none = 2 * m + 1
+    idx = np.array([k for k, _ in seq])
+    rev = np.array([r for _, r in seq])
+    s_id = np.where(rev, idx + m, idx)  # the end each path starts from
+    e_id = np.where(rev, idx, idx + m)  # and the one it ends at
+    improved_any = False
+    for _ in range(passes):
+        improved = False
+        for length in range(1, min(OR_SEGMENT, m - 1) + 1):
+            i = 0
+            while i + length <= m:
+                prev = 2 * m if i == 0 else e_id[i - 1]
+                nxt = s_id[i + length] if i + length < m else none
+                a, z = s_id[i], e_id[i + length - 1]  # the stretch's first and last end
+                freed = c[prev, a] + c[z, nxt] - c[prev, nxt]
+                rest_s = np.concatenate([s_id[:i], s_id[i + length :]])
+                rest_e = np.concatenate([e_id[:i], e_id[i + length :]])
+                before = np.concatenate([[2 * m], rest_e])
+                after = np.concatenate([rest_s, [none]])
+                bridge = c[before, after]
+                forward = c[before, a] + c[z, after] - bridge
+                turned = c[before, z] + c[a, after] - bridge  # the stretch reversed: it starts at z
+                fwd, trn = int(np.argmin(forward)), int(np.argmin(turned))
+                flip = turned[trn] < forward[fwd]
+                at, cost = (trn, turned[trn]) if flip else (fwd, forward[fwd])
+                if freed - cost > 1e-6:
+                    seg_s, seg_e = s_id[i : i + length], e_id[i : i + length]
+                    if flip:  # each path turned round: its start is its old end
+                        seg_s, seg_e = seg_e[::-1], seg_s[::-1]
+                    s_id = np.concatenate([rest_s[:at], seg_s, rest_s[at:]])
+                    e_id = np.concatenate([rest_e[:at], seg_e, rest_e[at:]])
+                    improved = improved_any = True
+                i += 1
+        if not improved:
+            break
+    if not improved_any:
+        return seq
+    return [(int(a), False) if a < m else (int(a - m), True) for a in s_id]
 
 
 def _greedy(heads: Points2, tails: Points2, start: Points2, cost) -> list[tuple[int, bool]]:

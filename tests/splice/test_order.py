@@ -65,3 +65,85 @@ def test_the_greedy_order_from_the_cost_table_is_the_step_by_step_one():
             cost = plan._travel_cost(free, extra)
             table = plan._cost_table(heads, tails, start, cost)
             assert plan._greedy_from_table(table, m) == plan._greedy(heads, tails, start, cost)
+
+
+def _tour(seq, heads, tails, start):
+    pos, total = np.asarray(start, float), 0.0
+    for k, rev in seq:
+        a, z = (tails[k], heads[k]) if rev else (heads[k], tails[k])
+        total += float(np.hypot(*(a - pos)))
+        pos = z
+    return total
+
+
+def _least(heads, tails, start):
+    """The least travel of any order and orientation (Held-Karp over the paths' subsets)."""
+    m = len(heads)
+    p = np.concatenate([heads, tails, np.asarray(start, float)[None]])
+    c = np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1])
+    # best[mask, k, r]: the least travel printing the paths in mask, path k last (r: reversed)
+    best = np.full((1 << m, m, 2), np.inf)
+    for k in range(m):
+        best[1 << k, k] = c[2 * m, [k, k + m]]
+    for mask in range(1, 1 << m):
+        for k in range(m):
+            for r in (0, 1):
+                v = best[mask, k, r]
+                if not np.isfinite(v):
+                    continue
+                end = k + m if r == 0 else k  # a reversed path ends at its head
+                for j in range(m):
+                    if not mask >> j & 1:
+                        nxt = mask | 1 << j
+                        best[nxt, j] = np.minimum(best[nxt, j], v + c[end, [j, j + m]])
+    return float(best[-1].min())
+
+
+def test_a_long_path_the_greedy_order_takes_first_is_moved_to_where_it_costs_least():
+    """Issue 19: the nozzle starts beside one end of a long path and two short ones lie behind it.
+    The greedy order prints the long path first and comes all the way back (119 mm of travel); no
+    reversal of a stretch helps (2-opt), moving the long path to the end does: 41 mm, the least."""
+    heads = np.array([[1.0, 0.0], [-10.0, 0.0], [-20.0, 0.0]])
+    tails = np.array([[100.0, 0.0], [-12.0, 0.0], [-22.0, 0.0]])
+    start = np.zeros(2)
+    cost = plan._travel_cost(0.0, 0.0)
+    table = plan._cost_table(heads, tails, start, cost)
+    greedy = plan._greedy_from_table(table, 3)
+    stuck = plan._two_opt(greedy, heads, tails, start, 4, cost, table)
+    assert np.isclose(_tour(stuck, heads, tails, start), 119.0)
+    seq = plan._order(heads, tails, start, 4, 300, 0.0, 0.0)
+    assert sorted(k for k, _ in seq) == [0, 1, 2]
+    assert np.isclose(_tour(seq, heads, tails, start), 41.0)
+    assert np.isclose(_tour(seq, heads, tails, start), _least(heads, tails, start))
+
+
+def test_the_moves_never_lengthen_the_travel_and_mostly_find_the_least():
+    """Random blocks of 3-8 paths: the order with the moves is a permutation and never travels more
+    than the 2-opt order alone.  Against the least travel of any order: 2-opt alone finds it on a
+    quarter of such blocks (51 of 200 with this generator) and travels 15 % more on average; with the
+    moves, on three quarters (150 of 200), 2 % more."""
+    rng = np.random.default_rng(5)
+    trials, found, excess, found_two, excess_two = 60, 0, 0.0, 0, 0.0
+    for _ in range(trials):
+        m = int(rng.integers(3, 9))
+        heads = rng.uniform(0, 60, (m, 2))
+        tails = heads + rng.normal(0, 25, (m, 2))
+        start = rng.uniform(0, 60, 2)
+        saved = plan.MAX_OR_OPT
+        try:
+            plan.MAX_OR_OPT = 0
+            two = plan._order(heads, tails, start, 4, 300, 0.0, 0.0)
+        finally:
+            plan.MAX_OR_OPT = saved
+        seq = plan._order(heads, tails, start, 4, 300, 0.0, 0.0)
+        assert sorted(k for k, _ in seq) == list(range(m))
+        got, got_two = _tour(seq, heads, tails, start), _tour(two, heads, tails, start)
+        assert got <= got_two + 1e-9
+        least = _least(heads, tails, start)
+        assert got >= least - 1e-9
+        found += bool(np.isclose(got, least))
+        found_two += bool(np.isclose(got_two, least))
+        excess += got / least - 1.0
+        excess_two += got_two / least - 1.0
+    assert found >= 0.6 * trials and found >= found_two + 0.3 * trials
+    assert excess / trials < 0.05 < excess_two / trials
