@@ -333,6 +333,7 @@ def order_paths(
     max_2opt: int = 300,
     free_travel: float = 0.0,
     retract_cost: float = 0.0,
+    end: Points2 | None = None,
 ) -> list[tuple[Points2, Floats]]:
     """Print order from ``start``: greedy nearest neighbour, then 2-opt and Or-opt (paths reversed where
     nearer).
@@ -343,7 +344,8 @@ def order_paths(
     ``passes`` passes (orders of more than ``max_2opt`` paths keep the greedy one).  On orders of up
     to :data:`MAX_OR_OPT` paths, :func:`_or_opt` then moves stretches of up to three paths elsewhere,
     and 2-opt runs again after each pass that moved one.  A travel costs its length, plus
-    ``retract_cost`` when it is ``free_travel`` or longer (the slicer retracts it).
+    ``retract_cost`` when it is ``free_travel`` or longer (the slicer retracts it).  With ``end``,
+    the travel from the last path to it counts too (where the nozzle goes after the block).
 
     Parameters
     ----------
@@ -352,6 +354,8 @@ def order_paths(
         Nozzle position before the first path.
     free_travel, retract_cost : float, mm
         See :class:`PlanOptions` (0: the cost is the length).
+    end : (2,) float, mm, optional
+        Where the nozzle goes after the last path (the slicer's next extrusion).
     """
     m = len(paths)
     if m == 0:
@@ -359,10 +363,11 @@ def order_paths(
     heads = np.array([p[0][0] for p in paths])
     tails = np.array([p[0][-1] for p in paths])
     key = (heads.tobytes(), tails.tobytes(), np.asarray(start, dtype=float).tobytes())
+    key += (None if end is None else np.asarray(end, dtype=float).tobytes(),)
     key += (passes, max_2opt, float(free_travel), float(retract_cost))
     seq = _ORDERS.get(key)
     if seq is None:
-        seq = _order(heads, tails, start, passes, max_2opt, free_travel, retract_cost)
+        seq = _order(heads, tails, start, passes, max_2opt, free_travel, retract_cost, end)
         if len(_ORDERS) >= _ORDERS_KEPT:
             _ORDERS.pop(next(iter(_ORDERS)))
         _ORDERS[key] = seq
@@ -388,6 +393,7 @@ def _order(
     max_2opt: int,
     free_travel: float,
     retract_cost: float,
+    end: Points2 | None = None,
 ) -> list[tuple[int, bool]]:
     """Make the order of :func:`order_paths` from the path ends: ``(path index, reversed)`` per path.
 
@@ -400,13 +406,14 @@ def _order(
     cost = _travel_cost(free_travel, retract_cost)
     table = None
     if m <= max_2opt:
-        table = _cost_table(heads, tails, np.asarray(start, dtype=float), cost)
+        table = _cost_table(heads, tails, np.asarray(start, dtype=float), cost, end)
         if not np.all(np.isfinite(table)):  # argmin and the step's comparison treat NaN apart
             table = None
     seq = _greedy(heads, tails, start, cost) if table is None else _greedy_from_table(table, m)
     if 2 < m <= max_2opt:
         seq = _two_opt(seq, heads, tails, np.asarray(start, dtype=float), passes, cost, table)
-    if 2 < m <= MAX_OR_OPT and table is not None:
+    # with an end, even one or two paths may be better the other way round (Or-opt turns them)
+    if (2 < m or end is not None) and m <= MAX_OR_OPT and table is not None:
         for _ in range(passes):  # a move's gain opens 2-opt moves and back, each pass after a gain
             moved = _or_opt(seq, table, passes)
             if moved == seq:
@@ -435,9 +442,9 @@ def _or_opt(seq: list[tuple[int, bool]], table: np.ndarray, passes: int) -> list
     2-opt only reverses stretches in place, so a long path that the greedy order took early (the
     nearest end from the nozzle) and that would cost less travel printed last stays early: the
     move it needs is a relocation.  For each stretch the best place is found at once over every
-    place in the rest of the order, from the same cost table (:func:`_cost_table`, ``(2m + 1,
-    2m + 1)``; heads ``0..m-1``, tails ``m..2m-1``, the start ``2m``).  Moves are taken while
-    they lower the cost by more than 1e-6, for up to ``passes`` passes.
+    place in the rest of the order, from the same cost table (:func:`_cost_table`, ``(2m + 2,
+    2m + 2)``; heads ``0..m-1``, tails ``m..2m-1``, the start ``2m``, the end ``2m + 1``).  Moves
+    are taken while they lower the cost by more than 1e-6, for up to ``passes`` passes.
 
     Returns
     -------
@@ -445,9 +452,8 @@ def _or_opt(seq: list[tuple[int, bool]], table: np.ndarray, passes: int) -> list
         The new order (``seq`` itself when no move helped).
     """
     m = len(seq)
-    c = np.zeros((2 * m + 2, 2 * m + 2))
-    c[: 2 * m + 1, : 2 * m + 1] = table  # the last row and column: "no path after", cost 0
-    none = 2 * m + 1
+    c = table
+    none = 2 * m + 1  # after the last path: the end, or nothing (cost 0)
     idx = np.array([k for k, _ in seq])
     rev = np.array([r for _, r in seq])
     s_id = np.where(rev, idx + m, idx)  # the end each path starts from
@@ -455,7 +461,7 @@ def _or_opt(seq: list[tuple[int, bool]], table: np.ndarray, passes: int) -> list
     improved_any = False
     for _ in range(passes):
         improved = False
-        for length in range(1, min(OR_SEGMENT, m - 1) + 1):
+        for length in range(1, min(OR_SEGMENT, m) + 1):
             i = 0
             while i + length <= m:
                 prev = 2 * m if i == 0 else e_id[i - 1]
@@ -527,12 +533,18 @@ def _greedy_from_table(table: np.ndarray, m: int) -> list[tuple[int, bool]]:
     return seq
 
 
-def _cost_table(heads: Points2, tails: Points2, start: Points2, cost) -> np.ndarray:
-    """Every travel's cost between the ends ``(2m + 1, 2m + 1)``: heads ``0..m-1``, tails ``m..2m-1``,
-    the start ``2m``; ``c[a, b] = cost(hypot(p[a] - p[b]))``, symmetric (``p[a] - p[b]`` is exactly
-    ``-(p[b] - p[a])``)."""
+def _cost_table(
+    heads: Points2, tails: Points2, start: Points2, cost, end: Points2 | None = None
+) -> np.ndarray:
+    """Every travel's cost between the ends ``(2m + 2, 2m + 2)``: heads ``0..m-1``, tails ``m..2m-1``,
+    the start ``2m``, the end ``2m + 1``; ``c[a, b] = cost(hypot(p[a] - p[b]))``, symmetric
+    (``p[a] - p[b]`` is exactly ``-(p[b] - p[a])``).  Without an end its row and column are 0: the
+    order may finish anywhere."""
     p = np.concatenate([heads, tails, np.asarray(start, dtype=float)[None]])
-    return cost(np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1]))
+    if end is not None:
+        p = np.concatenate([p, np.asarray(end, dtype=float)[None]])
+    c = cost(np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1]))
+    return c if end is not None else np.pad(c, ((0, 1), (0, 1)))
 
 
 def _travel_cost(free_travel: float, retract_cost: float):
@@ -543,17 +555,22 @@ def _travel_cost(free_travel: float, retract_cost: float):
 
 
 def _order_by_island(
-    paths: list[tuple[Points2, Floats]], start: Points2, region: Region | None, **kw: float
+    paths: list[tuple[Points2, Floats]],
+    start: Points2,
+    region: Region | None,
+    end: Points2 | None = None,
+    **kw: float,
 ) -> list[tuple[Points2, Floats]]:
     """:func:`order_paths` island by island: all of one island's paths before the next island's.
 
     Travel between islands leaves the region and retracts; an order that hops between them (2-opt
     weighs only distance) costs a retraction per hop where the slicer pays one per island.  The
-    next island is the one with the path end nearest to where the nozzle is.
+    next island is the one with the path end nearest to where the nozzle is; ``end`` (where the
+    nozzle goes after the block) is weighed in the last island's order.
     """
     parts = list(getattr(region, "geoms", [])) if region is not None else []
     if len(parts) < 2 or len(paths) < 2:
-        return order_paths(paths, start, **kw)
+        return order_paths(paths, start, end=end, **kw)
     mids = shapely.points(np.array([p[len(p) // 2] for p, _ in paths]))
     island = np.argmin(np.stack([shapely.distance(g, mids) for g in parts], axis=1), axis=1)
     groups = {int(k): [paths[i] for i in np.flatnonzero(island == k)] for k in np.unique(island)}
@@ -565,7 +582,7 @@ def _order_by_island(
             for k, g in groups.items()
         }
         k = min(near, key=near.__getitem__)
-        out += order_paths(groups.pop(k), pos, **kw)
+        out += order_paths(groups.pop(k), pos, end=None if groups else end, **kw)
         pos = out[-1][0][-1]
     return out
 
@@ -582,7 +599,7 @@ def _two_opt(
     """2-opt on an open tour of oriented paths from a fixed start (see :func:`order_paths`).
 
     Each step tries every reversal ``[i, j]`` for one ``i`` at once.  Where each path starts and ends
-    (``s_id``, ``e_id``: rows of a table of the ``2m + 1`` ends' travel costs, made once) and the cost
+    (``s_id``, ``e_id``: rows of a table of the ``2m + 2`` ends' travel costs, made once) and the cost
     of the travel after each one (``link``, ``(m - 1,)``) are kept between steps and changed only where
     a reversal changed them: the same figures as when they were rebuilt at every step, without the
     ``O(m)`` rebuild (issue 17: the 2-opt was a third of the plan's time on the 100-layer specimen),
@@ -592,13 +609,15 @@ def _two_opt(
     idx = np.array([k for k, _ in seq])
     rev = np.array([r for _, r in seq])
     m = len(idx)
-    # every travel's cost from a table of all the ends (heads 0..m-1, tails m..2m-1, the start 2m):
+    # every travel's cost from a table of all the ends (heads 0..m-1, tails m..2m-1, the start 2m,
+    # the end 2m + 1):
     # c[a, b] = cost(hypot(p[a] - p[b])), the figures the steps computed from the points before
     # (symmetric: p[a] - p[b] is exactly -(p[b] - p[a]))
     c = _cost_table(heads, tails, start, cost) if table is None else table
+    last = 2 * m + 1  # where the nozzle goes after the last path (cost 0 when nowhere in particular)
     s_id = np.where(rev, idx + m, idx)  # the end each path starts from
     e_id = np.where(rev, idx, idx + m)  # and the one it ends at
-    link = np.append(c[s_id[1:], e_id[:-1]], 0.0)  # travel after each path
+    link = np.append(c[s_id[1:], e_id[:-1]], c[e_id[-1], last])  # travel after each path
     for _ in range(passes):
         improved = False
         for i in range(m - 1):
@@ -606,7 +625,8 @@ def _two_opt(
             before = c[2 * m if i == 0 else e_id[i - 1]]
             old = before[s_id[i]] + link[i + 1 :]
             new = before[e_id[i + 1 :]]
-            new[:-1] += c[s_id[i], s_id[i + 2 :]]  # none after the last
+            new[:-1] += c[s_id[i], s_id[i + 2 :]]
+            new[-1] += c[s_id[i], last]
             gain = old - new
             best = int(np.argmax(gain))
             if gain[best] > 1e-6:
@@ -617,6 +637,7 @@ def _two_opt(
                 s_id[i : jj + 1], e_id[i : jj + 1] = turned
                 lo, hi = max(i - 1, 0), min(jj + 1, m - 1)  # the travels that changed
                 link[lo:hi] = c[s_id[lo + 1 : hi + 1], e_id[lo:hi]]
+                link[-1] = c[e_id[-1], last]
                 improved = True
         if not improved:
             break
@@ -639,6 +660,7 @@ def plan_block(
     flow_width: float | None = None,
     target_filament: float | None = None,
     simplified: bool = False,
+    end: Points2 | None = None,
 ) -> BlockPlan:
     """Plan one replaced block (see the module docstring).
 
@@ -663,6 +685,9 @@ def plan_block(
         Filament of the replaced block, for volume matching.
     simplified : bool
         The paths were already simplified with these options (:func:`simplify`): skip step 1.
+    end : (2,) float, mm, optional
+        Where the nozzle goes after the block (the slicer's next extrusion): the order weighs the
+        travel there too.
 
     Returns
     -------
@@ -677,7 +702,7 @@ def plan_block(
     prepared = [(pts, pitch) for pts, pitch in raw if len(pts) >= 2 and np.any(pts[1:] != pts[:-1])]
     if options.order:
         prepared = _order_by_island(
-            prepared, start, region, free_travel=options.free_travel, retract_cost=options.retract_cost
+            prepared, start, region, end, free_travel=options.free_travel, retract_cost=options.retract_cost
         )
     if not prepared:
         return BlockPlan((), 0, 0, 1.0, 0.0)

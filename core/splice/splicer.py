@@ -314,7 +314,8 @@ def splice(
 
     if sum(len(p.points) for f in fills for p in f.paths) >= compiled.COMPILED_FROM:
         compiled.load()  # before the workers fork: they inherit the loops
-    _WORK = [(program, fills, options, plan_options, style_of(program))]
+    extruding = np.flatnonzero(program.moves["extrude"])  # where each block's next extrusion is
+    _WORK = [(program, fills, options, plan_options, style_of(program), extruding)]
     try:
         # contiguous batches: a few hundred kB of text per result instead of a round trip per block
         done = fork_map(_splice_batch, spans(len(fills), workers, 8), workers)
@@ -347,17 +348,39 @@ NO_PATHS = "no new path fits in its"
 
 _WORK: list[tuple] = []
 """What :func:`splice` hands to :func:`_splice_batch` (inherited by the forked workers, not pickled):
-``(program, sorted fills, options, plan options, style)``."""
+``(program, sorted fills, options, plan options, style, rows of the extruding moves)``."""
 
 
 def _splice_batch(span: tuple[int, int]) -> list[tuple[int, list, BlockReport | None, str | None]]:
     """:func:`_splice_block` of the fills ``[a, z)`` of :data:`_WORK`."""
-    program, fills, options, plan_options, style = _WORK[0]
-    return [_splice_block(program, f, options, plan_options, style) for f in fills[span[0] : span[1]]]
+    program, fills, options, plan_options, style, extruding = _WORK[0]
+    return [
+        _splice_block(program, f, options, plan_options, style, extruding) for f in fills[span[0] : span[1]]
+    ]
+
+
+def next_extrusion(program: Program, line: int, extruding: np.ndarray) -> np.ndarray | None:
+    """Where the slicer's first extrusion at or after ``line`` starts, ``(2,)`` mm (None: none follows).
+
+    ``extruding``: the rows of ``program.moves`` that extrude, in order.  A replaced block's order
+    weighs the travel from its last path to there (:func:`loadpath.splice.plan.plan_block`'s
+    ``end``): the next feature starts there whatever the block does.
+    """
+    row = program.move_rows(line, line).start
+    k = int(np.searchsorted(extruding, row))
+    if k >= len(extruding):
+        return None
+    mv = program.moves[extruding[k]]
+    return np.array([float(mv["x0"]), float(mv["y0"])])
 
 
 def _splice_block(
-    program: Program, fill: BlockFill, options: SpliceOptions, plan_options: PlanOptions, style: Style
+    program: Program,
+    fill: BlockFill,
+    options: SpliceOptions,
+    plan_options: PlanOptions,
+    style: Style,
+    extruding: np.ndarray | None = None,
 ) -> tuple[int, list[tuple[int, int, bytes]], BlockReport | None, str | None]:
     """One block's new text: ``(block, edits, report, None)``, or ``(block, [], None, why)`` when kept."""
     vol_area = options.flow.filament_area if options.flow.volumetric else None
@@ -368,6 +391,9 @@ def _splice_block(
     feed = fill.feedrate or block_feedrate(program, b)
     height = block_height(program, b)
     s0 = program.state_before(b.span_start)
+    end = None
+    if extruding is not None:
+        end = next_extrusion(program, max(b.span_stop, b.exit_stop), extruding)
     plan = plan_block(
         fill.paths,
         np.array([s0.x, s0.y]),
@@ -380,6 +406,7 @@ def _splice_block(
         flow_width=fill.flow_width,
         target_filament=b.e * fill.volume_scale,
         simplified=fill.simplified,
+        end=end,
     )
     unit = fill.flow_width or fill.nominal_pitch or _median_pitch(fill.paths)
     ends = np.array([p.points[i] for p in fill.paths for i in (0, -1)]) if fill.paths else None

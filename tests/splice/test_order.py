@@ -67,17 +67,18 @@ def test_the_greedy_order_from_the_cost_table_is_the_step_by_step_one():
             assert plan._greedy_from_table(table, m) == plan._greedy(heads, tails, start, cost)
 
 
-def _tour(seq, heads, tails, start):
+def _tour(seq, heads, tails, start, end=None):
     pos, total = np.asarray(start, float), 0.0
     for k, rev in seq:
         a, z = (tails[k], heads[k]) if rev else (heads[k], tails[k])
         total += float(np.hypot(*(a - pos)))
         pos = z
-    return total
+    return total + (float(np.hypot(*(np.asarray(end, float) - pos))) if end is not None else 0.0)
 
 
-def _least(heads, tails, start):
-    """The least travel of any order and orientation (Held-Karp over the paths' subsets)."""
+def _least(heads, tails, start, end=None):
+    """The least travel of any order and orientation (Held-Karp over the paths' subsets), the travel
+    from the last path to ``end`` included when given."""
     m = len(heads)
     p = np.concatenate([heads, tails, np.asarray(start, float)[None]])
     c = np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1])
@@ -91,12 +92,16 @@ def _least(heads, tails, start):
                 v = best[mask, k, r]
                 if not np.isfinite(v):
                     continue
-                end = k + m if r == 0 else k  # a reversed path ends at its head
+                last = k + m if r == 0 else k  # a reversed path ends at its head
                 for j in range(m):
                     if not mask >> j & 1:
                         nxt = mask | 1 << j
-                        best[nxt, j] = np.minimum(best[nxt, j], v + c[end, [j, j + m]])
-    return float(best[-1].min())
+                        best[nxt, j] = np.minimum(best[nxt, j], v + c[last, [j, j + m]])
+    if end is None:
+        return float(best[-1].min())
+    tails_then_heads = np.stack([tails, heads], axis=1)  # where path k ends, forward or reversed
+    exit_ = np.hypot(*(np.asarray(end, float) - tails_then_heads).transpose(2, 0, 1))
+    return float((best[-1] + exit_).min())
 
 
 def test_a_long_path_the_greedy_order_takes_first_is_moved_to_where_it_costs_least():
@@ -147,3 +152,34 @@ def test_the_moves_never_lengthen_the_travel_and_mostly_find_the_least():
         excess_two += got_two / least - 1.0
     assert found >= 0.6 * trials and found >= found_two + 0.3 * trials
     assert excess / trials < 0.05 < excess_two / trials
+
+
+def test_the_order_weighs_the_travel_to_where_the_nozzle_goes_next():
+    """Issue 19: a block's order used to end wherever its last path did, and the travel from there
+    to the slicer's next feature (counted in the per-layer travel) could undo what the order saved.
+    Random blocks of 1-7 paths with an end: never more travel, start to end, than the order made
+    without it, and the least of all orders on most of them (with this generator, 181 of 200: 0.5 %
+    over the least on average, where the order blind to the end travels 12.5 % over it)."""
+    rng = np.random.default_rng(8)
+    trials, found, better = 60, 0, 0
+    for _ in range(trials):
+        m = int(rng.integers(1, 8))
+        heads = rng.uniform(0, 60, (m, 2))
+        tails = heads + rng.normal(0, 25, (m, 2))
+        start, end = rng.uniform(0, 60, 2), rng.uniform(0, 60, 2)
+        blind = plan._order(heads, tails, start, 4, 300, 0.0, 0.0)
+        seq = plan._order(heads, tails, start, 4, 300, 0.0, 0.0, end)
+        assert sorted(k for k, _ in seq) == list(range(m))
+        got, was = _tour(seq, heads, tails, start, end), _tour(blind, heads, tails, start, end)
+        least = _least(heads, tails, start, end)
+        assert least - 1e-9 <= got <= was + 1e-9
+        found += bool(np.isclose(got, least))
+        better += got < was - 1e-9
+    assert found >= 0.7 * trials and better >= 0.3 * trials
+    # order_paths keeps orders under their end too
+    paths = [(np.array([[0.0, 0.0], [10.0, 0.0]]), np.full(2, 0.45))]
+    plan._ORDERS.clear()
+    near_tail = order_paths(paths, np.array([-1.0, 0.0]), end=np.array([11.0, 0.0]))
+    order_paths(paths, np.array([-1.0, 0.0]), end=np.array([-1.0, 0.5]))
+    assert len(plan._ORDERS) == 2
+    assert near_tail[0][0][0, 0] == 0.0  # printed forward: it ends beside the end
