@@ -19,11 +19,14 @@ Each part is sliced by the real PrusaSlicer 2.5 (MK3S presets: ``retract_before_
 default), at 100 % (``solid`` replaced) and 40 % (``sparse`` replaced); then ``loadpath`` runs on the
 file (as ``loadpath run`` does, without the slicer's settings JSON for Cura) with each engine.
 
-Counted in the replaced blocks and the moves that lead into them (the block's span: entering
-travel, retraction and lift; :mod:`loadpath.printability`), for the slicer's lines and loadpath's:
-path count, retractions, travel mm, firmware-style print time (acceleration and jerk), and the
-filament (same mass: the splicer matches each block's volume).  Ratios are loadpath / slicer; the
-last column compares a Cura file's retractions with PrusaSlicer's for the same part and density.
+Counted in the replaced blocks and the moves that lead into them and out of them (the block's
+span: entering travel, retraction and lift; then the way to the next extrusion:
+:func:`loadpath.printability.block_windows`; before 2026-12-06 without the way out), for the
+slicer's lines and loadpath's: path count, retractions, travel mm, firmware-style print time
+(acceleration and jerk), and the filament (same mass: the splicer matches each block's volume);
+then the travel of the whole file (``file travel``).  Ratios are loadpath / slicer; the
+``vsPrusa`` column compares a Cura file's retractions with PrusaSlicer's for the same part and
+density.
 The results go to ``OUT_DIR/bench_printability.json`` when a folder is given.
 """
 
@@ -136,7 +139,7 @@ def _named(engine: str) -> dict:
 def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, principal: str) -> dict:
     from loadpath.gcode import read
     from loadpath.plugin.job import JobRequest, run_job
-    from loadpath.printability import kinematics_from_config, measure_lines
+    from loadpath.printability import block_windows, kinematics_from_config, measure, measure_lines
 
     t0 = time.perf_counter()
     res = run_job(
@@ -154,13 +157,7 @@ def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, princip
     program = pr.program
     kin = kinematics_from_config(program.config)
     new = read(out) if out.exists() else pr.output
-    old_ranges, new_ranges = [], []
-    for rep in pr.splice.blocks:
-        b = program.block(rep.block)
-        old_ranges.append((b.span_start, b.span_stop))
-        if b.exit_stop > b.exit_start and b.exit_start >= b.span_stop:
-            old_ranges.append((b.exit_start, b.exit_stop))
-        new_ranges += pr.splice.output_ranges(program, rep.block)
+    old_ranges, new_ranges = block_windows(program, new, pr.splice)
     slicer = measure_lines(program, old_ranges, kin)
     ours = measure_lines(new, new_ranges, kin)
     check = pr.check.problems if pr.check else ["not checked"]
@@ -168,6 +165,10 @@ def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, princip
         "blocks": len(pr.splice.blocks),
         "slicer": slicer.as_dict(),
         "loadpath": ours.as_dict(),
+        "file_travel_mm": {
+            "slicer": measure(program.moves, kin).travel_mm,
+            "loadpath": measure(new.moves, kin).travel_mm,
+        },
         "check_problems": len(check),
         "seconds": secs,
         "warnings": len(res.warnings),
@@ -225,7 +226,7 @@ def _header() -> str:
         f"{'part':8} {'slicer':6} {'dens':10} {'engine':11} {'paths s->l':>13} {'ratio':>6} "
         f"{'retr s->l':>13} {'ratio':>6} {'travel mm s->l':>17} {'ratio':>6} "
         f"{'time s s->l':>15} {'ratio':>6} "
-        f"{'fil':>5} {'vsPrusa':>7} chk"
+        f"{'fil':>5} {'vsPrusa':>7} chk {'file travel s->l':>19} {'ratio':>6}"
     )
 
 
@@ -233,6 +234,7 @@ def _row(r: dict, ref: dict | None = None) -> str:
     if "slicer" not in r:
         return f"{r['part']:8} {r['tool']:6} {r['density']:10} {r['engine']:11} ERROR {r.get('error')}"
     s, n = r["slicer"], r["loadpath"]
+    ft = r.get("file_travel_mm", {"slicer": 0.0, "loadpath": 0.0})
 
     def q(a: float, b: float) -> str:
         return f"{b / a:6.2f}" if a else "   inf" if b else "     -"
@@ -246,7 +248,8 @@ def _row(r: dict, ref: dict | None = None) -> str:
         f"{s['retractions']:>6}->{n['retractions']:<6} {q(s['retractions'], n['retractions'])} "
         f"{s['travel_mm']:>8.0f}->{n['travel_mm']:<8.0f} {q(s['travel_mm'], n['travel_mm'])} "
         f"{s['print_s']:>7.0f}->{n['print_s']:<7.0f} {q(s['print_s'], n['print_s'])} "
-        f"{q(s['filament_mm'], n['filament_mm']):>5} {vs:>7} {r['check_problems']}"
+        f"{q(s['filament_mm'], n['filament_mm']):>5} {vs:>7} {r['check_problems']:>3} "
+        f"{ft['slicer']:>9.0f}->{ft['loadpath']:<9.0f} {q(ft['slicer'], ft['loadpath'])}"
     )
 
 

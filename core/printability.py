@@ -39,6 +39,7 @@ __all__ = [
     "measure_lines",
     "print_time",
     "replaced_blocks",
+    "block_windows",
     "VERDICT_LINES",
     "verdict_counts",
 ]
@@ -225,12 +226,65 @@ def measure_lines(program, ranges: Iterable[tuple[int, int]], kin: Kinematics | 
     return out
 
 
+def block_windows(program, output, splice) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+    """The line ranges counted for each replaced block, in the input and in the output.
+
+    A block is counted with the moves that lead into it (its span: the entering travel, retraction
+    and lift, and its detached leaving wipe) and with those that lead out of it, up to the next
+    extrusion (the travel to where the slicer's next feature starts), but not into the next
+    replaced block's own span.  The way out counts because the block decides where it begins: an
+    order that ends its last path far from the next feature moves travel out of the block, not
+    away (issue 19: on the bench's cantilever a better order of the runs alone, blind to where the
+    nozzle goes next, counted 778 -> 699 mm without the way out while the whole file's travel rose
+    1435 -> 1687 mm).
+
+    Returns
+    -------
+    old, new : list of (start, stop)
+        Line ranges ``[start, stop)`` of ``program`` and of ``output``
+        (:meth:`loadpath.splice.splicer.SpliceResult.output_ranges`).
+    """
+    old_blocks, new_blocks = [], []
+    for rep in sorted(splice.blocks, key=lambda r: r.block):
+        b = program.block(rep.block)
+        ranges = [(b.span_start, b.span_stop)]
+        if b.exit_stop > b.exit_start and b.exit_start >= b.span_stop:
+            ranges.append((b.exit_start, b.exit_stop))
+        old_blocks.append(ranges)
+        new_blocks.append(splice.output_ranges(program, rep.block))
+    return _with_way_out(program, old_blocks), _with_way_out(output, new_blocks)
+
+
+def _with_way_out(program, blocks: list[list[tuple[int, int]]]) -> list[tuple[int, int]]:
+    """Each block's ranges and the lines after its last one up to the next extrusion, flattened.
+
+    ``blocks``: per replaced block, in file order, its line ranges (each block's after the one
+    before).  The way out stops at the next block's first line, so no line is counted twice.
+    """
+    moves = program.moves
+    extruding = np.flatnonzero(moves["extrude"])
+    lines = moves["line"][extruding]
+    # the first line of the blocks after each one (the suffix minimum of their first lines)
+    firsts = np.array([min(a for a, _ in rs) if rs else program.n_lines for rs in blocks] + [program.n_lines])
+    after = np.minimum.accumulate(firsts[::-1])[::-1][1:]
+    out: list[tuple[int, int]] = []
+    for k, ranges in enumerate(blocks):
+        if not ranges:
+            continue
+        out += ranges
+        last = max(z for _, z in ranges)
+        j = int(np.searchsorted(lines, last))  # the first extrusion on line `last` or after
+        stop = min(int(lines[j]) if j < len(lines) else program.n_lines, int(after[k]))
+        if stop > last:
+            out.append((last, stop))
+    return out
+
+
 def replaced_blocks(program, output, splice) -> dict[str, dict[str, float]]:
     """Printability of the replaced blocks, the slicer's and loadpath's, side by side.
 
-    Each replaced block is counted with the moves that lead into it (its span: the entering
-    travel, retraction and lift, and its detached leaving wipe), in the input and in the output
-    (:meth:`loadpath.splice.splicer.SpliceResult.output_ranges`).
+    Each replaced block is counted with the moves that lead into it and out of it
+    (:func:`block_windows`), in the input and in the output.
 
     Parameters
     ----------
@@ -247,13 +301,7 @@ def replaced_blocks(program, output, splice) -> dict[str, dict[str, float]]:
         :class:`Printability` (``ratio``: loadpath / slicer, None where the slicer's is 0).
     """
     kin = kinematics_from_config(program.config)
-    old, new = [], []
-    for rep in splice.blocks:
-        b = program.block(rep.block)
-        old.append((b.span_start, b.span_stop))
-        if b.exit_stop > b.exit_start and b.exit_start >= b.span_stop:
-            old.append((b.exit_start, b.exit_stop))
-        new += splice.output_ranges(program, rep.block)
+    old, new = block_windows(program, output, splice)
     s = measure_lines(program, old, kin).as_dict()
     n = measure_lines(output, new, kin).as_dict()
     ratio = {k: (round(n[k] / s[k], 4) if s[k] else None) for k in s}
