@@ -29,6 +29,7 @@ import os
 import re
 import shutil
 import subprocess
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -336,6 +337,23 @@ def _run(
     return proc
 
 
+PRUSA_ENV = {
+    "PATH": "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin",
+    "HOME": "/tmp",
+    "LANG": "C.UTF-8",
+    "LC_ALL": "C.UTF-8",
+}
+"""The whole environment PrusaSlicer runs in (:func:`slice_prusa`).
+
+PrusaSlicer 2.5 on one CPU writes the same file every time from the same process image, but not
+from another: the bench's L-bracket sliced into folders whose names differ in length came out
+with 12 coordinates round its bolt hole moved by up to 0.08 mm (2026-12-06), and so did the same
+call with one more environment variable.  What its memory holds at start (the arguments and the
+environment) decides them, so it is given the same of both wherever it runs: this environment,
+and its files under fixed names in a folder of its own (the STLs keep their names, which the
+G-code prints as the objects' names).  Tests on a slice then see the file CI sees."""
+
+
 def slice_prusa(
     stl: str | os.PathLike | Sequence[str | os.PathLike],
     out: str | os.PathLike,
@@ -367,20 +385,34 @@ def slice_prusa(
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     profile = write_prusa_profile(out.parent / "mk3s_profile")
-    stls = [stl] if isinstance(stl, (str, os.PathLike)) else list(stl)
-    cmd = ["prusa-slicer", "--export-gcode"]
-    if len(stls) > 1:
-        cmd.append("--merge")  # one plate with one object per STL (else each STL is exported on its own)
-    for p in profile:
-        cmd += ["--load", str(p)]
-    if overrides:
+    stls = [Path(stl)] if isinstance(stl, (str, os.PathLike)) else [Path(s) for s in stl]
+    if overrides:  # kept beside the output for the record
         ov = out.with_suffix(".overrides.ini")
         ov.write_text("".join(f"{k} = {v}\n" for k, v in sorted(overrides.items())), encoding="utf-8")
-        cmd += ["--load", str(ov)]
-    cmd += ["--output", str(out), *(str(Path(s)) for s in stls)]
-    _run(cmd, one_cpu=one_cpu)
-    if not out.is_file() or out.stat().st_size == 0:
-        raise SlicerError(f"prusa-slicer wrote no G-code to {out}")
+    # PrusaSlicer sees only fixed names in a folder of its own, and PRUSA_ENV (see there)
+    with tempfile.TemporaryDirectory(prefix="prusa-") as tmp:
+        work = Path(tmp)
+        cmd = ["prusa-slicer", "--export-gcode"]
+        if len(stls) > 1:
+            cmd.append("--merge")  # one plate with one object per STL (else each STL is exported alone)
+        for p in profile:
+            (work / p.name).symlink_to(p.resolve())
+            cmd += ["--load", p.name]
+        if overrides:
+            (work / "overrides.ini").symlink_to(ov.resolve())
+            cmd += ["--load", "overrides.ini"]
+        names = []
+        for k, s in enumerate(stls):
+            name = s.name if s.name not in names else f"{k}/{s.name}"  # the same name twice: a subfolder
+            (work / name).parent.mkdir(exist_ok=True)
+            (work / name).symlink_to(s.resolve())
+            names.append(name)
+        cmd += ["--output", "out.gcode", *names]
+        _run(cmd, env=PRUSA_ENV, cwd=work, one_cpu=one_cpu)
+        made = work / "out.gcode"
+        if not made.is_file() or made.stat().st_size == 0:
+            raise SlicerError(f"prusa-slicer wrote no G-code for {out}")
+        shutil.move(made, out)
     return out
 
 

@@ -73,7 +73,7 @@ def test_a_re_export_with_other_speeds_reuses_the_analysis_and_the_paths(sliced,
     from loadpath.pipeline.paths import reuses
 
     moved = [_job_input(a) != _job_input(b) for a, b in zip(r1.pipeline.jobs, r2.pipeline.jobs, strict=True)]
-    near = [m and reuses(b.input.region, a.input.region) for a, b, m in
+    near = [m and reuses(b.job.input.region, a.job.input.region) for a, b, m in
             zip(r1.pipeline.jobs, r2.pipeline.jobs, moved, strict=True)]
     allowed = {"links", "prediction", "near", "beads", "islands", "near-links", "near-fea"}
     allowed |= {"paths", "near-paths", "simplified"} if any(moved) else set()
