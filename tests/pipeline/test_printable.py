@@ -99,7 +99,7 @@ def test_each_block_is_counted_with_its_way_out_to_the_next_extrusion(prusa_run)
     program, res = prusa_run
     out = res.output
     old, new = block_windows(program, out, res.splice)
-    for prog, ranges in ((program, old), (out, new)):
+    for ranges in (old, new):
         assert all(z0 <= a1 for (_, z0), (a1, _) in zip(ranges, ranges[1:], strict=False))
     spans = {z for rep in res.splice.blocks for _, z in res.splice.output_ranges(program, rep.block)}
     ways = [(a, z) for a, z in new if a in spans]
