@@ -31,7 +31,8 @@ neighbours disagree, so the unavoidable flips (around a degenerate point, an odd
 any loop) fall where the direction is least defined.  Where the followed direction jumps (``max_abs``
 across a bending neutral axis turns by 90 degrees) no scalar field has both sides' gradients: the
 fit is cut there (triangles whose corners differ by more than :data:`JUMP_DEG`), each side's level
-sets end on the cut, and no path runs along it.
+sets end on the cut, and no path runs along it.  With ``heal`` the direction is healed across the
+jump instead (:func:`_healed`): the level sets run through it, along a beam's fibres.
 
 Negligible stress (issue 15).  Where ``|sigma|`` is below ``relief`` of the field's scale (a column
 loaded along its axis: the in-plane stress of every layer), its direction is noise, and following
@@ -115,6 +116,16 @@ load (``benchmarks/printability_results.md``, eleventh round); around the open-h
 hole, where the hoop compression meets the pull, 0.13 (0.46 on the closed-form open hole of the
 tests); the two islands in tension 0."""
 
+HEAL = 1.0
+"""The ``heal`` of the layout laid through the cut where the level sets gave way
+(:mod:`loadpath.plugin.solid_choice`): a Gaussian of the region's inradius, blended over twice that
+from the cut.  ``benchmarks/bench_printability.py``'s 100 % files, ``--engine levelset`` with each
+``heal`` (stiffness / failure load over the slicer's, retractions in the replaced blocks; 0 is the
+cut): PrusaSlicer cantilever 0: 1.024 / 0.937, 80; 0.5: 1.030 / 0.932, 35; 1: 1.028 / 0.929, 20;
+2: 1.031 / 0.891, 25 (the slicer's 10); tension bar 0: 1.012 / 1.036, 40; 1: 1.011 / 0.990, 30;
+L-bracket 0: 1.009 / 0.938, 108; 1: 0.941 / 0.546, 60, where the bolt hole's stress turns too and
+the blend crosses it.  So it is laid as a third layout and judged, never in place of the cut."""
+
 MAX_NODES = 60_000
 """Most grid nodes of one fit (the grid is coarsened beyond it): one sparse solve stays well under a second."""
 
@@ -157,6 +168,13 @@ class LevelSetOptions:
         this (a near-stress-free layer); a stressed region's low-stress corners keep following the
         stress (relieving them there raised the 3-point-bend beam's retractions by half,
         ``benchmarks/bench_sparse.py``).  1 or more: every region.
+    heal : float, share of the region's inradius
+        0: off.  Otherwise the followed direction is healed across its jumps (:func:`_healed`):
+        within ``2 heal r`` of a jump (``r`` the region's inradius, half a beam's depth) it is
+        blended with its stress-weighted average over a Gaussian of ``heal r``, so on a bending
+        part the level sets run through the neutral axis along the beam instead of ending on a
+        cut; the run lays this as a third solid layout where the level sets gave way
+        (:mod:`loadpath.plugin.solid_choice`).
     give_way : bool
         Solid infill whose fit is cut along more than :data:`GIVE_WAY` (a bending part's neutral
         axis) gets no paths: the run stops before the fit's solve and says so in its stats (``give_way``),
@@ -176,6 +194,7 @@ class LevelSetOptions:
     relief_floor: float = 0.05
     straight: float = 10.0
     quiet: float = 0.25
+    heal: float = 0.0
     give_way: bool = False
 
     def __post_init__(self) -> None:
@@ -187,7 +206,7 @@ class LevelSetOptions:
             raise SettingsError(f"split = {self.split!r}: use 0 (off) or more than 1 pitch")
         if not (np.isfinite(self.smooth) and self.smooth >= 0):
             raise SettingsError(f"smooth = {self.smooth!r}: use 0 or a positive weight")
-        for name in ("relief", "relief_floor", "straight", "quiet"):
+        for name in ("relief", "relief_floor", "straight", "quiet", "heal"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise SettingsError(f"{name} = {v!r}: use 0 (off) or a positive number")
@@ -320,6 +339,54 @@ class GivesWay(Exception):
         self.cut_mm = cut_mm
 
 
+def _healed(q: np.ndarray, mass: np.ndarray, inside: np.ndarray, h: float, heal: float) -> np.ndarray:
+    """The doubled-angle direction field ``q`` healed across its jumps (option ``heal``).
+
+    Parameters
+    ----------
+    q : (ny, nx, 2) float
+        ``(cos 2t, sin 2t)`` of the followed direction at each node (filled outside the part).
+    mass : (ny, nx) float
+        Stress magnitude over the field's scale (0 where undefined).
+    inside : (ny, nx) bool
+        Nodes inside the part.
+    h : float, mm
+        Node spacing.
+    heal : float
+        Gaussian width, as a share of the region's inradius.
+
+    Returns
+    -------
+    (ny, nx, 2) float
+        Unit doubled-angle vectors: ``q`` itself further than ``2 heal r`` from a jump (neighbours
+        whose directions differ by more than :data:`JUMP_DEG`), blended linearly towards the
+        stress-weighted Gaussian average of ``q`` on the jump.  On a bending part's neutral axis
+        the shear's +-45 degrees of each side cancel in the average, and the fibres' stress along
+        the beam, the larger, sets the direction.
+    """
+    from scipy import ndimage
+
+    lim = np.cos(np.radians(2 * JUMP_DEG))
+    jump = np.zeros(inside.shape, dtype=bool)
+    across = (q[:, 1:] * q[:, :-1]).sum(axis=-1) < lim
+    jump[:, 1:] |= across
+    jump[:, :-1] |= across
+    across = (q[1:, :] * q[:-1, :]).sum(axis=-1) < lim
+    jump[1:, :] |= across
+    jump[:-1, :] |= across
+    jump &= inside
+    if not jump.any():
+        return q
+    inradius = float(ndimage.distance_transform_edt(inside).max()) * h
+    sigma = heal * inradius
+    # ``mass`` outside the part is 0: its filled directions weigh nothing
+    avg = np.stack([ndimage.gaussian_filter(q[..., k] * mass, sigma / h, mode="nearest") for k in (0, 1)], -1)
+    avg /= np.maximum(np.hypot(avg[..., 0], avg[..., 1]), 1e-300)[..., None]
+    b = np.clip(1.0 - ndimage.distance_transform_edt(~jump) * h / (2.0 * sigma), 0.0, 1.0)[..., None]
+    out = b * avg + (1.0 - b) * q
+    return out / np.maximum(np.hypot(out[..., 0], out[..., 1]), 1e-300)[..., None]
+
+
 def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf) -> LevelSetFit:
     """Fit the level-set field of one region (module docstring).
 
@@ -384,6 +451,9 @@ def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf)
         nb = float(np.hypot(*qbar))
         qbar = qbar / nb if nb > 1e-3 else np.array([1.0, 0.0])
         q = share[:, None] * q + (1.0 - share[:, None]) * qbar[None, :]
+    if options.heal > 0 and np.any(inside):
+        q = _healed(q.reshape(ny, nx, 2), np.where(np.isfinite(smp.mass), smp.mass, 0.0).reshape(ny, nx),
+                    inside, h, options.heal).reshape(-1, 2)
     qa = np.hypot(q[:, 0], q[:, 1])
     t = 0.5 * np.arctan2(q[:, 1], q[:, 0])
     dvec = np.stack([np.cos(t), np.sin(t)], axis=1)
