@@ -41,7 +41,7 @@ from loadpath.options import field
 
 __all__ = [
     "CANDIDATES", "MASS_TOLERANCE", "SPREAD", "STIFFNESS_SPREAD", "Choice", "Judge", "score", "tie", "settle",
-    "settled", "retractions", "mass_change", "run_choosing", "judge", "describe", "figure",
+    "settled", "retractions", "mass_change", "lays_sparse", "run_choosing", "judge", "describe", "figure",
 ]
 
 CANDIDATES = ("energy", "stack")
@@ -155,6 +155,11 @@ def settle(first: Any, second: Any) -> tuple[bool, tuple[int | None, int | None]
     return (None not in n and n[1] < n[0]), n  # type: ignore[operator]
 
 
+def lays_sparse(pres: Any) -> bool:
+    """Whether a pipeline result laid any sparse infill (a job on a unit of kind ``"sparse"``)."""
+    return any(jr.job.unit.kind == "sparse" for jr in getattr(pres, "jobs", ()))
+
+
 def mass_change(pres: Any) -> float | None:
     """The plastic a run adds to the infill it was to replace, as a share of the slicer's.
 
@@ -194,7 +199,9 @@ def run_choosing(
     Returns
     -------
     result : PipelineResult
-    choice : Choice
+    choice : Choice or None
+        None where the first candidate laid no sparse infill (:func:`lays_sparse`: a file printed
+        solid): every candidate would lay the same, so none other is laid and nothing is chosen.
     """
     ranked = []  # (rank, -order, result, criterion, ratios, keeps mass)
     tried: list[tuple[str, float | None, float | None]] = []
@@ -202,6 +209,8 @@ def run_choosing(
     own_mass = getattr(options.density, "fill", None) is None
     for i, crit in enumerate(CANDIDATES):
         pres = run(replace(options, density=replace(options.density, criterion=crit)))
+        if i == 0 and not lays_sparse(pres):
+            return pres, None
         ratios = predict(pres) if pres.changed else None
         share = mass_change(pres) if own_mass else None
         keeps = share is None or abs(share) <= MASS_TOLERANCE

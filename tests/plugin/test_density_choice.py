@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 
 from loadpath.plugin.density_choice import (
     SPREAD,
@@ -75,6 +76,7 @@ class _Run:
 
     def __init__(self, crit: str, retractions: int | None) -> None:
         self.crit, self.changed, self.splice = crit, True, None
+        self.jobs = [SimpleNamespace(job=SimpleNamespace(unit=SimpleNamespace(kind="sparse")))]
         counted = {"loadpath": {"retractions": retractions}}
         self.counts = (None, "over budget") if retractions is None else (counted, "")
 
@@ -117,6 +119,22 @@ def test_a_tie_between_candidates_goes_to_the_one_with_fewer_retractions():
     # beyond the spread the rank decides, whatever the retractions (the 12 mm beam at PrusaSlicer 40 %)
     pres, choice = _choose({"energy": (1.760, 3.050), "stack": (1.759, 3.329)}, {"energy": 10, "stack": 99})
     assert pres.crit == "stack" and choice.retractions == () and "retractions" not in describe(choice)
+
+
+def test_a_file_with_no_sparse_infill_gets_no_density_choice():
+    """Printed solid, every density candidate lays the same paths: the first is kept, no other is laid."""
+    figures = {"energy": (1.042, 0.958), "stack": (1.045, 1.011)}
+    laid: list[str] = []
+    runs = {c: _Run(c, 10) for c in figures}
+    for r in runs.values():
+        r.jobs = [SimpleNamespace(job=SimpleNamespace(unit=SimpleNamespace(kind="solid")))]
+
+    def run(o):
+        laid.append(o.density.criterion)
+        return runs[o.density.criterion]
+
+    pres, choice = run_choosing(run, lambda r: figures[r.crit], _Options())
+    assert choice is None and pres.crit == "energy" and laid == ["energy"]
 
 
 def test_the_first_judgment_side_by_side_gives_the_same_figures(tmp_path):
