@@ -418,7 +418,7 @@ def _run(
     judged = judge(program, lc, opts.workers, progress, cache)
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
         # a tie is settled once, between the candidates: the solid layout inside each goes by rank
-        chooser = SolidChooser(run_with, judged, 0.0)
+        chooser = SolidChooser(run_with, judged, 0.0, alone=s.tie_spread)
         pres, result.density = run_choosing(chooser, judged, opts, s.tie_spread)
     else:
         chooser = SolidChooser(run_with, judged, s.tie_spread)

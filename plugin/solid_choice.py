@@ -16,15 +16,25 @@ depends on the part, so the cut alone cannot decide it:
   0.999 / 0.997 against 0.998 / 0.953; L-bracket PrusaSlicer 1.008 / 0.925 against 1.007 / 0.921
   with 153 against 499, CuraEngine 0.991 / 0.941 against 0.984 / 0.899.
 
-So where a job gave way, the run lays the part again with the level sets on every solid layer and
-keeps the layout the model of ``loadpath compare`` predicts better, ranked as ``density = "auto"``
-ranks its candidates (:func:`loadpath.plugin.density_choice.score`: no loss first, then stiffness
-times failure load).  With ``density = "auto"`` the choice is made for each density candidate:
-made once for the first and held for the second, it cost issue 15's 12 mm beam at PrusaSlicer 40 %
-its failure load (3.329 -> 3.050x the slicer's) where the two layouts ranked the other way under
-the second criterion; made for each, every layout the run chose from before is still among those
-ranked.  A part the model does not judge on every run (3D analyses) keeps the swarm where the level
-sets gave way.
+So where a job gave way, the run lays the part again with the level sets on every solid layer,
+twice: ending on the cut (:data:`WHOLE`), and through it (:data:`THROUGH`: the followed direction
+healed across the cut, :data:`loadpath.engines.levelset.HEAL`, so that on a beam the lines run along
+it through the neutral axis instead of ending there in families of nested U's, each its own run and
+retraction). It keeps the layout the model of ``loadpath compare`` predicts better, ranked as
+``density = "auto"`` ranks its candidates (:func:`loadpath.plugin.density_choice.score`: no loss
+first, then stiffness times failure load). With ``density = "auto"`` the choice is made for each
+density candidate: made once for the first and held for the second, it cost issue 15's 12 mm beam at
+PrusaSlicer 40 % its failure load (3.329 -> 3.050x the slicer's) where the two layouts ranked the
+other way under the second criterion; made for each, every layout the run chose from before is still
+among those ranked.  A part the model does not judge on every run (3D analyses) keeps the swarm
+where the level sets gave way.
+
+Through the cut, on ``benchmarks/bench_printability.py``'s PrusaSlicer cantilever at 100 % (2026-12-06):
+stiffness / failure load over the slicer's 1.028 / 0.929 against the cut level sets' 1.024 / 0.937
+and the swarm's 1.030 / 0.919, a tie, and 20 retractions in the replaced blocks against 80 and 504
+(the slicer's 10): kept; coverage 0.961 -> 0.981, print time of the blocks 0.96 -> 0.74x the
+slicer's.  Where the bolt hole's or the load's stress turns too, the blend crosses it and the
+model says so (the L-bracket through the cut: 0.941 / 0.546), and the other layouts stay.
 
 A near tie is settled at the printer, as ``density = "auto"`` settles its own
 (:func:`loadpath.plugin.density_choice.tie`): the model's failure load of one part moves by up to 6 %
@@ -39,7 +49,10 @@ alone, and the tie is settled once, between the candidates
 (:func:`loadpath.plugin.density_choice.run_choosing`): settled inside the ``stack`` candidate of
 issue 15's 12 mm beam at PrusaSlicer 20 %, it gave that candidate the level sets' 1.361 / 1.748
 instead of the swarm's 1.366 / 1.797, so ``energy`` ranked first with 503 retractions in the
-replaced blocks, against 476 (and the higher failure load) kept otherwise.
+replaced blocks, against 476 (and the higher failure load) kept otherwise.  A file with no sparse
+infill (printed at 100 %) gets no density choice, so there the tie is settled here (``alone``):
+a 150 x 8 mm slender cantilever at PrusaSlicer 100 % with ``--replace solid,sparse`` kept the
+swarm's 713 retractions by rank, against the level sets' 112 without ``sparse``, the same file.
 """
 
 from __future__ import annotations
@@ -48,9 +61,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from loadpath.plugin.density_choice import SPREAD, figure, score, settle, settled, tie
+from loadpath.plugin.density_choice import SPREAD, figure, lays_sparse, retractions, score, settled, tie
 
-__all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe"]
+__all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe", "WHOLE", "THROUGH"]
+
+
+WHOLE = "level sets"
+"""The layout of the level sets on every solid layer, each side of the cut ending on it."""
+
+THROUGH = "level sets through the cut"
+"""The layout of the level sets on every solid layer, their direction healed across the cut
+(:data:`loadpath.engines.levelset.HEAL`), so that they run through it."""
 
 
 @dataclass(frozen=True)
@@ -60,17 +81,20 @@ class SolidChoice:
     Attributes
     ----------
     whole : bool
-        True: the level sets on every solid layer were kept; False: the swarm where they gave way.
+        True: the level sets on every solid layer were kept (``through`` says which); False: the
+        swarm where they gave way.
     given_way : str
         The engine the level sets gave way to.
     tried : tuple of (str, float, float or None)
-        Per layout (``"level sets"``, then the engine given way to): predicted stiffness and
-        failure-load ratios over the slicer's file.
-    retractions : tuple of (int or None, int or None)
+        Per layout (:data:`WHOLE`, :data:`THROUGH` where it was laid and judged, then the engine
+        given way to): predicted stiffness and failure-load ratios over the slicer's file.
+    retractions : tuple of (int or None)
         Per layout, in the same order: retractions in its replaced blocks, where they settled a tie
         (:func:`loadpath.plugin.density_choice.settle`); ``()`` where the model's ranks decided.
     spread : float
         The share within which ranks were a tie (setting ``tie_spread``).
+    through : bool
+        The level sets kept are those through the cut (:data:`THROUGH`).
     """
 
     whole: bool
@@ -78,6 +102,7 @@ class SolidChoice:
     tried: tuple[tuple[str, float, float | None], ...]
     retractions: tuple[int | None, ...] = ()
     spread: float = SPREAD
+    through: bool = False
 
 
 def gave_way(pres: Any) -> str | None:
@@ -102,14 +127,21 @@ class SolidChooser:
         (:class:`loadpath.plugin.density_choice.Judge`: a result judged twice is evaluated once).
     spread : float
         Ties within this share of failure load go to fewer retractions (setting ``tie_spread``).
+    alone : float or None
+        The spread where the run lays no sparse infill (None: ``spread``).  Inside ``density =
+        "auto"`` the layout goes by rank (``spread`` 0) and the tie is settled between the density
+        candidates; a file with no sparse infill gets no density choice
+        (:func:`loadpath.plugin.density_choice.run_choosing`), so its tie is settled here.
     """
 
     def __init__(
-        self, run: Callable[[Any], Any], predict: Callable[[Any], Any], spread: float = SPREAD
+        self, run: Callable[[Any], Any], predict: Callable[[Any], Any], spread: float = SPREAD,
+        alone: float | None = None,
     ) -> None:
         self.run = run
         self.predict = predict
         self.spread = spread
+        self.alone = spread if alone is None else alone
         # id(kept result) -> (that result, the choice that kept it): held, so no other takes its id
         self._chosen: dict[int, tuple[Any, SolidChoice]] = {}
 
@@ -126,24 +158,39 @@ class SolidChooser:
         split = self.predict(pres)
         if split is None:  # not judged (3D): the layers given way keep the other engine
             return pres
-        whole = self.run(replace(options, solid_first_params={**options.solid_first_params, "give_way": False}))
-        both = self.predict(whole) if whole.changed else None
-        if both is None:
+        from loadpath.engines.levelset import HEAL  # not at start-up: the engine's imports are heavy
+
+        params = {**options.solid_first_params, "give_way": False}
+        laid = [(WHOLE, self.run(replace(options, solid_first_params=params)))]
+        laid.append((THROUGH, self.run(replace(options, solid_first_params={**params, "heal": HEAL}))))
+        # (name, result, ratios), in the order that keeps the earlier on equal ranks
+        judged = [(name, r, self.predict(r)) for name, r in laid if r.changed]
+        judged = [j for j in judged if j[2] is not None] + [(other, pres, split)]
+        if len(judged) == 1:
             return pres
-        keep = score(*both) >= score(*split)
+        spread = self.spread if lays_sparse(pres) else self.alone
+        top = max(range(len(judged)), key=lambda k: (score(*judged[k][2]), -k))
         retr: tuple[int | None, ...] = ()
-        if not keep and tie(split, both, self.spread):  # within the model's spread: the printer decides
-            keep, (n_split, n_whole) = settle(pres, whole)
-            retr = (n_whole, n_split)
-        kept = whole if keep else pres
-        tried = (("level sets", *both), (other, *split))
-        self._chosen[id(kept)] = (kept, SolidChoice(keep, other, tried, retr, self.spread))
+        tied = [k for k in range(len(judged)) if k != top and tie(judged[top][2], judged[k][2], spread)]
+        if tied:  # within the model's spread: the printer decides, among those tied with the best
+            retr = tuple(retractions(j[1]) for j in judged)
+            if None not in retr:
+                top = min([top, *tied], key=lambda k: (retr[k], k != top))
+        best = judged[top]
+        kept = best[1]
+        tried = tuple((name, *ratios) for name, _, ratios in judged)
+        choice = SolidChoice(kept is not pres, other, tried, retr, spread, best[0] == THROUGH)
+        self._chosen[id(kept)] = (kept, choice)
         return kept
 
 
 def describe(choice: SolidChoice) -> str:
-    """The verdict's words for a choice: the layout kept and both layouts' predicted ratios."""
+    """The verdict's words for a choice: the layout kept and every layout's predicted ratios."""
     figures = "; ".join(figure(*t) for t in choice.tried)
-    kept = "level sets on every solid layer" if choice.whole else f"{choice.given_way} where the level sets gave way"
+    layout = THROUGH if choice.through else WHOLE
+    if choice.whole:
+        kept = f"{layout} on every solid layer"
+    else:
+        kept = f"{choice.given_way} where the level sets gave way"
     why = f"; {settled(choice.retractions, choice.spread)}" if choice.retractions else ""
     return f"{kept} (by loadpath compare's model over the slicer's file: {figures}{why})"

@@ -22,8 +22,9 @@ from loadpath import engines, gcode, loadcase
 from loadpath.errors import LoadCaseError, SettingsError
 from loadpath.loadcase import ToolpathOptions
 from loadpath.plugin import settings as settings_mod
-from loadpath.plugin.density_choice import score, tie
+from loadpath.plugin.density_choice import SPREAD, score, tie
 from loadpath.plugin.job import JobRequest, run_job
+from loadpath.plugin.solid_choice import THROUGH, WHOLE
 from loadpath.plugin.solid_choice import describe as describe_solid
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples"
@@ -97,20 +98,17 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdic
     assert res.pipeline.check is not None and not res.pipeline.check.problems
     by_kind = _engines_by_kind(res)
     assert by_kind["sparse"] == {"levelset"}, by_kind
-    assert seen.count(("judge", 1, 1)) == 2, seen  # the progress bar shows both layouts predicted
+    assert seen.count(("judge", 1, 1)) == 3, seen  # the progress bar shows the three layouts predicted
     # solid infill is tried with the level sets first; the bracket bends, so their fit is cut along
-    # its neutral axis and they give way to the swarm there: the run lays the part both ways and
+    # its neutral axis and they give way to the swarm there: the run lays the part three ways (the
+    # level sets ending on the cut, the level sets through it, the swarm where they gave way) and
     # keeps what the model of loadpath compare predicts better (solid_choice), and says so
     choice = res.solid
     assert choice is not None and choice.given_way == "swarm", choice
-    (name_w, s_w, f_w), (name_s, s_s, f_s) = choice.tried
-    assert (name_w, name_s) == ("level sets", "swarm")
-    if tie((s_s, f_s), (s_w, f_w)):  # the swarm ahead within the model's spread: fewer retractions decided
-        n = choice.retractions
-        assert len(n) == 2 and choice.whole == (None not in n and n[0] < n[1]), choice
-    else:
-        assert choice.whole == (score(s_w, f_w) >= score(s_s, f_s)) and choice.retractions == (), choice
-    kept = (s_w, f_w) if choice.whole else (s_s, f_s)
+    assert [t[0] for t in choice.tried] == [WHOLE, THROUGH, "swarm"], choice
+    k = _kept(choice)
+    assert choice.whole == (k < 2) and choice.through == (k == 1), choice
+    kept = choice.tried[k][1:]
     assert res.verdict.stiffness == pytest.approx(kept[0] - 1.0, abs=1e-3)
     assert res.verdict.failure_load == pytest.approx(kept[1] - 1.0, abs=1e-3)
     line = res.verdict.line()
@@ -152,8 +150,40 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdic
     assert res3.written and res3.error is None, res3.error
     c3 = res3.solid
     assert c3 is not None and c3.retractions == () and "a tie" not in res3.verdict.line()
-    (_, s_w, f_w), (_, s_s, f_s) = c3.tried
-    assert c3.whole == (score(s_w, f_w) >= score(s_s, f_s)), c3
+    k3 = _kept(c3)
+    assert c3.whole == (k3 < 2) and c3.through == (k3 == 1), c3
+
+
+def _kept(choice) -> int:
+    """Which of a solid choice's layouts its own figures keep: the best rank, or among those tied
+    with it the fewest retractions (solid_choice's rule, read from what the verdict reports)."""
+    ratios = [t[1:] for t in choice.tried]
+    top = max(range(len(ratios)), key=lambda k: (score(*ratios[k]), -k))
+    tied = [k for k in range(len(ratios)) if k != top and tie(ratios[top], ratios[k], choice.spread)]
+    n = choice.retractions
+    if not tied:
+        assert n == (), choice
+        return top
+    assert len(n) == len(ratios), choice
+    return top if None in n else min([top, *tied], key=lambda k: (n[k], k != top))
+
+
+@pytest.mark.slow
+def test_a_file_printed_solid_gets_no_density_choice_and_settles_its_solid_tie(sliced, tmp_path):
+    """``--replace solid,sparse`` on a bending part printed at 100 %: no sparse infill, so no density
+    candidate is laid beyond the first, and the solid layouts' tie is settled at the printer as
+    without sparse (it went by rank alone: 713 retractions against 112 on a slender cantilever)."""
+    src = sliced("prusa", "bracket", "solid")
+    case = tmp_path / "bracket.toml"
+    case.write_text(BRACKET_PIN, encoding="utf-8")
+    res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode",
+                             cli={"replace": ("solid", "sparse"), "cache": False}))
+    assert res.written and res.error is None, res.error
+    assert res.density is None and "sparse density" not in res.verdict.line()
+    choice = res.solid
+    assert choice is not None and choice.spread == SPREAD > 0, choice
+    k = _kept(choice)
+    assert choice.whole == (k < 2) and choice.through == (k == 1), choice
 
 
 @pytest.mark.slow
