@@ -65,8 +65,10 @@ from loadpath.pipeline.paths import (
     lays_phase,
     plan_jobs,
     reuses,
+    RELAYS,
+    length_target,
+    relay_factor,
     run_jobs,
-    short_runs,
     stagger,
     volume_scale,
 )
@@ -513,30 +515,63 @@ def run(
         field_ids=field_ids, engines=ran_by,
     )
     # a sparse run whose linked layers still miss the slicer's plastic by more than the flow
-    # correction takes back would be kept as sliced: it is run again at a closer (or, when its
-    # links made it too long, a wider) pitch, once (short_runs), and everything is linked again
-    # (the other jobs' links come from the cache)
-    printed = [
-        [sum(p.length for p in (er.printed or er.paths.paths))]
-        + ([sum(p.length for p in er.shifted)] if er.shifted else [])
-        for er in job_results
-    ]
-    again = short_runs(jobs, printed, retry)
-    if again:
-        idx = sorted(again)
-        redo = [jobs[i] for i in idx] + [copies[phased.index(i)] for i in idx if i in phased]
-        factors = [again[i] for i in idx] + [again[i] for i in idx if i in phased]
-        got = engine_runs(redo, factors)
-        for i, res in zip(idx, got[: len(idx)], strict=True):
-            res[0].stats["pitch_factor_after_links"] = again[i]
-            results[i] = res
-        for i, res in zip([i for i in idx if i in phased], got[len(idx) :], strict=True):
-            shifted[i] = res[0]
-        job_results, fills = _fills(
+    # correction takes back would be kept as sliced: each such layer (a job's first layer, its
+    # staggered copy) is laid again at a closer (or, when its links made it too long, a wider)
+    # pitch, up to RELAYS times (relay_factor), everything linked again each time (the other jobs'
+    # links come from the cache), and the laying closest to the slicer's length is kept
+    tried: dict[tuple[int, int], list[tuple[float, float]]] = {}  # (job, layer) -> (factor, length)
+    laid: dict[tuple[int, int], dict[float, Any]] = {}  # (job, layer) -> factor -> engine result
+    now: dict[tuple[int, int], float] = {}
+
+    def relink(todo: Mapping[tuple[int, int], float], runs: Mapping[tuple[int, int], Any] | None = None):
+        first = sorted(i for i, k in todo if k == 0)
+        copy = sorted(i for i, k in todo if k == 1)
+        if runs is None:
+            got = engine_runs(
+                [jobs[i] for i in first] + [copies[phased.index(i)] for i in copy],
+                [todo[(i, 0)] for i in first] + [todo[(i, 1)] for i in copy],
+            )
+            runs = dict(zip([(i, 0) for i in first] + [(i, 1) for i in copy], got, strict=True))
+            for i in first:
+                runs[(i, 0)][0].stats["pitch_factor_after_links"] = todo[(i, 0)]
+        for (i, k), res in runs.items():
+            if k == 0:
+                results[i] = res
+            else:
+                shifted[i] = res[0] if isinstance(res, tuple) else res
+        now.update(todo)
+        return _fills(
             units, jobs, results, options, splice_options.plan, shifted, cache, free_hop=free_hop,
             field_ids=field_ids, engines=ran_by,
         )
-        clock.lap("paths")
+
+    for relay in range(RELAYS + 1):
+        todo: dict[tuple[int, int], float] = {}
+        for i, er in enumerate(job_results):
+            target = length_target(jobs[i])
+            if not target:
+                continue
+            layers = [er.printed or er.paths.paths] + ([er.shifted] if er.shifted and i in shifted else [])
+            for k, printed in enumerate(layers):
+                key, f = (i, k), now.get((i, k), 1.0)
+                tried.setdefault(key, []).append((f, sum(p.length for p in printed)))
+                laid.setdefault(key, {})[f] = results[i] if k == 0 else shifted[i]
+                nf = relay_factor(tried[key], target, retry) if relay < RELAYS else None
+                if nf is not None:
+                    todo[key] = nf
+        if not todo:
+            break
+        job_results, fills = relink(todo)
+    # the laying closest to the slicer's length of each layer laid again (not always the last)
+    best = {
+        key: min(ts, key=lambda t, n=length_target(jobs[key[0]]): abs(t[1] / n - 1.0))[0]
+        for key, ts in tried.items()
+        if len(ts) > 1
+    }
+    back = {key: f for key, f in best.items() if f != now.get(key, 1.0)}
+    if back:
+        job_results, fills = relink(back, {key: laid[key][f] for key, f in back.items()})
+    clock.lap("paths")
     sres = splice(program, fills, splice_options, workers=options.workers)
     warnings.extend(_kept_as_sliced(program, sres.skipped))
     clock.lap("splice")
