@@ -32,7 +32,7 @@ where the level sets gave way.
 Through the cut, on ``benchmarks/bench_printability.py``'s PrusaSlicer cantilever at 100 % (2026-12-06):
 stiffness / failure load over the slicer's 1.028 / 0.929 against the cut level sets' 1.024 / 0.937
 and the swarm's 1.030 / 0.919, a tie, and 20 retractions in the replaced blocks against 80 and 504
-(the slicer's 10): kept; coverage 0.961 -> 0.981, print time of the blocks 0.96 -> 0.74x the
+(the slicer's 10): kept; coverage 0.961 -> 0.981, print time of the blocks 0.95 -> 0.74x the
 slicer's.  Where the bolt hole's or the load's stress turns too, the blend crosses it and the
 model says so (the L-bracket through the cut: 0.941 / 0.546), and the other layouts stay.
 
