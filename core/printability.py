@@ -246,11 +246,7 @@ def block_windows(program, output, splice) -> tuple[list[tuple[int, int]], list[
     """
     old_blocks, new_blocks = [], []
     for rep in sorted(splice.blocks, key=lambda r: r.block):
-        b = program.block(rep.block)
-        ranges = [(b.span_start, b.span_stop)]
-        if b.exit_stop > b.exit_start and b.exit_start >= b.span_stop:
-            ranges.append((b.exit_start, b.exit_stop))
-        old_blocks.append(ranges)
+        old_blocks.append(program.block(rep.block).spans)
         new_blocks.append(splice.output_ranges(program, rep.block))
     return _with_way_out(program, old_blocks), _with_way_out(output, new_blocks)
 

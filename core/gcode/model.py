@@ -146,6 +146,19 @@ class Block:
     e: float
     length: float
 
+    @property
+    def detached_exit(self) -> bool:
+        """Whether the leaving wipe/retraction lies after the span (past barrier lines), not in it."""
+        return self.exit_start >= self.span_stop and self.exit_stop > self.exit_start
+
+    @property
+    def spans(self) -> list[tuple[int, int]]:
+        """The line ranges ``[start, stop)`` a replacement rewrites: the span, then the detached exit."""
+        out = [(self.span_start, self.span_stop)]
+        if self.detached_exit:
+            out.append((self.exit_start, self.exit_stop))
+        return out
+
 
 @dataclass(frozen=True, eq=False)
 class Layer:

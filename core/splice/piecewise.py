@@ -159,9 +159,7 @@ def check_pieces(
     spans: dict[int, list[tuple[int, int]]] = {}
     for rep in result.blocks:
         b = original.block(rep.block)
-        ranges = [(b.span_start, b.span_stop)]
-        if b.exit_start >= b.span_stop and b.exit_stop > b.exit_start:
-            ranges.append((b.exit_start, b.exit_stop))
+        ranges = b.spans
         spans[rep.block] = [(out_start[r], out_start[r] + count[r]) for r in ranges]
     scan = _Scan(
         original=original,

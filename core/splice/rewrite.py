@@ -69,10 +69,7 @@ _REFUSE_CMDS = {G + 90: "G90", G + 91: "G91", M + 82: "M82", M + 83: "M83", G + 
 
 def refusal(program: Program, b: Block) -> str | None:
     """Why a block must be kept as it is (mode or tool change inside its lines), else None."""
-    ranges = [(b.span_start, b.span_stop)]
-    if b.exit_start >= b.span_stop and b.exit_stop > b.exit_start:
-        ranges.append((b.exit_start, b.exit_stop))
-    for a, z in ranges:
+    for a, z in b.spans:
         cmd = program.state.cmd[a:z]
         for code, name in _REFUSE_CMDS.items():
             if np.any(cmd == code):
@@ -353,7 +350,7 @@ def rewrite_block(
         w.raw(text)
 
     # leaving part
-    exit_detached = b.exit_start >= b.span_stop and b.exit_stop > b.exit_start
+    exit_detached = b.detached_exit
     if b.span_stop > b.stop:
         _leaving(w, st, b.stop, b.span_stop, last if last is not None else np.array([[w.x, w.y]] * 2))
     end_xy = (w.x, w.y)

@@ -256,9 +256,7 @@ def check_splice(
     spans: dict[int, list[tuple[int, int]]] = {}
     for rep in result.blocks:
         b = original.block(rep.block)
-        ranges = [(b.span_start, b.span_stop)]
-        if b.exit_start >= b.span_stop and b.exit_stop > b.exit_start:
-            ranges.append((b.exit_start, b.exit_stop))
+        ranges = b.spans
         count = {(a, z): k for a, z, k in edits}
         spans[rep.block] = [(out_start[r], out_start[r] + count[r]) for r in ranges]
         got = 0.0
