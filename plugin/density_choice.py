@@ -33,7 +33,7 @@ replaced blocks is kept (:func:`retractions`), the higher-ranked one where they 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -135,24 +135,29 @@ def retractions(pres: Any) -> int | None:
     return None if counts is None else int(counts["loadpath"]["retractions"])
 
 
-def settle(first: Any, second: Any) -> tuple[bool, tuple[int | None, int | None]]:
-    """A tie settled at the printer: whether ``second`` is kept over ``first``, the one ranked higher.
+def settle(results: Sequence[Any], top: int, tied: Sequence[int]) -> tuple[int, tuple[int | None, ...]]:
+    """A tie settled at the printer: which of the results tied with the one ranked highest is kept.
 
     Parameters
     ----------
-    first, second : PipelineResult
-        Two results in a :func:`tie`, ``first`` the one ranked higher.
+    results : sequence of PipelineResult
+    top : int
+        The one ranked highest.
+    tied : sequence of int
+        Those in a :func:`tie` with it.
 
     Returns
     -------
-    keep_second : bool
-        True where ``second`` prints with fewer retractions in the replaced blocks; False where it
-        does not, or where either is not counted (the higher rank stands).
-    counts : (int or None, int or None)
-        Their retractions, in the order given.
+    kept : int
+        The one of ``top`` and ``tied`` that prints with the fewest retractions in the replaced
+        blocks, ``top`` on equal counts or where any result is not counted (the higher rank stands).
+    counts : tuple of (int or None)
+        Every result's retractions, in the order given.
     """
-    n = (retractions(first), retractions(second))
-    return (None not in n and n[1] < n[0]), n  # type: ignore[operator]
+    n = tuple(retractions(r) for r in results)
+    if None in n:
+        return top, n
+    return min([top, *tied], key=lambda k: (n[k], k != top)), n
 
 
 def lays_sparse(pres: Any) -> bool:
@@ -227,10 +232,11 @@ def run_choosing(
     best = ranked[0]
     retr: tuple[int | None, ...] = ()
     if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][4], spread):
-        second, n = settle(best[2], ranked[1][2])  # a tie within the model's spread: the printer decides
+        # a tie within the model's spread: the printer decides
+        kept, n = settle([best[2], ranked[1][2]], 0, [1])
         order = [c for c, *_ in tried]
         retr = tuple(n[0] if c == best[3] else n[1] for c in order)
-        best = ranked[1] if second else best
+        best = ranked[kept]
     return best[2], Choice(best[3], tuple(tried), tuple(off), retr, spread)
 
 

@@ -61,7 +61,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from loadpath.plugin.density_choice import SPREAD, figure, lays_sparse, retractions, score, settled, tie
+from loadpath.plugin.density_choice import SPREAD, figure, lays_sparse, score, settle, settled, tie
 
 __all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe", "WHOLE", "THROUGH"]
 
@@ -173,9 +173,7 @@ class SolidChooser:
         retr: tuple[int | None, ...] = ()
         tied = [k for k in range(len(judged)) if k != top and tie(judged[top][2], judged[k][2], spread)]
         if tied:  # within the model's spread: the printer decides, among those tied with the best
-            retr = tuple(retractions(j[1]) for j in judged)
-            if None not in retr:
-                top = min([top, *tied], key=lambda k: (retr[k], k != top))
+            top, retr = settle([j[1] for j in judged], top, tied)
         best = judged[top]
         kept = best[1]
         tried = tuple((name, *ratios) for name, _, ratios in judged)
