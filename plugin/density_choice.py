@@ -185,6 +185,7 @@ def run_choosing(
     predict: Callable[[Any], tuple[float, float | None] | None],
     options: Any,
     spread: float = SPREAD,
+    rank_by: Callable[[Any], tuple[float, float | None] | None] | None = None,
 ) -> tuple[Any, Choice]:
     """Run the pipeline once per candidate and keep the better one (module docstring).
 
@@ -200,6 +201,14 @@ def run_choosing(
         set (the user asked for another mass) the mass does not rank the candidates.
     spread : float
         Ties within this share of failure load go to fewer retractions (:func:`tie`, :func:`settle`).
+    rank_by : callable or None
+        ``rank_by(pipeline_result) -> ratios or None``: where a candidate's run kept a layout from a
+        tie at the printer with the one its model ranked first
+        (:meth:`loadpath.plugin.solid_choice.SolidChooser.ranked`), that one's ratios, which rank
+        the candidate (None: its own).  So the candidates are ranked as the model ranks them, and
+        each prints the layout its own tie settled; a candidate below the best is in a tie with it
+        only where the layout it prints is (a tie's spread is not passed on from one tie to the
+        next).
 
     Returns
     -------
@@ -208,7 +217,7 @@ def run_choosing(
         None where the first candidate laid no sparse infill (:func:`lays_sparse`: a file printed
         solid): every candidate would lay the same, so none other is laid and nothing is chosen.
     """
-    ranked = []  # (rank, -order, result, criterion, ratios, keeps mass)
+    ranked = []  # (rank, -order, result, criterion, ratios, keeps mass, its own ratios)
     tried: list[tuple[str, float | None, float | None]] = []
     off: list[tuple[str, float]] = []
     own_mass = getattr(options.density, "fill", None) is None
@@ -216,7 +225,9 @@ def run_choosing(
         pres = run(replace(options, density=replace(options.density, criterion=crit)))
         if i == 0 and not lays_sparse(pres):
             return pres, None
-        ratios = predict(pres) if pres.changed else None
+        own = ratios = predict(pres) if pres.changed else None
+        if ratios is not None and rank_by is not None:
+            ratios = rank_by(pres) or ratios
         share = mass_change(pres) if own_mass else None
         keeps = share is None or abs(share) <= MASS_TOLERANCE
         if not keeps:
@@ -225,14 +236,15 @@ def run_choosing(
         if ratios is None and i > 0:
             continue  # not judged: not kept
         got = ratios or (None, None)
-        ranked.append((score(*got, keeps), -i, pres, crit, got, keeps))
+        ranked.append((score(*got, keeps), -i, pres, crit, got, keeps, own or got))
         if ratios is None:
             break  # nothing replaced or nothing to judge by: the first candidate stands
     ranked.sort(key=lambda r: r[:2], reverse=True)  # higher rank first; on equal ranks the earlier
     best = ranked[0]
     retr: tuple[int | None, ...] = ()
-    if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][4], spread):
-        # a tie within the model's spread: the printer decides
+    # a tie within the model's spread: the printer decides.  What the second would print is what
+    # must lie within the spread of the best (ties do not chain: each candidate's own is one already)
+    if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][6], spread):
         kept, n = settle([best[2], ranked[1][2]], 0, [1])
         order = [c for c, *_ in tried]
         retr = tuple(n[0] if c == best[3] else n[1] for c in order)

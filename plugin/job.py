@@ -417,9 +417,10 @@ def _run(
     # where the level sets give way on solid infill, both layouts are laid and judged (solid_choice)
     judged = judge(program, lc, opts.workers, progress, cache)
     if s.density == "auto" and "sparse" in s.replace:  # lay each candidate, keep the better (density_choice)
-        # a tie is settled once, between the candidates: the solid layout inside each goes by rank
-        chooser = SolidChooser(run_with, judged, 0.0, alone=s.tie_spread)
-        pres, result.density = run_choosing(chooser, judged, opts, s.tie_spread)
+        # each candidate's solid tie is settled inside it, the candidates ranked by the layouts the
+        # model ranked first (solid_choice)
+        chooser = SolidChooser(run_with, judged, s.tie_spread)
+        pres, result.density = run_choosing(chooser, judged, opts, s.tie_spread, chooser.ranked)
     else:
         chooser = SolidChooser(run_with, judged, s.tie_spread)
         pres = chooser(opts)

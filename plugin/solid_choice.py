@@ -44,15 +44,25 @@ run judged the level sets 1.008 / 0.925 and the swarm 1.007 / 0.954 and kept the
 retractions against the level sets' 149 (the slicer's: 25); the median of the three runs had ranked
 them the other way.
 
-With ``density = "auto"`` the layout is chosen within each density candidate by the model's rank
-alone, and the tie is settled once, between the candidates
-(:func:`loadpath.plugin.density_choice.run_choosing`): settled inside the ``stack`` candidate of
-issue 15's 12 mm beam at PrusaSlicer 20 %, it gave that candidate the level sets' 1.361 / 1.748
-instead of the swarm's 1.366 / 1.797, so ``energy`` ranked first with 503 retractions in the
-replaced blocks, against 476 (and the higher failure load) kept otherwise.  A file with no sparse
-infill (printed at 100 %) gets no density choice, so there the tie is settled here (``alone``):
-a 150 x 8 mm slender cantilever at PrusaSlicer 100 % with ``--replace solid,sparse`` kept the
-swarm's 713 retractions by rank, against the level sets' 112 without ``sparse``, the same file.
+With ``density = "auto"`` each density candidate settles its own tie, and so prints the layout it
+settled; the candidates are ranked by the layout the model ranked first in each
+(:meth:`SolidChooser.ranked`), and their own tie is settled between the layouts they print
+(:func:`loadpath.plugin.density_choice.run_choosing`).  Before 2026-12-06 the layout inside a
+candidate went by rank alone and the tie was settled once, between the candidates: on a T (80 x 15 mm
+bar, 15 x 52 mm stem, 4 mm thick) fixed along its bar and pushed sideways at its stem's foot,
+PrusaSlicer 40 % with ``--replace solid,sparse``, both candidates printed the swarm on their solid
+layers, 760 retractions in the replaced blocks (the slicer's: 37) against the level sets' 82 through
+the cut, which the model put within 0.4 % of its stiffness and 1.5 % of its failure load; print time
++5.5 % against +1.1 %, travel 4124 against 1981 mm (the slicer's 2027).  Ranking a candidate by the
+layout its tie settled instead would have cost issue 15's 12 mm beam at PrusaSlicer 20 %: the
+``stack`` candidate's level sets (1.361 / 1.748) instead of its swarm (1.366 / 1.797) made
+``energy`` rank first, with 503 retractions against 476.  Ties do not chain: a candidate below the
+best ties it only where the layout it prints does (on a plate with three holes at PrusaSlicer 40 %,
+``stack``'s first layout tied ``energy``'s, 1.926 against 2.017 of failure load, but it would print
+the layout through the cut, 1.844, 8.6 % below: ``energy`` is kept).  A file with no sparse
+infill (printed at 100 %) gets no density choice: its tie is settled here alone (a 150 x 8 mm
+slender cantilever at PrusaSlicer 100 % with ``--replace solid,sparse``: the level sets' 112
+retractions, not the swarm's 713).
 """
 
 from __future__ import annotations
@@ -61,7 +71,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from loadpath.plugin.density_choice import SPREAD, figure, lays_sparse, score, settle, settled, tie
+from loadpath.plugin.density_choice import SPREAD, figure, score, settle, settled, tie
 
 __all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe", "WHOLE", "THROUGH"]
 
@@ -127,28 +137,30 @@ class SolidChooser:
         (:class:`loadpath.plugin.density_choice.Judge`: a result judged twice is evaluated once).
     spread : float
         Ties within this share of failure load go to fewer retractions (setting ``tie_spread``).
-    alone : float or None
-        The spread where the run lays no sparse infill (None: ``spread``).  Inside ``density =
-        "auto"`` the layout goes by rank (``spread`` 0) and the tie is settled between the density
-        candidates; a file with no sparse infill gets no density choice
-        (:func:`loadpath.plugin.density_choice.run_choosing`), so its tie is settled here.
     """
 
     def __init__(
         self, run: Callable[[Any], Any], predict: Callable[[Any], Any], spread: float = SPREAD,
-        alone: float | None = None,
     ) -> None:
         self.run = run
         self.predict = predict
         self.spread = spread
-        self.alone = spread if alone is None else alone
-        # id(kept result) -> (that result, the choice that kept it): held, so no other takes its id
-        self._chosen: dict[int, tuple[Any, SolidChoice]] = {}
+        # id(kept result) -> (that result, the choice that kept it, the ratios of the layout the
+        # model ranked first): held, so no other takes its id
+        self._chosen: dict[int, tuple[Any, SolidChoice, Any]] = {}
 
     def choice(self, pres: Any) -> SolidChoice | None:
         """The choice that kept ``pres`` (a result this returned), or None (nothing gave way)."""
         got = self._chosen.get(id(pres))
         return got[1] if got is not None and got[0] is pres else None
+
+    def ranked(self, pres: Any) -> Any:
+        """The predicted ratios of the layout the model ranked first where ``pres`` (a result this
+        returned) was kept from a tie with it at the printer; None where ``pres`` is that layout or
+        nothing was chosen.  ``density = "auto"`` ranks its candidates by these
+        (:func:`loadpath.plugin.density_choice.run_choosing`, ``rank_by``)."""
+        got = self._chosen.get(id(pres))
+        return got[2] if got is not None and got[0] is pres else None
 
     def __call__(self, options: Any) -> Any:
         pres = self.run(options)
@@ -168,17 +180,17 @@ class SolidChooser:
         judged = [j for j in judged if j[2] is not None] + [(other, pres, split)]
         if len(judged) == 1:
             return pres
-        spread = self.spread if lays_sparse(pres) else self.alone
-        top = max(range(len(judged)), key=lambda k: (score(*judged[k][2]), -k))
+        spread = self.spread
+        first = top = max(range(len(judged)), key=lambda k: (score(*judged[k][2]), -k))
         retr: tuple[int | None, ...] = ()
-        tied = [k for k in range(len(judged)) if k != top and tie(judged[top][2], judged[k][2], spread)]
+        tied = [k for k in range(len(judged)) if k != first and tie(judged[first][2], judged[k][2], spread)]
         if tied:  # within the model's spread: the printer decides, among those tied with the best
             top, retr = settle([j[1] for j in judged], top, tied)
         best = judged[top]
         kept = best[1]
         tried = tuple((name, *ratios) for name, _, ratios in judged)
         choice = SolidChoice(kept is not pres, other, tried, retr, spread, best[0] == THROUGH)
-        self._chosen[id(kept)] = (kept, choice)
+        self._chosen[id(kept)] = (kept, choice, judged[first][2] if top != first else None)
         return kept
 
 

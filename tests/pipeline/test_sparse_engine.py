@@ -18,11 +18,12 @@ import numpy as np
 import pytest
 import slicing
 from cases import BRACKET_PIN
+from choices import kept_layout
 from loadpath import engines, gcode, loadcase
 from loadpath.errors import LoadCaseError, SettingsError
 from loadpath.loadcase import ToolpathOptions
 from loadpath.plugin import settings as settings_mod
-from loadpath.plugin.density_choice import SPREAD, score, tie
+from loadpath.plugin.density_choice import SPREAD
 from loadpath.plugin.job import JobRequest, run_job
 from loadpath.plugin.solid_choice import THROUGH, WHOLE
 from loadpath.plugin.solid_choice import describe as describe_solid
@@ -106,7 +107,7 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdic
     choice = res.solid
     assert choice is not None and choice.given_way == "swarm", choice
     assert [t[0] for t in choice.tried] == [WHOLE, THROUGH, "swarm"], choice
-    k = _kept(choice)
+    k = kept_layout(choice)
     assert choice.whole == (k < 2) and choice.through == (k == 1), choice
     kept = choice.tried[k][1:]
     assert res.verdict.stiffness == pytest.approx(kept[0] - 1.0, abs=1e-3)
@@ -150,22 +151,8 @@ def test_sparse_laid_by_the_level_sets_solid_by_the_better_layout_and_the_verdic
     assert res3.written and res3.error is None, res3.error
     c3 = res3.solid
     assert c3 is not None and c3.retractions == () and "a tie" not in res3.verdict.line()
-    k3 = _kept(c3)
+    k3 = kept_layout(c3)
     assert c3.whole == (k3 < 2) and c3.through == (k3 == 1), c3
-
-
-def _kept(choice) -> int:
-    """Which of a solid choice's layouts its own figures keep: the best rank, or among those tied
-    with it the fewest retractions (solid_choice's rule, read from what the verdict reports)."""
-    ratios = [t[1:] for t in choice.tried]
-    top = max(range(len(ratios)), key=lambda k: (score(*ratios[k]), -k))
-    tied = [k for k in range(len(ratios)) if k != top and tie(ratios[top], ratios[k], choice.spread)]
-    n = choice.retractions
-    if not tied:
-        assert n == (), choice
-        return top
-    assert len(n) == len(ratios), choice
-    return top if None in n else min([top, *tied], key=lambda k: (n[k], k != top))
 
 
 @pytest.mark.slow
@@ -182,7 +169,7 @@ def test_a_file_printed_solid_gets_no_density_choice_and_settles_its_solid_tie(s
     assert res.density is None and "sparse density" not in res.verdict.line()
     choice = res.solid
     assert choice is not None and choice.spread == SPREAD > 0, choice
-    k = _kept(choice)
+    k = kept_layout(choice)
     assert choice.whole == (k < 2) and choice.through == (k == 1), choice
 
 

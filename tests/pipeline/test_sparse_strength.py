@@ -20,6 +20,7 @@ from __future__ import annotations
 import pytest
 import slicing
 from cases import BRACKET_PIN
+from choices import kept_layout
 from loadpath import loadcase
 from loadpath.plugin.job import JobRequest, run_job
 from loadpath.stiffness import compare_files
@@ -39,8 +40,10 @@ def test_sparse_replaced_bracket_keeps_the_slicers_failure_load_and_mass(bracket
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems
     assert [t[0] for t in res.density.tried] == ["energy", "stack"]  # density = "auto" laid both
-    # a tie is settled once, between the candidates: a solid layout inside one goes by the model's rank
-    assert res.solid is None or res.solid.retractions == (), res.solid
+    # each candidate settles its solid layouts' tie (solid_choice): the kept one follows the rule
+    if res.solid is not None:
+        k = kept_layout(res.solid)
+        assert res.solid.whole == (k < 2) and res.solid.through == (k == 1), res.solid
     # the run says which it kept and with what figures: the verdict line, the file's header
     kept = res.density.criterion
     assert f"sparse density '{kept}' (auto, by loadpath compare's model" in res.verdict.line()
