@@ -180,16 +180,17 @@ class SolidChooser:
         judged = [j for j in judged if j[2] is not None] + [(other, pres, split)]
         if len(judged) == 1:
             return pres
-        spread = self.spread
         first = top = max(range(len(judged)), key=lambda k: (score(*judged[k][2]), -k))
         retr: tuple[int | None, ...] = ()
-        tied = [k for k in range(len(judged)) if k != first and tie(judged[first][2], judged[k][2], spread)]
+        tied = [
+            k for k in range(len(judged)) if k != first and tie(judged[first][2], judged[k][2], self.spread)
+        ]
         if tied:  # within the model's spread: the printer decides, among those tied with the best
             top, retr = settle([j[1] for j in judged], top, tied)
         best = judged[top]
         kept = best[1]
         tried = tuple((name, *ratios) for name, _, ratios in judged)
-        choice = SolidChoice(kept is not pres, other, tried, retr, spread, best[0] == THROUGH)
+        choice = SolidChoice(kept is not pres, other, tried, retr, self.spread, best[0] == THROUGH)
         self._chosen[id(kept)] = (kept, choice, judged[first][2] if top != first else None)
         return kept
 

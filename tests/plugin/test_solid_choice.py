@@ -59,6 +59,13 @@ def _layout(o: _Options) -> str:
     return "swarm" if p.get("give_way", True) else (THROUGH if p.get("heal") else WHOLE)
 
 
+def _by_layout(energy: tuple, stack: tuple) -> dict:
+    """Per candidate, one value per layout in the order the verdict names them (ending on the cut,
+    through it, the swarm), keyed ``(criterion, layout)``."""
+    return {(crit, lay): v for crit, vs in (("energy", energy), ("stack", stack))
+            for lay, v in zip((WHOLE, THROUGH, "swarm"), vs, strict=True)}
+
+
 def _choose_both(figures: dict, retractions: dict):
     """``density = "auto"`` over both candidates, each laying the three layouts (job.py's wiring)."""
     laid = {k: _Laid(*k, n) for k, n in retractions.items()}
@@ -74,11 +81,9 @@ def test_each_density_candidate_prints_the_layout_its_own_tie_settled():
     stiffness and 1.5 % of failure load.  Settled once, between the candidates, both printed the
     swarm's 760 retractions; each settled inside, the level sets through the cut's 82 (and the
     candidates, tied, by the rank of their first layouts)."""
-    figures = {("energy", "swarm"): (1.371, 1.787), ("energy", WHOLE): (1.366, 1.780),
-               ("energy", THROUGH): (1.366, 1.775), ("stack", "swarm"): (1.374, 1.819),
-               ("stack", WHOLE): (1.368, 1.796), ("stack", THROUGH): (1.369, 1.791)}
-    retractions = {(c, lay): n for c in ("energy", "stack")
-                   for lay, n in (("swarm", 760), (WHOLE, 228), (THROUGH, 82))}
+    figures = _by_layout(((1.366, 1.780), (1.366, 1.775), (1.371, 1.787)),
+                         ((1.368, 1.796), (1.369, 1.791), (1.374, 1.819)))
+    retractions = _by_layout((228, 82, 760), (228, 82, 760))
     pres, density, solid = _choose_both(figures, retractions)
     assert (pres.crit, pres.layout) == ("stack", THROUGH)
     assert solid.through and solid.retractions == (228, 82, 760)
@@ -92,11 +97,9 @@ def test_a_candidate_is_ranked_by_its_first_layout_not_by_the_one_its_tie_settle
     (1.361 / 1.748), ``stack`` fell behind ``energy`` by 1.8 % of stiffness, beyond the spread, and
     ``energy`` was printed with 503 retractions; ranked by its swarm (1.366 / 1.797) it ties ``energy``
     and prints its level sets with fewer."""
-    figures = {("energy", "swarm"): (1.386, 1.751), ("energy", WHOLE): (1.300, 1.500),
-               ("energy", THROUGH): (1.300, 1.500), ("stack", "swarm"): (1.366, 1.797),
-               ("stack", WHOLE): (1.361, 1.748), ("stack", THROUGH): (1.250, 1.400)}
-    retractions = {("energy", "swarm"): 503, ("energy", WHOLE): 90, ("energy", THROUGH): 80,
-                   ("stack", "swarm"): 476, ("stack", WHOLE): 420, ("stack", THROUGH): 70}
+    figures = _by_layout(((1.300, 1.500), (1.300, 1.500), (1.386, 1.751)),
+                         ((1.361, 1.748), (1.250, 1.400), (1.366, 1.797)))
+    retractions = _by_layout((90, 80, 503), (420, 70, 476))
     pres, density, solid = _choose_both(figures, retractions)
     assert (pres.crit, pres.layout) == ("stack", WHOLE)
     assert not solid.through and solid.whole and solid.retractions == (420, 70, 476)
@@ -108,11 +111,9 @@ def test_ties_do_not_chain_from_candidate_to_candidate():
     layouts tie and it prints the one through the cut (1.355 / 1.844, 99 retractions), 8.6 % of
     failure load below ``energy``'s 2.017, though ``stack``'s first (1.354 / 1.926) ties ``energy``.
     What a candidate prints must lie within the spread of the best: ``energy`` is kept."""
-    figures = {("energy", "swarm"): (1.345, 1.976), ("energy", WHOLE): (1.345, 2.017),
-               ("energy", THROUGH): (1.346, 1.861), ("stack", "swarm"): (1.355, 1.920),
-               ("stack", WHOLE): (1.354, 1.926), ("stack", THROUGH): (1.355, 1.844)}
-    retractions = {("energy", "swarm"): 700, ("energy", WHOLE): 176, ("energy", THROUGH): 120,
-                   ("stack", "swarm"): 726, ("stack", WHOLE): 181, ("stack", THROUGH): 99}
+    figures = _by_layout(((1.345, 2.017), (1.346, 1.861), (1.345, 1.976)),
+                         ((1.354, 1.926), (1.355, 1.844), (1.355, 1.920)))
+    retractions = _by_layout((176, 120, 700), (181, 99, 726))
     pres, density, solid = _choose_both(figures, retractions)
     assert (pres.crit, pres.layout) == ("energy", WHOLE)
     assert density.retractions == () and solid.retractions == (176, 120, 700)
