@@ -70,6 +70,7 @@ from loadpath.pipeline.paths import (
     relay_factor,
     run_jobs,
     stagger,
+    share_volume,
     volume_scale,
 )
 from loadpath.pipeline.units import (
@@ -572,6 +573,7 @@ def run(
     if back:
         job_results, fills = relink(back, {key: laid[key][f] for key, f in back.items()})
     clock.lap("paths")
+    fills = share_volume(fills, units, lambda b: program.block(b).e)
     sres = splice(program, fills, splice_options, workers=options.workers)
     warnings.extend(_kept_as_sliced(program, sres.skipped))
     clock.lap("splice")

@@ -137,6 +137,9 @@ class BlockFill:
         The paths are linked runs (:mod:`loadpath.engines.linking`): simplified within
         :attr:`RunOptions.linked_resolution` (solid infill) or :attr:`RunOptions.sparse_resolution`
         (sparse: ``flow_width`` set) instead of ``resolution`` (:meth:`RunOptions.bound`).
+    shared : bool
+        The block is one of several in its island printing one unit's runs, and ``volume_scale``
+        gives it its runs' share of their plastic (:func:`loadpath.pipeline.paths.share_volume`).
     """
 
     block: int
@@ -148,6 +151,7 @@ class BlockFill:
     simplified: bool = False
     volume_scale: float = 1.0
     linked: bool = False
+    shared: bool = False
 
 
 @dataclass(frozen=True)
@@ -415,6 +419,8 @@ def _splice_block(
     plan = bead_runs(plan, options.flow, height, unit, options.plan.resolution, ends, runs)
     aim = b.e * fill.volume_scale
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
+    if fill.shared:
+        whose = "share of the island's volume its runs take"
     if options.volume_tol is not None and aim > 0:
         if plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm solid bits)
             return fill.block, [], None, f"{NO_PATHS} {b.length:.1f} mm of bead"

@@ -1,0 +1,63 @@
+"""Several blocks of one kind in one island print one unit's runs and share its plastic (share_volume).
+
+Under a sloped top, both slicers print the internal infill and the solid infill under the top skin
+as separate blocks of one island, and at 100 % both are solid: one unit, whose linked runs cross
+from one block's region into the other's.  Each run goes to the block holding its middle, so before
+the plastic was shared a block could get 1.38x its own (a tapered cantilever at PrusaSlicer 100 %:
+23 blocks kept as sliced beside their siblings' runs; CuraEngine 100 % on an angle bracket: 19).
+"""
+
+from __future__ import annotations
+
+import manifold3d as mf
+import pytest
+import slicing
+from pipeline_helpers import replaced_blocks, run, write_case
+
+
+def _wedge_stl(folder):
+    # side profile in XZ: 40 mm long, 3 mm tall at the clamp, 1 mm at the tip; 12 mm wide
+    prof = mf.CrossSection([[(0.0, 0.0), (40.0, 0.0), (40.0, 1.0), (0.0, 3.0)]])
+    mesh = slicing._at_origin(slicing._to_trimesh(mf.Manifold.extrude(prof, 12.0).rotate((90, 0, 0))))
+    return slicing.write_stl(mesh, folder / "wedge.stl")
+
+
+def _angle_stl(folder):
+    # a 30 x 16 x 3 mm flange with a 3 mm wall 6 mm tall along one end: under the flange's top skin
+    # CuraEngine prints the skin and, under the wall, the infill, both solid at 100 %
+    mesh = mf.Manifold.cube((30.0, 16.0, 3.0)) + mf.Manifold.cube((3.0, 16.0, 6.0))
+    return slicing.write_stl(slicing._at_origin(slicing._to_trimesh(mesh)), folder / "angle.stl")
+
+
+@pytest.mark.parametrize("slicer", ["prusa", "cura"])
+def test_blocks_of_one_unit_share_its_plastic(tmp_path, slicer):
+    from conftest import require_tool
+
+    if slicer == "prusa":
+        require_tool("prusa-slicer")
+        gpath = slicing.slice_prusa([_wedge_stl(tmp_path)], tmp_path / "part.gcode", **slicing.PRUSA_SOLID)
+    else:
+        require_tool("CuraEngine")
+        settings = dict(slicing.CURA_SOLID, top_layers="4")
+        gpath = slicing.slice_cura(_angle_stl(tmp_path), tmp_path / "part.gcode", **settings)
+    case = write_case(tmp_path, within=4.0)
+    program, result, out = run(gpath, case, tmp_path / "out.gcode")
+    assert out is not None, result.error
+    geo = result.pipeline.geometry
+    shared = [
+        [b.block_index for b in isl.blocks if b.kind == "solid"]
+        for o in geo.objects for lg in o.layers for isl in lg.islands
+    ]
+    shared = [ids for ids in shared if len(ids) > 1]
+    assert len(shared) >= 3  # two solid blocks in one island, layer after layer
+    done = replaced_blocks(result)
+    reports = {r.block: r for r in result.pipeline.splice.blocks}
+    scales = []
+    for ids in shared:
+        assert set(ids) <= done, (ids, result.warnings)
+        old = sum(reports[i].filament_old for i in ids)
+        new = sum(reports[i].filament_new for i in ids)
+        assert abs(new / old - 1.0) < 0.03  # the unit lays the slicer's plastic
+        scales += [reports[i].volume_scale for i in ids]
+    # the runs' shares, not the slicer's: some block takes more than its own plastic, some less
+    assert max(scales) > 1.005 and min(scales) < 0.97
