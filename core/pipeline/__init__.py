@@ -40,6 +40,7 @@ Files with nothing to replace, and vase-mode or sequential prints, come back unc
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -647,27 +648,43 @@ def _check_and_count(
 
 
 def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: int = 3) -> list[str]:
-    """The run's warnings for the blocks the splice kept as sliced: one per block, but the slivers no
-    new path fits in (:data:`loadpath.splice.splicer.NO_PATHS`) in one line where there are more
-    than ``most`` of them (a 1000-layer PrusaSlicer specimen has 18 solid bits of 0.6 mm)."""
+    """The run's warnings for the blocks the splice kept as sliced: one per block, but where more
+    than ``most`` were kept for the same reason, one line for them all.
+
+    The slivers no new path fits in (:data:`loadpath.splice.splicer.NO_PATHS`: a 1000-layer
+    PrusaSlicer specimen has 18 solid bits of 0.6 mm) name the longest; blocks whose reason differs
+    only in its percentages (the volume a thin wall's paths would extrude: an angle bracket's 25 mm
+    wall at CuraEngine 20 % kept 56 of them, each its own warning) give their range.
+    """
     from loadpath.splice.splicer import NO_PATHS
 
+    def reason(why: str) -> str:
+        return NO_PATHS if why.startswith(NO_PATHS) else re.sub(r"\d+%", "#%", why, count=1)
+
     kept = [(program.block(k), why) for k, why in skipped]
-    slivers = [b for b, why in kept if why.startswith(NO_PATHS)]
-    grouped = len(slivers) > most
+    groups: dict[str, list[tuple[Any, str]]] = {}
+    for b, why in kept:
+        groups.setdefault(reason(why), []).append((b, why))
     out = [
         f"layer {b.layer + 1}, {b.feature}: kept as sliced ({why})"
         for b, why in kept
-        if not (grouped and why.startswith(NO_PATHS))
+        if len(groups[reason(why)]) <= most
     ]
-    if grouped:
-        layers = sorted({b.layer + 1 for b in slivers})
+    for key, members in groups.items():
+        if len(members) <= most:
+            continue
+        layers = sorted({b.layer + 1 for b, _ in members})
         shown = ", ".join(map(str, layers[:8])) + (f" and {len(layers) - 8} more" if len(layers) > 8 else "")
-        longest = max(b.length for b in slivers)
-        out.append(
-            f"{len(slivers)} blocks kept as sliced, no new path fits in them (at most "
-            f"{longest:.1f} mm of the slicer's bead each; layers {shown})"
-        )
+        if key == NO_PATHS:
+            longest = max(b.length for b, _ in members)
+            out.append(
+                f"{len(members)} blocks kept as sliced, no new path fits in them (at most "
+                f"{longest:.1f} mm of the slicer's bead each; layers {shown})"
+            )
+            continue
+        shares = sorted(int(v) for _, why in members for v in re.findall(r"(\d+)%", why)[:1])
+        span = f"{shares[0]}%" if shares[0] == shares[-1] else f"{shares[0]}-{shares[-1]}%"
+        out.append(f"{len(members)} blocks kept as sliced ({key.replace('#%', span, 1)}; layers {shown})")
     return out
 
 

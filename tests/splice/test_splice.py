@@ -464,6 +464,28 @@ def test_blocks_no_path_fits_in_are_kept_and_grouped_in_the_warnings(sliced):
     ]
 
 
+def test_blocks_kept_for_one_reason_share_one_warning(sliced):
+    """More than three blocks kept for the same reason, up to its percentage (a thin wall's paths
+    would extrude 123-137 % of the slicer's volume, layer after layer), make one warning with the
+    range and the layers; three or fewer keep a warning each."""
+    from loadpath.pipeline import _kept_as_sliced
+
+    program = gcode.read(sliced("prusa", "ohs", "solid"))
+    blocks = infill_blocks(program)
+    why = "the new paths would extrude {}% of the slicer's volume: the engine covered too {} of the region"
+    shares = (125, 137, 123, 130, 137)
+    skipped = [(k, why.format(p, "much")) for k, p in zip(blocks[:5], shares, strict=True)]
+    little = (blocks[6], why.format(91, "little"))
+    out = _kept_as_sliced(program, [*skipped, little])
+    b6 = program.block(blocks[6])
+    layers = ", ".join(map(str, sorted({program.block(k).layer + 1 for k in blocks[:5]})))
+    assert out == [
+        f"layer {b6.layer + 1}, {b6.feature}: kept as sliced ({little[1]})",
+        f"5 blocks kept as sliced ({why.format('123-137', 'much')}; layers {layers})",
+    ]
+    assert len(_kept_as_sliced(program, skipped[:3])) == 3
+
+
 def test_blocks_spliced_in_worker_processes_give_the_same_bytes(sliced):
     """``splice(..., workers=2)`` writes each block in forked workers: the same bytes, reports and
     kept blocks as one process, in block order (one block's fill thins to a third of the lines so
