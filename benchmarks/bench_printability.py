@@ -12,7 +12,9 @@ Parts (this benchmark's own; the acceptance parts are kept elsewhere), 2 top / 2
 ``bracket``  L-bracket 50 x 36 x 2.4 mm, 12 mm legs, 5 mm bolt hole; clamped at y_max, 300 N down at x_max;
 ``islands``  two 36 x 16 x 2.4 mm plates 8 mm apart (one object, two islands), each clamped at y_min
              and pulled at y_max;
-``gyroid``   the bar at 30 % gyroid, sparse infill replaced.
+``gyroid``   the bar at 30 % gyroid, sparse infill replaced;
+``taper``    cantilever 80 x 12 mm tapering from 3.6 mm tall at x_min to 1.2 mm at x_max (not
+             prismatic: a solid strip under each layer's top skin, a 3D analysis), loaded as ``beam``.
 
 Each part is sliced by the real PrusaSlicer 2.5 (MK3S presets: ``retract_before_travel = 1``,
 ``only_retract_when_crossing_perimeters = 0``) and CuraEngine 4.13 (``prusa_i3_mk3``, combing on by
@@ -97,6 +99,7 @@ def _parts() -> dict[str, tuple[trimesh.Trimesh, str]]:
         "bracket": (slicing.bracket_mesh((50.0, 36.0), 12.0, T, 5.0), BRACKET),
         "islands": (slicing.two_islands_mesh((36.0, 16.0), 8.0, T), ACROSS),
         "gyroid": (slicing.ohs_mesh(90.0, 18.0, T, 5.0), PULL),
+        "taper": (slicing.taper_mesh(80.0, 12.0, 1.5 * T, 0.5 * T), BEND),
     }
 
 

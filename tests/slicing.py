@@ -52,6 +52,7 @@ __all__ = [
     "two_islands_mesh",
     "bracket_mesh",
     "tower_mesh",
+    "taper_mesh",
     "shelf_bracket_mesh",
     "tower_layers",
     "PARTS",
@@ -173,6 +174,18 @@ def shelf_bracket_mesh(
     cs = mf.CrossSection([[(0, 0), (lx, 0), (0, ly)]])
     hole = mf.CrossSection.circle(cut_out / 2, 96).translate((0.29 * lx, 0.3 * ly))
     return _at_origin(_to_trimesh(mf.Manifold.extrude(cs - hole, thickness)))
+
+
+def taper_mesh(
+    length: float = 80.0, width: float = 12.0, root: float = 3.6, tip: float = 1.2
+) -> trimesh.Trimesh:
+    """A cantilever tapering in height from ``root`` mm at x = 0 to ``tip`` mm at ``x = length``: its
+    top is a slope, so every layer has a solid strip under that layer's top skin beside the
+    layer's internal infill (at 100 % both solid: one island, two blocks of one kind)."""
+    import manifold3d as mf
+
+    profile = mf.CrossSection([[(0.0, 0.0), (length, 0.0), (length, tip), (0.0, root)]])
+    return _at_origin(_to_trimesh(mf.Manifold.extrude(profile, width).rotate((90, 0, 0))))
 
 
 def tower_mesh(

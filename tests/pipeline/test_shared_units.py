@@ -15,13 +15,6 @@ import slicing
 from pipeline_helpers import replaced_blocks, run, write_case
 
 
-def _wedge_stl(folder):
-    # side profile in XZ: 40 mm long, 3 mm tall at the clamp, 1 mm at the tip; 12 mm wide
-    prof = mf.CrossSection([[(0.0, 0.0), (40.0, 0.0), (40.0, 1.0), (0.0, 3.0)]])
-    mesh = slicing._at_origin(slicing._to_trimesh(mf.Manifold.extrude(prof, 12.0).rotate((90, 0, 0))))
-    return slicing.write_stl(mesh, folder / "wedge.stl")
-
-
 def _angle_stl(folder):
     # a 30 x 16 x 3 mm flange with a 3 mm wall 6 mm tall along one end: under the flange's top skin
     # CuraEngine prints the skin and, under the wall, the infill, both solid at 100 %
@@ -35,7 +28,8 @@ def test_blocks_of_one_unit_share_its_plastic(tmp_path, slicer):
 
     if slicer == "prusa":
         require_tool("prusa-slicer")
-        gpath = slicing.slice_prusa([_wedge_stl(tmp_path)], tmp_path / "part.gcode", **slicing.PRUSA_SOLID)
+        stl = slicing.write_stl(slicing.taper_mesh(40.0, 12.0, 3.0, 1.0), tmp_path / "taper.stl")
+        gpath = slicing.slice_prusa([stl], tmp_path / "part.gcode", **slicing.PRUSA_SOLID)
     else:
         require_tool("CuraEngine")
         settings = dict(slicing.CURA_SOLID, top_layers="4")
