@@ -26,8 +26,18 @@ first, then stiffness times failure load). With ``density = "auto"`` the choice 
 density candidate: made once for the first and held for the second, it cost issue 15's 12 mm beam at
 PrusaSlicer 40 % its failure load (3.329 -> 3.050x the slicer's) where the two layouts ranked the
 other way under the second criterion; made for each, every layout the run chose from before is still
-among those ranked.  A part the model does not judge on every run (3D analyses) keeps the swarm
-where the level sets gave way.
+among those ranked.
+
+A part the model does not judge on every run (3D analyses) keeps the swarm where the level sets gave
+way, unless it has no sparse infill (printed solid): then it keeps the level sets on every solid
+layer, unjudged.  Every solid part judged ranked them within the model's spread of the swarm (the
+cantilever and L-bracket below; the six parts kept aside at PrusaSlicer 100 %, the twenty-third
+round of ``benchmarks/printability_results.md``), and on ``benchmarks/bench_printability.py``'s
+tapered cantilever at PrusaSlicer 100 % (a 3D analysis; ``loadpath compare``, 1.6 min each) the
+level sets predicted 1.002x / 0.972x the slicer's stiffness / failure load against the swarm's
+1.007x / 0.971x, with 83 retractions in the replaced blocks against 464 (the slicer's 26).  With
+sparse infill the swarm stays: there the first ply can fail among the level sets' ends in the solid
+layers under the skins (issue 15's beam above).
 
 Through the cut, on ``benchmarks/bench_printability.py``'s PrusaSlicer cantilever at 100 % (2026-12-06):
 stiffness / failure load over the slicer's 1.028 / 0.929 against the cut level sets' 1.024 / 0.937
@@ -73,7 +83,9 @@ from typing import Any
 
 from loadpath.plugin.density_choice import SPREAD, figure, score, settle, settled, tie
 
-__all__ = ["SolidChoice", "SolidChooser", "gave_way", "describe", "WHOLE", "THROUGH"]
+__all__ = [
+    "SolidChoice", "SolidChooser", "gave_way", "solid_only", "describe", "WHOLE", "THROUGH", "UNJUDGED",
+]
 
 
 WHOLE = "level sets"
@@ -105,6 +117,9 @@ class SolidChoice:
         The share within which ranks were a tie (setting ``tie_spread``).
     through : bool
         The level sets kept are those through the cut (:data:`THROUGH`).
+    judged : bool
+        False: the model did not judge the part (a 3D analysis) and it has no sparse infill, so the
+        level sets were kept unjudged (:data:`UNJUDGED`); ``tried`` is empty.
     """
 
     whole: bool
@@ -113,6 +128,25 @@ class SolidChoice:
     retractions: tuple[int | None, ...] = ()
     spread: float = SPREAD
     through: bool = False
+    judged: bool = True
+
+
+UNJUDGED = (
+    "not judged: a 3D part printed solid, where every solid part judged ranked the level sets within "
+    "the model's spread of the swarm"
+)
+"""Why a part the model does not judge, printed solid, keeps the level sets (:class:`SolidChooser`)."""
+
+
+def solid_only(pres: Any) -> bool:
+    """Whether a pipeline result's file has no sparse infill (a part printed solid: every infill
+    block ``solid`` or a skin)."""
+    geo = getattr(pres, "geometry", None)
+    if geo is None:
+        return False
+    return not any(
+        b.kind == "sparse" for o in geo.objects for lg in o.layers for isl in lg.islands for b in isl.blocks
+    )
 
 
 def gave_way(pres: Any) -> str | None:
@@ -168,11 +202,18 @@ class SolidChooser:
         if other is None:
             return pres
         split = self.predict(pres)
-        if split is None:  # not judged (3D): the layers given way keep the other engine
-            return pres
+        params = {**options.solid_first_params, "give_way": False}
+        if split is None:  # not judged (3D): a part printed solid takes the level sets (module docstring)
+            if not solid_only(pres):
+                return pres  # the layers given way keep the other engine
+            kept = self.run(replace(options, solid_first_params=params))
+            if not kept.changed:
+                return pres
+            choice = SolidChoice(True, other, (), (), self.spread, False, judged=False)
+            self._chosen[id(kept)] = (kept, choice, None)
+            return kept
         from loadpath.engines.levelset import HEAL  # not at start-up: the engine's imports are heavy
 
-        params = {**options.solid_first_params, "give_way": False}
         laid = [(WHOLE, self.run(replace(options, solid_first_params=params)))]
         laid.append((THROUGH, self.run(replace(options, solid_first_params={**params, "heal": HEAL}))))
         # (name, result, ratios), in the order that keeps the earlier on equal ranks
@@ -197,8 +238,10 @@ class SolidChooser:
 
 def describe(choice: SolidChoice) -> str:
     """The verdict's words for a choice: the layout kept and every layout's predicted ratios."""
-    figures = "; ".join(figure(*t) for t in choice.tried)
     layout = THROUGH if choice.through else WHOLE
+    if not choice.judged:
+        return f"{layout} on every solid layer ({UNJUDGED})"
+    figures = "; ".join(figure(*t) for t in choice.tried)
     if choice.whole:
         kept = f"{layout} on every solid layer"
     else:

@@ -190,3 +190,41 @@ def test_a_part_in_tension_gets_the_level_sets_on_solid_infill_too(tmp_path):
     assert _engines_by_kind(res2) == {"solid": {"swarm"}}
     ours, swarm = (r.verdict.printability["loadpath"]["retractions"] for r in (res, res2))
     assert ours < swarm, (res.verdict.line(), res2.verdict.line())
+
+
+BEND_TAPER = """version = 1
+[[supports]]
+name = "clamp"
+where = { side = "x_min", within = 4.0 }
+fix = ["x", "y", "z"]
+[[loads]]
+name = "tip"
+where = { side = "x_max", within = 3.0 }
+force = [0.0, -100.0, 0.0]
+"""
+
+
+@pytest.mark.slow
+def test_a_3d_part_printed_solid_keeps_the_level_sets_where_they_gave_way(tmp_path):
+    """A tapered cantilever at PrusaSlicer 100 % is a 3D analysis, which the model does not judge on
+    every run: bent, its level sets give way, and it keeps them on every solid layer unjudged (the
+    verdict says so) instead of the swarm's fragments; fewer retractions than the swarm laid where
+    they gave way."""
+    from conftest import require_tool
+
+    require_tool("prusa-slicer")
+    stl = slicing.write_stl(slicing.taper_mesh(40.0, 12.0, 3.0, 1.0), tmp_path / "taper.stl")
+    src = slicing.slice_prusa([stl], tmp_path / "taper.gcode", **slicing.PRUSA_SOLID)
+    case = tmp_path / "taper.toml"
+    case.write_text(BEND_TAPER, encoding="utf-8")
+    res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode", cli={"cache": False}))
+    assert res.written and res.error is None, res.error
+    assert any(jr.paths.stats.get("give_way") is False for jr in res.pipeline.jobs)
+    assert _engines_by_kind(res) == {"solid": {"levelset"}}
+    assert res.solid is not None and not res.solid.judged and res.solid.whole
+    said = "solid infill: level sets on every solid layer (not judged: a 3D part printed solid"
+    assert said in res.verdict.line()
+    swarm = run_job(JobRequest(src, case, output=tmp_path / "swarm.gcode",
+                               cli={"cache": False, "engine": "swarm"}))
+    ours, theirs = (r.verdict.printability["loadpath"]["retractions"] for r in (res, swarm))
+    assert ours < theirs, (res.verdict.line(), swarm.verdict.line())

@@ -122,3 +122,31 @@ def test_ties_do_not_chain_from_candidate_to_candidate():
     retractions[("stack", WHOLE)], retractions[("stack", THROUGH)] = 150, 999
     pres, density, _ = _choose_both(figures, retractions)
     assert (pres.crit, pres.layout) == ("stack", WHOLE) and density.retractions == (176, 150)
+
+
+def _geometry(*kinds: str):
+    """A fake PrintGeometry with one island per kind."""
+    islands = [SimpleNamespace(blocks=[SimpleNamespace(kind=k)]) for k in kinds]
+    return SimpleNamespace(objects=[SimpleNamespace(layers=[SimpleNamespace(islands=islands)])])
+
+
+def test_a_part_not_judged_keeps_the_level_sets_only_when_printed_solid():
+    """A 3D part (the model does not judge it on every run): printed solid, the level sets on every
+    solid layer, said so in the verdict; with sparse infill in the file, the swarm where they gave
+    way, as before."""
+    for kinds, layout in ((("solid", "top"), WHOLE), (("solid", "sparse"), "swarm")):
+        laid = {lay: _Laid("energy", lay, 0) for lay in (WHOLE, THROUGH, "swarm")}
+        for r in laid.values():
+            r.geometry = _geometry(*kinds)
+        runs = []
+        chooser = SolidChooser(lambda o: runs.append(_layout(o)) or laid[_layout(o)], lambda r: None)
+        pres = chooser(_Options())
+        assert pres.layout == layout and runs == ["swarm", WHOLE][: 2 if layout == WHOLE else 1]
+        choice = chooser.choice(pres)
+        if layout == "swarm":
+            assert choice is None
+        else:
+            assert not choice.judged and choice.tried == () and describe(choice) == (
+                "level sets on every solid layer (not judged: a 3D part printed solid, where every solid "
+                "part judged ranked the level sets within the model's spread of the swarm)"
+            )
