@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import slicing
-from cases import BRACKET_PIN
+from cases import BRACKET_PIN, side_case
 from choices import kept_layout
 from loadpath import engines, gcode, loadcase
 from loadpath.errors import LoadCaseError, SettingsError
@@ -192,16 +192,8 @@ def test_a_part_in_tension_gets_the_level_sets_on_solid_infill_too(tmp_path):
     assert ours < swarm, (res.verdict.line(), res2.verdict.line())
 
 
-BEND_TAPER = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 4.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "tip"
-where = { side = "x_max", within = 3.0 }
-force = [0.0, -100.0, 0.0]
-"""
+BEND_TAPER = side_case((0.0, -100.0, 0.0), held_within=4.0, loaded_within=3.0, load="tip")
+"""A cantilever held within 4 mm of x_min, 100 N down (-y) within 3 mm of x_max."""
 
 
 @pytest.mark.slow
