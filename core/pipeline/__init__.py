@@ -576,6 +576,7 @@ def run(
     clock.lap("paths")
     fills = share_volume(fills, units, lambda b: program.block(b).e)
     sres = splice(program, fills, splice_options, workers=options.workers)
+    fills, sres = _whole_units(program, fills, units, sres, splice_options, options.workers)
     warnings.extend(_kept_as_sliced(program, sres.skipped))
     clock.lap("splice")
     tell("splice", 1, 1)
@@ -645,6 +646,42 @@ def _check_and_count(
     finally:
         _SIDE.clear()
     return got, counts
+
+
+def _whole_units(
+    program: Program,
+    fills: list[BlockFill],
+    units: Sequence[Unit],
+    sres: SpliceResult,
+    splice_options: SpliceOptions,
+    workers: int,
+) -> tuple[list[BlockFill], SpliceResult]:
+    """A unit whose blocks share their runs prints whole or as sliced: ``(fills, splice result)``.
+
+    Its blocks print one set of runs (:func:`loadpath.pipeline.paths.share_volume`), each the runs
+    whose middle it holds; where the splice kept one of them as sliced (a bead width at its bound:
+    a plate with a boss at PrusaSlicer 100 %, one block of 63 layers' units), its siblings' runs lay
+    beside that block's own lines and their share of the unit lies in its region.  Those siblings
+    are kept as sliced too, the file spliced again without them (only then), each with a warning.
+    """
+    kept = {k: why for k, why in sres.skipped}
+    shared = {f.block for f in fills if f.shared}
+    with_kept: dict[int, int] = {}
+    for u in units:
+        ids = [b.block_index for b in u.blocks]
+        gone = [i for i in ids if i in kept and i in shared]
+        for i in ids:
+            if gone and i not in kept:
+                with_kept[i] = gone[0]
+    if not with_kept:
+        return fills, sres
+    fills = [f for f in fills if f.block not in with_kept]
+    again = splice(program, fills, splice_options, workers=workers)
+    extra = tuple(
+        (i, f"the {program.block(k).feature} beside it, which shares its runs, was kept as sliced: {kept[k]}")
+        for i, k in sorted(with_kept.items())
+    )
+    return fills, replace(again, skipped=tuple(sorted((*again.skipped, *extra))))
 
 
 def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: int = 3) -> list[str]:

@@ -9,6 +9,8 @@ the plastic was shared a block could get 1.38x its own (a tapered cantilever at 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import manifold3d as mf
 import pytest
 import slicing
@@ -55,3 +57,41 @@ def test_blocks_of_one_unit_share_its_plastic(tmp_path, slicer):
         scales += [reports[i].volume_scale for i in ids]
     # the runs' shares, not the slicer's: some block takes more than its own plastic, some less
     assert max(scales) > 1.005 and min(scales) < 0.97
+
+
+def test_a_unit_prints_whole_or_as_sliced(tmp_path, monkeypatch):
+    """Where the splice keeps one block of a shared unit as sliced (here provoked: its aim doubled,
+    beyond the flow correction), the blocks printing the same runs are kept with it, each with a
+    warning naming why; the other units are replaced and the job's checks pass."""
+    from conftest import require_tool
+    from loadpath import pipeline
+
+    require_tool("prusa-slicer")
+    stl = slicing.write_stl(slicing.taper_mesh(40.0, 12.0, 3.0, 1.0), tmp_path / "taper.stl")
+    gpath = slicing.slice_prusa([stl], tmp_path / "part.gcode", **slicing.PRUSA_SOLID)
+    real = pipeline.share_volume
+    spoiled = []
+
+    def spoil(fills, units, filament):
+        out = real(fills, units, filament)
+        k = next(i for i, f in enumerate(out) if f.shared)
+        spoiled.append(out[k].block)
+        out[k] = replace(out[k], volume_scale=2.0 * out[k].volume_scale)
+        return out
+
+    monkeypatch.setattr(pipeline, "share_volume", spoil)
+    program, result, out = run(gpath, write_case(tmp_path, within=4.0), tmp_path / "out.gcode")
+    assert out is not None, result.error
+    bad = spoiled[-1]
+    unit = next(
+        [b.block_index for b in isl.blocks if b.kind == "solid"]
+        for o in result.pipeline.geometry.objects for lg in o.layers for isl in lg.islands
+        if bad in [b.block_index for b in isl.blocks]
+    )
+    skipped = dict(result.pipeline.splice.skipped)
+    assert set(unit) <= set(skipped) and len(unit) > 1
+    feature = program.block(bad).feature
+    for i in set(unit) - {bad}:
+        assert skipped[i].startswith(f"the {feature} beside it, which shares its runs, was kept as sliced: ")
+    assert any("which shares its runs" in w for w in result.warnings), result.warnings
+    assert len(replaced_blocks(result)) >= 10  # the other units as before
