@@ -720,8 +720,10 @@ def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: 
             )
             continue
         shares = sorted(int(v) for _, why in members for v in re.findall(r"(\d+)%", why)[:1])
-        span = f"{shares[0]}%" if shares[0] == shares[-1] else f"{shares[0]}-{shares[-1]}%"
-        out.append(f"{len(members)} blocks kept as sliced ({key.replace('#%', span, 1)}; layers {shown})")
+        if shares:  # one reason, its first percentage apart: their range
+            span = f"{shares[0]}%" if shares[0] == shares[-1] else f"{shares[0]}-{shares[-1]}%"
+            key = key.replace("#%", span, 1)
+        out.append(f"{len(members)} blocks kept as sliced ({key}; layers {shown})")
     return out
 
 

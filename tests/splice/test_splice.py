@@ -484,6 +484,12 @@ def test_blocks_kept_for_one_reason_share_one_warning(sliced):
         f"5 blocks kept as sliced ({why.format('123-137', 'much')}; layers {layers})",
     ]
     assert len(_kept_as_sliced(program, skipped[:3])) == 3
+    # a reason with no percentage (the splicer's refusals) groups as it is
+    tools = [(k, "a tool change inside the block") for k in blocks[:4]]
+    assert _kept_as_sliced(program, tools) == [
+        f"4 blocks kept as sliced (a tool change inside the block; layers "
+        f"{', '.join(map(str, sorted({program.block(k).layer + 1 for k in blocks[:4]})))})"
+    ]
 
 
 def test_blocks_spliced_in_worker_processes_give_the_same_bytes(sliced):
