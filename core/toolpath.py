@@ -90,6 +90,13 @@ class Path:
         """Length of the polyline, mm."""
         return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=1)))
 
+    @property
+    def area(self) -> float:
+        """What the path covers at its local pitch: each segment's length times its ends' mean
+        pitch, mm^2."""
+        seg = np.hypot(*np.diff(self.points, axis=0).T)
+        return float(np.sum(seg * 0.5 * (self.pitch[1:] + self.pitch[:-1])))
+
 
 @dataclass(frozen=True)
 class Toolpaths:

@@ -145,9 +145,7 @@ def solid_only(pres: Any) -> bool:
     geo = getattr(pres, "geometry", None)
     if geo is None:
         return False
-    return not any(
-        b.kind == "sparse" for o in geo.objects for lg in o.layers for isl in lg.islands for b in isl.blocks
-    )
+    return not any("sparse" in lg.kinds for o in geo.objects for lg in o.layers)
 
 
 def gave_way(pres: Any) -> str | None:

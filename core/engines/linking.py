@@ -1098,12 +1098,7 @@ def drop_lone(
     keep = np.ones(len(runs), dtype=bool)
     if min_area <= 0 or len(runs) < 2:
         return keep
-    area = np.array(
-        [
-            float(np.sum(np.hypot(*np.diff(r.points, axis=0).T) * 0.5 * (r.pitch[1:] + r.pitch[:-1])))
-            for r in runs
-        ]
-    )
+    area = np.array([r.area for r in runs])
     lone = np.flatnonzero(np.array([not len(s) for s in spans], dtype=bool) & (area < min_area))
     lone = lone[np.argsort(area[lone], kind="stable")]  # the smallest first, within the share
     # the share counts length too: a fixed flow width (sparse infill) extrudes by length, whatever

@@ -776,15 +776,6 @@ def assign(paths: Sequence[Path], unit: Unit) -> dict[int, list[Path]]:
     return out
 
 
-def _deposit(p: Path, fixed: bool) -> float:
-    """What one path lays, up to the layer height: its length (mm) at a fixed flow width, else its
-    length times its local pitch (mm^2)."""
-    seg = np.hypot(*np.diff(p.points, axis=0).T)
-    if fixed:
-        return float(seg.sum())
-    return float(np.sum(seg * 0.5 * (p.pitch[1:] + p.pitch[:-1])))
-
-
 def share_volume(fills: Sequence[Any], units: Sequence[Unit], filament: Callable[[int], float]) -> list[Any]:
     """The plastic of a unit of several blocks shared among them as its runs are (``BlockFill`` in and out).
 
@@ -795,8 +786,8 @@ def share_volume(fills: Sequence[Any], units: Sequence[Unit], filament: Callable
     unit's deposit where the slicer gave it 0.05-0.40, up to 1.38x its own plastic: 23 blocks were
     kept as sliced ("the new paths would extrude 119 % ..."), with their siblings' runs beside them.
     Here each block of such a unit aims at the unit's plastic times its runs' share of the unit's
-    deposit (:func:`_deposit`): every run of the unit prints at one flow, and the unit lays the
-    slicer's plastic (times its ``volume_scale``).
+    deposit (its runs' length at a fixed flow width, else their ``area``): every run of the unit
+    prints at one flow, and the unit lays the slicer's plastic (times its ``volume_scale``).
 
     Parameters
     ----------
@@ -824,7 +815,7 @@ def share_volume(fills: Sequence[Any], units: Sequence[Unit], filament: Callable
             b.share < 1.0 - 1e-9 or seen[b.block_index] > 1 or b.block_index not in at for b in u.blocks
         ):
             continue
-        laid = np.array([sum(_deposit(p, u.fixed_width) for p in fills[at[i]].paths) for i in ids])
+        laid = np.array([sum(p.length if u.fixed_width else p.area for p in fills[at[i]].paths) for i in ids])
         own = np.array([filament(i) for i in ids])
         if not (laid > 0).all() or not (own > 0).all():
             continue

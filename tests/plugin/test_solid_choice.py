@@ -125,9 +125,9 @@ def test_ties_do_not_chain_from_candidate_to_candidate():
 
 
 def _geometry(*kinds: str):
-    """A fake PrintGeometry with one island per kind."""
-    islands = [SimpleNamespace(blocks=[SimpleNamespace(kind=k)]) for k in kinds]
-    return SimpleNamespace(objects=[SimpleNamespace(layers=[SimpleNamespace(islands=islands)])])
+    """A fake PrintGeometry of one layer holding blocks of these kinds (``LayerGeometry.kinds``)."""
+    layer = SimpleNamespace(kinds=tuple(sorted(set(kinds))))
+    return SimpleNamespace(objects=[SimpleNamespace(layers=[layer])])
 
 
 def test_a_part_not_judged_keeps_the_level_sets_only_when_printed_solid():
