@@ -93,6 +93,23 @@ def test_uniform_field_lays_straight_lines_at_the_pitch_that_link_into_one_zigza
     assert cov.coverage >= 0.97 and cov.overlap <= 0.03, cov
 
 
+@pytest.mark.parametrize("angle", [0.0, 7.0])
+def test_lines_across_a_narrow_strip_are_as_wide_at_their_ends_as_in_their_middles(angle):
+    """Issue 19 (a 2.4 mm wall at 100 %): the lines cross the strip and end side by side on its
+    edges, so ends are most of their length.  Each end's width was 1.8-1.9x its middle's (the normal
+    at an end passes just beyond the neighbour's end: ``widths._end_sides``), and the strip's
+    blocks extruded more than the slicer's plastic allowed and were kept as sliced."""
+    region = box(0, 0, 2.4, 28.0)
+    tp = generate("levelset", EngineInput(region, AnalyticField(uniform(angle), region, scale=10.0), 0.414))
+    assert len(tp.paths) > 50
+    ends = np.concatenate([[p.pitch[0], p.pitch[-1]] for p in tp.paths])
+    middles = np.concatenate([p.pitch[1:-1] for p in tp.paths])
+    assert np.median(ends) < 1.1 * np.median(middles), (np.median(ends), np.median(middles))
+    beads = sum(float(np.sum(np.hypot(*np.diff(p.points, axis=0).T) * (p.pitch[1:] + p.pitch[:-1]) / 2))
+                for p in tp.paths)
+    assert beads < region.area  # the lines stop at the inset: less than the whole strip
+
+
 def test_sparse_line_ends_keep_the_slicers_gap_to_the_perimeter_not_a_share_of_the_pitch():
     """Sparse lines (the slicer's bead width at a 2 mm pitch) end a quarter bead width inside the
     region, where PrusaSlicer's own infill ends (0.10 mm at a 0.41 mm flow width), at any pitch."""

@@ -7,7 +7,9 @@ neighbouring paths along the normal, to the left ``L`` and to the right ``R`` (t
 path hit by the ray, within ``cap`` pitches), and sets the bead width to ``(L + R) / 2``: in one
 dimension, beads of that width centred on the paths tile the gap exactly.  Where a side has no
 path within reach the bead reaches the region's boundary along the normal (twice the way to it),
-up to ``cap`` pitches.
+up to ``cap`` pitches.  Near a path's end the normal can pass just beyond a neighbour that ends
+there too: with ``ends``, within a pitch of the end each side is then held to its distance just
+inward (:func:`_end_sides`).
 
 A bead of width ``(L + R) / 2`` tiles both gaps only when its path lies midway between the
 mid-gaps, that is ``(L - R) / 4`` to the left of where it is; where the neighbours are uneven (a
@@ -81,6 +83,57 @@ def _layer(paths: list[Points2]) -> tuple[Points2, np.ndarray, np.ndarray, np.nd
     return pts, counts, pid, seg, kw.tangents(pts, ends)
 
 
+END_ZONE = 1.0
+"""Pitches from a path's end within which each side's distance is at most the side's distance just
+inward of that (:func:`_end_sides`)."""
+
+
+def _end_sides(h: Floats, sel: np.ndarray, pts: Points2, pid: np.ndarray, zone: float) -> Floats:
+    """One side's distances ``h`` (m,) at points ``sel`` (m,), corrected near path ends.
+
+    Neighbouring paths often end together at the region's edge (level sets contoured on one grid
+    end on the same grid line).  The normal at an end point is tilted by the path's slant, so on one
+    side it passes just beyond the neighbour's end: it finds nothing (the edge rule then gave the
+    bead up to ``cap`` pitches) or the path after it, two pitches away.  So 1.4-2.5x the path's
+    width at over half of all level-set path ends of the bench's solid layers: too much plastic
+    at the perimeter, and on a 2.3 mm strip whose lines are mostly ends, 15-40 % more than the strip
+    holds.  Within ``zone`` (mm, along the path) of either end a side's distance is therefore at most
+    the one at the anchor, the nearest point inward beyond the zone (the path's middle on a path
+    shorter than two zones); an anchor that missed (no neighbour on that side: the outermost path)
+    leaves the side as it is.  Misses NaN or inf, as :func:`.kernel_widths.normal_hits` gives them.
+    """
+    m = len(h)
+    if not m:
+        return h
+    p = pid[sel]
+    step = np.hypot(*np.diff(pts[sel], axis=0).T)
+    same = p[1:] == p[:-1]
+    idx = np.arange(m)
+    s = np.concatenate([[0.0], np.cumsum(np.where(same, step, 0.0))])  # along the path (the samples)
+    s -= s[np.maximum.accumulate(np.where(np.r_[True, ~same], idx, 0))]
+    to_end = s[np.minimum.accumulate(np.where(np.r_[~same, True], idx, m)[::-1])[::-1]] - s
+    depth = np.minimum(s, to_end)
+    inner = depth > zone
+    nxt = np.minimum.accumulate(np.where(inner, idx, m)[::-1])[::-1]
+    prv = np.maximum.accumulate(np.where(inner, idx, -1))
+    order = np.lexsort((depth, p))  # by path, deepest last
+    ps = p[order]
+    change = ps[1:] != ps[:-1]
+    group = np.cumsum(np.r_[True, change]) - 1
+    anchor = np.empty(m, dtype=np.int64)
+    anchor[order] = order[np.flatnonzero(np.r_[change, True])[group]]  # each path's deepest point
+    ok_n = (nxt < m) & (p[np.minimum(nxt, m - 1)] == p)
+    ok_p = (prv >= 0) & (p[np.maximum(prv, 0)] == p)
+    head = ~inner & (s <= to_end)
+    anchor[head & ok_n] = nxt[head & ok_n]
+    anchor[~head & ~inner & ok_p] = prv[~head & ~inner & ok_p]
+    ref = h[anchor]
+    fix = ~inner & np.isfinite(ref) & ~(h <= ref)  # larger, or missed, beside a measured anchor
+    out = h.copy()
+    out[fix] = ref[fix]
+    return out
+
+
 def local_pitch(
     paths: list[Points2],
     region: Region,
@@ -88,6 +141,7 @@ def local_pitch(
     cap: float = 1.5,
     only: list[np.ndarray] | None = None,
     sides: bool = False,
+    ends: bool = False,
 ) -> list[Floats] | tuple[list[Floats], list[Floats], list[Floats]]:
     """Flow width at every point of the layer's paths (mm).
 
@@ -106,6 +160,11 @@ def local_pitch(
     sides : bool
         Also return, per point, the distances ``L`` and ``R`` to the left and right (mm, at most
         ``cap`` pitches; ``cap`` pitches where not measured).
+    ends : bool
+        Hold each side within :data:`END_ZONE` pitches of a path's end to its distance just inward
+        (:func:`_end_sides`): for paths that end side by side, as the level sets do.  Not for the
+        swarm, whose ends meet fronts and voids: its finishing with it (``bearing`` layer of the
+        engine tests) covered 97.8 % of the region against 98.5 % without (overlap 3.4 % / 4.5 %).
 
     Returns
     -------
@@ -125,6 +184,8 @@ def local_pitch(
         origin, cell, nx, ny = _frame(pts, reach, 0.5 * pitch, len(seg))
         start, items = kw.cell_lists(pts, seg, seg[:0], origin, cell, nx, ny)
         hits = list(kw.normal_hits(pts, tan, pid, sel, seg, origin, cell, nx, ny, start, items, reach))
+        if ends:
+            hits = [_end_sides(h, sel, pts, pid, END_ZONE * pitch) for h in hits]
         # no path on a side: the bead reaches the layer's edge along the normal (twice the way to
         # it), so the outermost paths cover the strip at the edge and path ends at the edge keep
         # their width

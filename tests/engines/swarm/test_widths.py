@@ -128,6 +128,30 @@ def test_local_pitch_finds_the_neighbour_behind_many_nearer_pieces():
         np.testing.assert_allclose(got, np.minimum(ref, REACH), rtol=0, atol=1e-9)
 
 
+def test_local_pitch_at_ends_beside_neighbours_that_end_there_too():
+    # slanted parallel lines across a 3 mm strip, their vertices on common vertical lines (as level
+    # sets contoured on one grid): at every end the normal, tilted by the slant, passes just beyond
+    # the neighbour's end on one side.  Without the ends' correction that side found nothing or the
+    # line after, and the ends got 1.4-2.5x the spacing.
+    slope, gap = 0.15, 0.4
+    xs = np.r_[0.1, np.arange(0.4, 2.8, 0.4), 2.9]
+    lines = [np.column_stack([xs, 1.0 + i * gap + slope * xs]) for i in range(12)]
+    spacing = gap / np.hypot(1.0, slope)
+    cap = 2.5
+    w, left, right = W.local_pitch(lines, box(0, 0, 3, 10), PITCH, cap=cap, sides=True, ends=True)
+    inner = np.concatenate(w[1:-1])
+    np.testing.assert_allclose(inner, spacing, rtol=0.02)
+    # the outermost lines keep the edge rule on their open side: twice the way to the edge along the
+    # normal, at most the cap (the bottom line is 1 mm above the strip's bottom edge)
+    assert np.all(right[0][1:-1] > 1.5 * spacing)
+    # the raw hits: without the correction the ends are too wide
+    pts, _, pid, seg, tan = _layer_arrays(lines)
+    bl, br = _brute_hits(pts, tan, pid, seg, cap * PITCH)
+    ends = np.r_[0, np.cumsum([len(q) for q in lines])[:-1]]
+    raw = np.minimum(np.minimum(bl, cap * PITCH) + np.minimum(br, cap * PITCH), 2 * cap * PITCH) / 2
+    assert np.max(raw[ends[1:-1]]) > 1.3 * spacing
+
+
 def test_local_pitch_without_a_neighbour_reaches_the_edge():
     # one path 0.1 mm from the bottom edge of its region, alone: the right side gets twice the way
     # to the edge, the left side (nothing within reach) the cap
