@@ -33,7 +33,7 @@ def test_short_streamline_runs_are_run_again_and_every_block_is_replaced(tmp_pat
     )
     case = tmp_path / "bracket.toml"
     case.write_text(BRACKET, encoding="utf-8")
-    cli = {"engine": "streamlines", "replace": ("sparse",), "density": "uniform", "cache": False}
+    cli = {"engine": "streamlines", "replace": ("sparse",), "density": "uniform"}
     cli["link"] = False  # the engine's own paths printed (module docstring)
     res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode", cli=cli))
     assert res.written and res.error is None, res.error
@@ -67,7 +67,7 @@ def test_runs_their_links_made_too_long_are_run_again_wider_and_every_block_is_r
     case = tmp_path / "beam.toml"
     bend = side_case((0.0, -200.0, 0.0), held_within=5.0, loaded_within=3.0, load="tip")
     case.write_text(bend, encoding="utf-8")
-    cli = {"engine": "swarm", "replace": ("sparse",), "density": "uniform", "cache": False}
+    cli = {"engine": "swarm", "replace": ("sparse",), "density": "uniform"}
     res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode", cli=cli))
     assert res.written and res.error is None, res.error
     pr = res.pipeline
@@ -113,7 +113,7 @@ def test_a_slender_part_whose_layer_and_copy_link_unlike_gets_its_sparse_infill_
     case = tmp_path / "rib.toml"
     case.write_text(side_case((0.0, -20.0, 0.0), held_within=10.0, loaded_within=10.0, load="tip"), encoding="utf-8")
     res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode",
-                             cli={"replace": ("solid", "sparse"), "density": "energy", "cache": False}))
+                             cli={"replace": ("solid", "sparse"), "density": "energy"}))
     assert res.written and res.error is None, res.error
     pr = res.pipeline
     assert pr.check is not None and not pr.check.problems

@@ -35,7 +35,7 @@ def bracket(tmp_path_factory):
 def test_sparse_replaced_bracket_keeps_the_slicers_failure_load_and_mass(bracket):
     src, case = bracket
     out = src.with_name("bracket.loadpath.gcode")
-    cli = {"replace": ("solid", "sparse"), "cache": False}  # engine and density: the defaults
+    cli = {"replace": ("solid", "sparse")}  # engine and density: the defaults; its own empty cache
     res = run_job(JobRequest(src, case, output=out, cli=cli))
     assert res.written and res.error is None, res.error
     assert res.pipeline.check is not None and not res.pipeline.check.problems

@@ -174,7 +174,7 @@ def test_a_real_sparse_slice_is_far_below_what_its_plastic_allows(tmp_path):
     assert 0.04 < lb.floor < 0.07  # a 0.45 mm bead every 8 mm
     assert 0.3 < lb.share < 1.0
     out = tmp_path / "bracket.loadpath.gcode"
-    cli = {"replace": ("solid", "sparse"), "cache": False}
+    cli = {"replace": ("solid", "sparse")}  # the test's own empty cache (conftest)
     res = run_job(JobRequest(sparse, case_path, output=out, cli=cli))
     assert res.error is None and res.written
     rows, _ = compare_files([str(sparse), str(out)], case)
