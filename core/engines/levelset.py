@@ -690,14 +690,10 @@ def _long(lines: list[np.ndarray], length: float) -> list[np.ndarray]:
     pieces: taken one by one they took 86 s of the layer's 87."""
     if not lines:
         return lines
-    pts = np.concatenate(lines)
-    step = np.hypot(*np.diff(pts, axis=0).T)
-    counts = np.array([len(ln) for ln in lines])
-    starts = np.r_[0, np.cumsum(counts)[:-1]]
-    inner = np.ones(len(step), dtype=bool)
-    inner[starts[1:] - 1] = False  # the step from one line's last point to the next line's first
-    total = np.add.reduceat(np.where(inner, step, 0.0), starts) if len(step) else np.zeros(len(lines))
-    total = np.where(counts > 1, total, 0.0)
+    line = np.repeat(np.arange(len(lines)), [len(ln) for ln in lines])
+    same = line[1:] == line[:-1]  # the steps within a line, not from one line to the next
+    step = np.hypot(*np.diff(np.concatenate(lines), axis=0).T)
+    total = np.bincount(line[1:][same], weights=step[same], minlength=len(lines))
     return [ln for ln, t in zip(lines, total, strict=True) if t >= length]
 
 
