@@ -386,6 +386,16 @@ def resolve(
 # ---------------------------------------------------------------------------------------------- front ends
 
 
+def _default_note(f: Field) -> str:
+    """The flag's default for its help: none where the help says what happens when it is not set
+    (``--engine``: not set is not the field's stored default, the level sets with the swarm where
+    they give way; the help said "default 'swarm'"), a kind list as the flag takes it."""
+    if "not set:" in f.help or "default:" in f.help:
+        return ""
+    shown = ",".join(f.default) if isinstance(f.default, tuple) else repr(f.default)
+    return f" (default {shown})"
+
+
 def add_cli_options(parser: argparse.ArgumentParser) -> None:
     """Add the schema's own flags and ``--set KEY=VALUE`` to a parser (values default to None)."""
     for f in SCHEMA:
@@ -395,7 +405,7 @@ def add_cli_options(parser: argparse.ArgumentParser) -> None:
         kw: dict[str, Any] = {
             "dest": f"set_{f.name}",
             "default": None,
-            "help": f.help + (f" [{f.unit}]" if f.unit else "") + f" (default {f.default!r})",
+            "help": f.help + (f" [{f.unit}]" if f.unit else "") + _default_note(f),
         }
         if f.choices and f.kind == "str":
             kw["choices"] = f.choices

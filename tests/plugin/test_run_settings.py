@@ -120,6 +120,17 @@ def test_cli_options_come_from_the_schema():
     assert {"--engine", "--pitch", "--K", "--replace", "--on-failure"} <= flags
 
 
+def test_cli_help_states_what_not_setting_a_flag_does():
+    parser = argparse.ArgumentParser()
+    S.add_cli_options(parser)
+    helps = {a.option_strings[0]: a.help for a in parser._actions if a.option_strings}
+    # not set, the run lays the level sets (and the swarm where they give way), not the field's 'swarm'
+    assert "not set: levelset" in helps["--engine"] and "(default" not in helps["--engine"]
+    assert "default: the slicer's pitch" in helps["--pitch"] and "(default None)" not in helps["--pitch"]
+    assert helps["--replace"].endswith("(default solid)")
+    assert helps["--on-failure"].endswith("(default 'fail')")
+
+
 @pytest.mark.parametrize(
     "values,match",
     [
