@@ -11,20 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 import slicing
+from cases import side_case
 from loadpath import loadcase
 from loadpath.stiffness import evaluate_file
 from loadpath.stiffness.predict import MODE_FLOOR, floor_modes
 
-BEND = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 5.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "tip"
-where = { side = "x_max", within = 3.0 }
-force = [0.0, -200.0, 0.0]
-"""
+BEND = side_case((0.0, -200.0, 0.0), held_within=5.0, loaded_within=3.0, load="tip")
+"""The printability bench's cantilever case: clamped within 5 mm of x_min, 200 N down at x_max."""
 
 
 def _ratios(D: np.ndarray) -> np.ndarray:
