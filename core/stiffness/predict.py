@@ -189,15 +189,17 @@ def floor_modes(D: np.ndarray, floor: float = MODE_FLOOR) -> np.ndarray:
     diverged (relative residual 27-187) and ``loadpath compare`` failed on the slicer's own file.
     The layers bonded above and below hold such a layer; a thousandth of its stiffest mode is
     far below what they give it (a 40 % ply's crossings: 3e-3) and keeps the solve regular.
-    Only elements below the floor change.
+    Only elements below the floor change; a clearly negative eigenvalue (a broken matrix, which
+    :func:`solve_printed` reports) is left as it is.
     """
     lam, vec = np.linalg.eigh(D)
-    low = lam < floor * lam[:, -1:]
+    top = lam[:, -1:]
+    low = (lam < floor * top) & (lam > -1e-9 * np.abs(top))
     rows = np.flatnonzero(low.any(axis=1))
     if len(rows) == 0:
         return D
     out = D.copy()
-    lam_r = np.maximum(lam[rows], floor * lam[rows, -1:])
+    lam_r = np.where(low[rows], floor * top[rows], lam[rows])
     out[rows] = np.einsum("mij,mj,mkj->mik", vec[rows], lam_r, vec[rows])
     return out
 

@@ -36,6 +36,10 @@ def test_a_healthy_matrix_is_kept_and_a_one_way_ply_is_lifted_to_the_floor():
     assert np.array_equal(lifted[0], healthy[0])
     assert np.allclose(np.diag(lifted[1]), [1200.0] + [1200.0 * MODE_FLOOR] * 5)
     assert np.allclose(lifted[1], lifted[1].T)
+    # a clearly negative mode is a broken matrix, for solve_printed to report: not hidden
+    broken = np.diag([1200.0, -5.0, 1.0, 1.0, 1.0, 1.0])[None]
+    assert np.array_equal(floor_modes(broken)[0, 1], broken[0, 1])
+    assert np.isclose(np.linalg.eigvalsh(floor_modes(broken))[0, 0], -5.0)
 
 
 def test_compare_solves_a_non_prismatic_part_at_40_percent(tmp_path):
@@ -43,7 +47,8 @@ def test_compare_solves_a_non_prismatic_part_at_40_percent(tmp_path):
 
     require_tool("prusa-slicer")
     stl = slicing.write_stl(slicing.taper_mesh(40.0, 12.0, 3.6, 1.2), tmp_path / "taper.stl")
-    gpath = slicing.slice_prusa([stl], tmp_path / "p40.gcode", **{**slicing.PRUSA_MIXED, "fill_density": "40%"})
+    settings = {**slicing.PRUSA_MIXED, "fill_density": "40%"}
+    gpath = slicing.slice_prusa([stl], tmp_path / "p40.gcode", **settings)
     result = evaluate_file(gpath, loadcase.parse(BEND), metrics=False)
     (pred,) = result.predictions
     assert pred.analysis.result.residual <= 1e-8 and pred.analysis.result.mesh.dim == 3
