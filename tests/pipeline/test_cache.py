@@ -185,6 +185,26 @@ def test_no_cache_neither_reads_nor_writes(sliced, tmp_path, monkeypatch):
     assert without_verdict((tmp_path / "a.gcode").read_bytes()) == without_verdict((tmp_path / "b.gcode").read_bytes())
 
 
+def test_no_cache_keeps_one_for_the_run_alone(sliced, tmp_path, monkeypatch):
+    """``--no-cache`` touches no cache folder, but the run keeps what it makes in a temporary one of
+    its own, deleted when it ends: the density choice lays the part once per candidate, and each
+    solved the same analysis again."""
+    import tempfile
+
+    gpath = sliced("prusa", "ohs", "mixed")  # sparse infill: one lay per density candidate
+    monkeypatch.setenv("LOADPATH_CACHE_DIR", str(tmp_path / "user-cache"))
+    (tmp_path / "tmp").mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    cli = {"cache": False, "replace": ("solid", "sparse"), "density": "auto", "jobs": 1}
+    res = run_job(JobRequest(gpath, write_case(tmp_path), output=tmp_path / "a.gcode", cli=cli))
+    assert res.error is None and res.changed
+    assert not (tmp_path / "user-cache").exists()
+    assert list((tmp_path / "tmp").iterdir()) == []  # the run's own folder went with it
+    assert res.density is not None and len(res.density.tried) >= 2
+    assert res.cache.stats.hits.get("fea", 0) >= 1  # a later candidate took the first one's analysis
+    assert res.cache.stats.kept.get("fea", 0) == 1
+
+
 def test_least_recently_used_entries_are_evicted(tmp_path):
     value = np.arange(20_000, dtype=np.float64)  # 160 kB a piece
     cache = Cache(tmp_path, max_bytes=int(3 * 170_000 / LOW_WATER))  # three fit in the low-water mark
