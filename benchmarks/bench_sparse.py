@@ -35,7 +35,8 @@ energy density).  Every file is measured with :func:`measure`, the one place the
 is called: ``loadpath.stiffness.compare_files`` with its defaults, the model of ``loadpath
 compare`` (issue 14: the beads as printed, with fusion, crossings and bead ends; first-ply Tsai-Wu
 failure; the file's material card).  Runs use no result cache (``cache = false``), so every
-variant and the time budget are computed, not loaded.
+variant and the time budget are computed, not loaded (since 2026-12-07 such a run keeps a cache of
+its own, deleted with it: the layouts it lays and judges share their analyses, as on a first run).
 
 Columns: mass over the slicer's (the deposited beads), stiffness over the slicer's (``stiff``) and
 per mass (``st/m``), failure load over the slicer's (``fail``) and per mass (``fa/m``), the failure
