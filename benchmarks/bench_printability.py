@@ -28,7 +28,11 @@ slicer's lines and loadpath's: path count, retractions, travel mm, firmware-styl
 (acceleration and jerk), and the filament (same mass: the splicer matches each block's volume);
 then the travel of the whole file (``file travel``).  Ratios are loadpath / slicer; the
 ``vsPrusa`` column compares a Cura file's retractions with PrusaSlicer's for the same part and
-density.
+density.  On the files whose solid infill is replaced (100 %), ``cov s->l``: the coverage of the
+infill domain by the infill beads of every layer with a replaced block, the slicer's file and
+loadpath's, pooled by domain area (:func:`_coverage`; issue 19's coverage target).  ``loadpath
+compare``'s coverage, which earlier rounds reported, samples four layers of the part, the first and
+the last among them, which these parts print as the slicer's skins.
 The results go to ``OUT_DIR/bench_printability.json`` when a folder is given.
 """
 
@@ -164,7 +168,9 @@ def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, princip
     slicer = measure_lines(program, old_ranges, kin)
     ours = measure_lines(new, new_ranges, kin)
     check = pr.check.problems if pr.check else ["not checked"]
+    cover = _coverage(program, new, pr.splice) if kind == "solid" else None
     return {
+        "coverage": cover,
         "blocks": len(pr.splice.blocks),
         "slicer": slicer.as_dict(),
         "loadpath": ours.as_dict(),
@@ -176,6 +182,33 @@ def _measure(gcode: Path, case: Path, out: Path, engine: str, kind: str, princip
         "seconds": secs,
         "warnings": len(res.warnings),
     }
+
+
+def _coverage(program, output, splice) -> dict[str, float]:
+    """Coverage of the infill domain by the infill beads on every layer with a replaced block.
+
+    Each object's layer domain is read from the input (the output keeps its perimeters); the beads
+    are each file's own infill extrusions, their width from their extrusion
+    (:func:`loadpath.stiffness.compare.infill_paths`, :func:`loadpath.metrics.coverage`), pooled
+    over the layers by domain area.
+    """
+    from loadpath import geometry, metrics
+    from loadpath.stiffness.compare import infill_paths
+
+    layers = {program.block(rep.block).layer for rep in splice.blocks}
+    geo = geometry.layer_geometry(program, check=False)
+    covered = {"slicer": 0.0, "loadpath": 0.0}
+    area = 0.0
+    for obj in geo.objects:
+        for g in obj.layers:
+            if g.layer_index not in layers or g.domain.is_empty:
+                continue
+            area += g.domain.area
+            for who, prog in (("slicer", program), ("loadpath", output)):
+                paths = infill_paths(prog, g.layer_index, obj.code, geo.filament_diameter)
+                if paths:
+                    covered[who] += metrics.coverage(paths, g.domain).coverage * g.domain.area
+    return {k: v / area if area > 0 else float("nan") for k, v in covered.items()}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -229,7 +262,7 @@ def _header() -> str:
         f"{'part':8} {'slicer':6} {'dens':10} {'engine':11} {'paths s->l':>13} {'ratio':>6} "
         f"{'retr s->l':>13} {'ratio':>6} {'travel mm s->l':>17} {'ratio':>6} "
         f"{'time s s->l':>15} {'ratio':>6} "
-        f"{'fil':>5} {'vsPrusa':>7} chk {'file travel s->l':>19} {'ratio':>6}"
+        f"{'fil':>5} {'vsPrusa':>7} chk {'file travel s->l':>19} {'ratio':>6} {'cov s->l':>13}"
     )
 
 
@@ -252,7 +285,8 @@ def _row(r: dict, ref: dict | None = None) -> str:
         f"{s['travel_mm']:>8.0f}->{n['travel_mm']:<8.0f} {q(s['travel_mm'], n['travel_mm'])} "
         f"{s['print_s']:>7.0f}->{n['print_s']:<7.0f} {q(s['print_s'], n['print_s'])} "
         f"{q(s['filament_mm'], n['filament_mm']):>5} {vs:>7} {r['check_problems']:>3} "
-        f"{ft['slicer']:>9.0f}->{ft['loadpath']:<9.0f} {q(ft['slicer'], ft['loadpath'])}"
+        f"{ft['slicer']:>9.0f}->{ft['loadpath']:<9.0f} {q(ft['slicer'], ft['loadpath'])} "
+        + (f"{cov['slicer']:.4f}->{cov['loadpath']:.4f}" if (cov := r.get("coverage")) else f"{'-':>13}")
     )
 
 
