@@ -66,6 +66,9 @@ class Field:
         Allowed in the load case's ``[toolpath]`` table.
     group : {"toolpath", "machine", "run"}
         ``machine`` fields normally come from the slicer.
+    help_says_default : bool
+        The help itself says what leaving the setting unset does (``--engine``: the level sets, with
+        the swarm where they give way, not the stored default), so the CLI adds no "(default X)".
     """
 
     name: str
@@ -79,6 +82,7 @@ class Field:
     cli: str | None = None
     toolpath: bool = False
     group: str = "toolpath"
+    help_says_default: bool = False
 
 
 TOOLPATH_FIELDS: tuple[Field, ...] = (
@@ -92,6 +96,7 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         engines.NAMES,
         cli="--engine",
         toolpath=True,
+        help_says_default=True,
     ),
     Field(
         "sparse_engine",
@@ -112,6 +117,7 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         maximum=50.0,
         cli="--pitch",
         toolpath=True,
+        help_says_default=True,
     ),
     Field(
         "K",

@@ -388,9 +388,8 @@ def resolve(
 
 def _default_note(f: Field) -> str:
     """The flag's default for its help: none where the help says what happens when it is not set
-    (``--engine``: not set is not the field's stored default, the level sets with the swarm where
-    they give way; the help said "default 'swarm'"), a kind list as the flag takes it."""
-    if "not set:" in f.help or "default:" in f.help:
+    (:attr:`Field.help_says_default`), a kind list as the flag takes it."""
+    if f.help_says_default:
         return ""
     shown = ",".join(f.default) if isinstance(f.default, tuple) else repr(f.default)
     return f" (default {shown})"
