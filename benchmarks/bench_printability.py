@@ -50,49 +50,17 @@ import trimesh
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))
 import slicing  # noqa: E402
+from cases import side_case  # noqa: E402
 
 T = 2.4  # part thickness, mm: 12 layers of 0.2 mm, 8 of them infill layers
 
-PULL = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 8.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "x_max", within = 8.0 }
-force = [1000.0, 0.0, 0.0]
-"""
-BEND = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "x_min", within = 5.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "tip"
-where = { side = "x_max", within = 3.0 }
-force = [0.0, -200.0, 0.0]
-"""
-ACROSS = """version = 1
-[[supports]]
-name = "clamp"
-where = { side = "y_min", within = 3.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "pull"
-where = { side = "y_max", within = 3.0 }
-force = [0.0, 1000.0, 0.0]
-"""
-BRACKET = """version = 1
-[[supports]]
-name = "wall"
-where = { side = "y_max", within = 4.0 }
-fix = ["x", "y", "z"]
-[[loads]]
-name = "tip"
-where = { side = "x_max", within = 4.0 }
-force = [0.0, -300.0, 0.0]
-"""
+# the load cases, written as tests/cases.py writes them (x, y, z held at one side, a force at another)
+PULL = side_case((1000.0, 0.0, 0.0), held_within=8.0, loaded_within=8.0)
+BEND = side_case((0.0, -200.0, 0.0), held_within=5.0, loaded_within=3.0, load="tip")
+ACROSS = side_case((0.0, 1000.0, 0.0), held="y_min", held_within=3.0, loaded="y_max", loaded_within=3.0)
+BRACKET = side_case(
+    (0.0, -300.0, 0.0), held="y_max", held_within=4.0, loaded_within=4.0, support="wall", load="tip"
+)
 
 
 def _parts() -> dict[str, tuple[trimesh.Trimesh, str]]:
