@@ -8,7 +8,7 @@ isotropic stress field, as the engines see it): the stress alignment ``beta`` (s
 :func:`loadpath.metrics.alignment`, pooled over the layers with its virtual-mass weights) and the
 bead coverage of the infill domain (:func:`loadpath.metrics.coverage` with each bead's flow width,
 pooled by area over at most four layers spread over the height: the union of the beads is the
-expensive part).  In 3D, beta is pooled over at most 24 layers.
+expensive part; :func:`_coverage_layers`).  In 3D, beta is pooled over at most 24 layers.
 
 Files whose bodies have the same outlines (within :data:`~.model.OUTLINE_TOL_MM`, 0.01 mm) are
 solved on the very same mesh, so two files of one part differ only by their beads.  Relative
@@ -61,6 +61,24 @@ MECHANICS_KEYS = (
 _INFILL = np.array([int(r) for r in Role if r.is_infill], dtype=np.int64)
 _MAX_BETA_LAYERS = 24
 _MAX_COVERAGE_LAYERS = 4
+
+
+def _coverage_layers(n: int, most: int = _MAX_COVERAGE_LAYERS) -> set[int]:
+    """Which of ``n`` layers the coverage is measured on: at most ``most``, each in the middle of its
+    share of the height.
+
+    Evenly spread from the first to the last (before 2026-12-07), half of the four were the first and
+    the last layer, the slicer's bottom and top skins on nearly every part, whatever its height: on
+    the printability bench's 12-layer bar, replaced at PrusaSlicer 100 %, 0.9835 where the replaced
+    layers themselves cover 0.9707 (``benchmarks/printability_results.md``, twenty-seventh round).
+
+    Examples
+    --------
+    >>> sorted(_coverage_layers(12)), sorted(_coverage_layers(3))
+    ([1, 4, 7, 10], [0, 1, 2])
+    """
+    k = min(n, most)
+    return set(((np.arange(k) + 0.5) * n / k).astype(int).tolist()) if k > 0 else set()
 
 
 @dataclass(frozen=True)
@@ -221,9 +239,7 @@ def _path_metrics(
     layers = [g for g in geo_obj.layers if not g.domain.is_empty]
     if rb.analysis == "3d" and len(layers) > _MAX_BETA_LAYERS:
         layers = [layers[i] for i in np.linspace(0, len(layers) - 1, _MAX_BETA_LAYERS).round().astype(int)]
-    cov_at = set(
-        np.linspace(0, len(layers) - 1, min(len(layers), _MAX_COVERAGE_LAYERS)).round().astype(int).tolist()
-    )
+    cov_at = _coverage_layers(len(layers))
     mc = ms = cov = area = 0.0
     for i, g in enumerate(layers):
         paths = infill_paths(program, g.layer_index, geo_obj.code, diameter)

@@ -163,3 +163,32 @@ def test_mechanics_only_evaluation_gives_the_same_figures_without_the_path_metri
     assert math.isfinite(full.beta) and math.isnan(lean.beta) and math.isnan(lean.coverage)
     assert [p.compliance for p in lean.predictions] == [p.compliance for p in full.predictions]
     assert lean.failure_load == full.failure_load
+
+
+def test_coverage_is_measured_between_the_skins(prusa_ohs):
+    """The coverage pools layers from the middle of the part's height, not its first and last
+    (the slicer's bottom and top skins on nearly every part, which cover fully whatever the infill):
+    on the specimen at 20 % sparse infill it is the coverage of those layers, pooled by area."""
+    import math
+
+    from loadpath import gcode, geometry, loadcase, metrics
+    from loadpath.stiffness.compare import _coverage_layers, evaluate_file, infill_paths
+
+    program = gcode.read(prusa_ohs)
+    result = evaluate_file(program, loadcase.read(CASE))
+    geo = geometry.layer_geometry(program, check=False)
+    obj = geo.objects[0]
+    layers = [g for g in obj.layers if not g.domain.is_empty]
+    picked = sorted(_coverage_layers(len(layers)))
+    assert 0 not in picked and len(layers) - 1 not in picked and len(picked) == 4
+    covered = area = 0.0
+    for i in picked:
+        g = layers[i]
+        paths = infill_paths(program, g.layer_index, obj.code, geo.filament_diameter)
+        covered += metrics.coverage(paths, g.domain).coverage * g.domain.area
+        area += g.domain.area
+    assert math.isclose(result.coverage, covered / area, rel_tol=1e-12)
+    skin = layers[0]
+    skin_paths = infill_paths(program, skin.layer_index, obj.code, geo.filament_diameter)
+    first = metrics.coverage(skin_paths, skin.domain)
+    assert first.coverage > 0.95 > result.coverage  # the skins cover; the sparse layers between them do not
