@@ -166,11 +166,32 @@ def _pct(v: float | None) -> str:
 
 
 def _layers(layers: tuple[int, ...]) -> str:
+    """How many layers, and which, as runs of consecutive ones (at most four runs named).
+
+    "3 layers (2-39)" told a user of a 40-layer gusset that the whole height was replaced where
+    three layers were (2, 3 and 39).
+
+    Examples
+    --------
+    >>> _layers((2, 3, 4)), _layers((2, 21, 39)), _layers((5,))
+    ('3 layers (2-4)', '3 layers (2, 21, 39)', '1 layer (5)')
+    >>> _layers((1, 2, 5, 8, 9, 12, 15, 16))
+    '8 layers (1-2, 5, 8-9, ..., 15-16)'
+    """
     if not layers:
         return "no layers"
     n = len(layers)
-    span = f"{layers[0]}" if n == 1 else f"{layers[0]}-{layers[-1]}"
-    return f"{n} layer{'s' * (n != 1)} ({span})"
+    ordered = sorted(set(layers))
+    runs: list[list[int]] = []
+    for k in ordered:
+        if runs and k == runs[-1][1] + 1:
+            runs[-1][1] = k
+        else:
+            runs.append([k, k])
+    named = [f"{a}" if a == b else f"{a}-{b}" for a, b in runs]
+    if len(named) > 4:
+        named = [*named[:3], "...", named[-1]]
+    return f"{n} layer{'s' * (n != 1)} ({', '.join(named)})"
 
 
 _TIME_RE = re.compile(rb"^; estimated printing time \(normal mode\) = (.+?)\s*$", re.M)

@@ -353,3 +353,15 @@ def test_retractions_are_not_counted_past_the_budget(shelf, monkeypatch):
     monkeypatch.undo()
     res = run_job(JobRequest(g, case, output=folder / "p.gcode", cli={"engine": "streamlines"}, predict=False))
     assert res.verdict.printability["slicer"]["paths"] > 0 and "infill paths" in res.verdict.line()
+
+
+def test_the_verdict_names_the_layers_it_replaced_not_their_span():
+    """Three layers replaced out of forty (bench_latency's gusset: 2, 3 and 39, its internal solid
+    over the bottom skins and under the top ones) read "3 layers (2-39)", as if the whole height
+    was; runs of consecutive layers are named instead, at most four of them."""
+    from loadpath.verdict import _layers
+
+    assert _layers((2, 21, 39)) == "3 layers (2, 21, 39)"
+    assert _layers(tuple(range(2, 10))) == "8 layers (2-9)"
+    assert _layers((7,)) == "1 layer (7)" and _layers(()) == "no layers"
+    assert _layers((1, 2, 5, 8, 9, 12, 15, 16)) == "8 layers (1-2, 5, 8-9, ..., 15-16)"
