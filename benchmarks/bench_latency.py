@@ -525,6 +525,26 @@ work; ``bench_printability.py --engine default`` on the same slices with an empt
 identical).  The 1000-layer file's first run is over 15 s on this machine today: 16.04 s here, 21.1 s
 at 00:35 and 22.4-25.0 s as a process (the code of c6e8667 alike, 25.9 s), against 14.71 s last
 night.
+
+2026-12-07, 07:32-07:40 UTC (main f963450, load 1.0-1.2), ``--repeats 3``; the three gusset rows run
+again by themselves (``--only``, 07:38-07:41), the first time having shared the machine with a test
+run::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    example                      10     0.12     3.53   29.0     0.50    4.1      299    0.25   2.51     0.1     5.8     0.7
+    specimen-100                100     0.30     3.96   13.4     4.08   13.8      317    2.31   2.98     0.4     6.5     6.6
+    gusset-gyroid30              40     0.34    10.30   30.4     2.31    6.8      378    2.32   1.02     0.5    14.9     3.0
+    gusset-gyroid30-sparse       40     0.32    13.44   41.7     8.03   24.9      333    2.32   0.25     0.5    20.2    10.4
+    gusset-100                   40     0.27    13.35   49.5     8.38   31.1      359    0.64   1.90     0.4    21.3    10.6
+    specimen-1000              1000     1.86    15.19    8.2    10.28    5.5      618   22.95   3.04     3.4    25.2    16.1
+
+Every target missed, the 1000-layer file's 15 s by 0.19 s (its peak, 618 MB, under 1 GB).  The
+repeats move with PrusaSlicer's own re-slice (its threads write the same part differently): the
+100-layer specimen's 4.08 s here against 1.73 s on 2026-12-06, the 100 % gusset's 8.38 s against
+3.12 s (4.82 s in this morning's first pass).  The 100 % gusset's output is 1.90x its input (4.11x
+on 2026-12-06); this morning its solid choice lays the level sets through the cut (a tie within the
+model's spread: 227 retractions against 891 and 2858); which layout the run of 2026-12-06 chose is
+not known.
 """
 
 from __future__ import annotations
