@@ -34,18 +34,36 @@ def test_freed_arrays_leave_the_resident_size_after_trim():
     assert all(a is None or a[0] == 1.0 for a in arrays)  # what is still held is intact
 
 
+_UNMAPPED = """
+import numpy as np
+from loadpath.memory import map_large_arrays
+
+def rss_mb():
+    with open("/proc/self/status") as fh:
+        return next(int(ln.split()[1]) / 1024 for ln in fh if ln.startswith("VmRSS:"))
+
+assert map_large_arrays()
+big = np.ones(2_000_000)
+del big
+arrays = [np.ones(750_000) for _ in range(60)]  # 360 MB of 6 MB arrays
+before = rss_mb()
+for k in range(0, len(arrays), 2):
+    arrays[k] = None
+print(before - rss_mb())
+"""
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc and /proc")
 def test_large_arrays_are_unmapped_when_freed():
     """After map_large_arrays(), 6 MB arrays freed among held ones leave the resident size at once,
-    though a 16 MB array freed first would have raised glibc's threshold above them."""
-    from loadpath.memory import map_large_arrays
+    though a 16 MB array freed first would have raised glibc's threshold above them.
 
-    assert map_large_arrays()
-    big = np.ones(2_000_000)
-    del big
-    arrays = [np.ones(750_000) for _ in range(60)]  # 360 MB of 6 MB arrays
-    before = _rss_mb()
-    for k in range(0, len(arrays), 2):
-        arrays[k] = None
-    after = _rss_mb()
-    assert before - after > 120, (before, after)
+    In a process of its own, as the command line sets it at its start: glibc serves a large block
+    from a free chunk of its heap when it has one, and a test worker's heap holds what the tests
+    before it freed (CI, 2026-12-07: 109 of the 180 MB freed left, the worker's heap having served
+    the rest)."""
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", _UNMAPPED], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert float(out.stdout) > 120, out.stdout
