@@ -50,17 +50,15 @@ import trimesh
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))
 import slicing  # noqa: E402
-from cases import side_case  # noqa: E402
+from cases import BRACKET_TIP, TIP_BEND, side_case  # noqa: E402
 
 T = 2.4  # part thickness, mm: 12 layers of 0.2 mm, 8 of them infill layers
 
 # the load cases, written as tests/cases.py writes them (x, y, z held at one side, a force at another)
 PULL = side_case((1000.0, 0.0, 0.0), held_within=8.0, loaded_within=8.0)
-BEND = side_case((0.0, -200.0, 0.0), held_within=5.0, loaded_within=3.0, load="tip")
+BEND = TIP_BEND
 ACROSS = side_case((0.0, 1000.0, 0.0), held="y_min", held_within=3.0, loaded="y_max", loaded_within=3.0)
-BRACKET = side_case(
-    (0.0, -300.0, 0.0), held="y_max", held_within=4.0, loaded_within=4.0, support="wall", load="tip"
-)
+BRACKET = BRACKET_TIP
 
 
 def _parts() -> dict[str, tuple[trimesh.Trimesh, str]]:

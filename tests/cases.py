@@ -48,6 +48,16 @@ END_PULL = side_case((1000.0, 0.0, 0.0), loaded_within=0.5)
 (a pull spread over 10 mm of the long sides as well shears the grip zone and turns the max-|sigma|
 direction across the specimen there)."""
 
+TIP_BEND = side_case((0.0, -200.0, 0.0), held_within=5.0, loaded_within=3.0, load="tip")
+"""A cantilever: clamped within 5 mm of x_min, 200 N down within 3 mm of x_max (the printability
+bench's beam and taper)."""
+
+BRACKET_TIP = side_case(
+    (0.0, -300.0, 0.0), held="y_max", held_within=4.0, loaded_within=4.0, support="wall", load="tip"
+)
+"""An L-bracket: its wall leg clamped within 4 mm of y_max, 300 N down within 4 mm of x_max (the
+printability bench's L-bracket)."""
+
 TOWER_PUSH = side_case(
     (100.0, 0.0, 0.0), held="z_min", held_within=0.5, loaded="z_max", loaded_within=0.5,
     part_frame=True, support="base", load="push",

@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import pytest
 import slicing
-from cases import side_case
+from cases import BRACKET_TIP, TIP_BEND, side_case
 from loadpath.pipeline.paths import RELAYS, length_target, relay_factor
 from loadpath.plugin.job import JobRequest, run_job
 
-BRACKET = side_case((0.0, -300.0, 0.0), held="y_max", held_within=4.0, support="wall", loaded_within=4.0, load="tip")
+BRACKET = BRACKET_TIP
 """The bench's L-bracket case: the wall at y_max held, 300 N down at the tip (x_max)."""
 
 
@@ -65,8 +65,7 @@ def test_runs_their_links_made_too_long_are_run_again_wider_and_every_block_is_r
         **{**slicing.CURA_MIXED, "infill_sparse_density": "40", "infill_line_distance": "2.0"},
     )
     case = tmp_path / "beam.toml"
-    bend = side_case((0.0, -200.0, 0.0), held_within=5.0, loaded_within=3.0, load="tip")
-    case.write_text(bend, encoding="utf-8")
+    case.write_text(TIP_BEND, encoding="utf-8")
     cli = {"engine": "swarm", "replace": ("sparse",), "density": "uniform"}
     res = run_job(JobRequest(src, case, output=tmp_path / "out.gcode", cli=cli))
     assert res.written and res.error is None, res.error

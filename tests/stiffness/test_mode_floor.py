@@ -11,13 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 import slicing
-from cases import side_case
+from cases import TIP_BEND
 from loadpath import loadcase
 from loadpath.stiffness import evaluate_file
 from loadpath.stiffness.predict import MODE_FLOOR, floor_modes
-
-BEND = side_case((0.0, -200.0, 0.0), held_within=5.0, loaded_within=3.0, load="tip")
-"""The printability bench's cantilever case: clamped within 5 mm of x_min, 200 N down at x_max."""
 
 
 def _ratios(D: np.ndarray) -> np.ndarray:
@@ -49,7 +46,7 @@ def test_compare_solves_a_non_prismatic_part_at_40_percent(tmp_path):
     stl = slicing.write_stl(slicing.taper_mesh(40.0, 12.0, 3.6, 1.2), tmp_path / "taper.stl")
     settings = {**slicing.PRUSA_MIXED, "fill_density": "40%"}
     gpath = slicing.slice_prusa([stl], tmp_path / "p40.gcode", **settings)
-    result = evaluate_file(gpath, loadcase.parse(BEND), metrics=False)
+    result = evaluate_file(gpath, loadcase.parse(TIP_BEND), metrics=False)
     (pred,) = result.predictions
     assert pred.analysis.result.residual <= 1e-8 and pred.analysis.result.mesh.dim == 3
     assert pred.compliance > 0 and np.isfinite(result.failures[0].failure_load)
