@@ -19,6 +19,7 @@ relative moves since", which is one cumulative sum per axis.  Semantics (``slice
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from loadpath._typing import Bools, Floats, Ints
@@ -86,6 +87,17 @@ class LineState:
     sums: tuple[tuple[str, float, float, float], ...] = ()
     """Per summed register (``X Y Z E R``, R: retracted): the value set last, the running sum of
     additions at that set, and the running sum after the last line (what :class:`Start` carries)."""
+
+    @cached_property
+    def absolute_e_ahead(self) -> Bools:
+        """``(n_lines,)`` bool: some line at or after each line runs in absolute E mode.
+
+        There the logical E (:attr:`e`) is what the next absolute E word measures from, so a
+        rewritten stretch of relative-E lines must leave it where the original did (CuraEngine's
+        end code switches to ``M82`` after a relative-E print).
+        """
+        ahead = np.logical_or.accumulate(~self.e_relative[::-1])[::-1]
+        return np.ascontiguousarray(ahead)
 
 
 @dataclass(frozen=True)

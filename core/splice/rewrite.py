@@ -22,8 +22,11 @@ leaving part (``stop:span_stop`` and the detached exit)
     that puts E where the original had it, when the new chains' plastic ended elsewhere).
 afterwards
     ``;WIDTH:``/``;HEIGHT:`` re-emitted as the original had them, Z and feedrate restored,
-    ``G92 E<original>`` in absolute E mode, and a travel back to the original end point when the next
-    original move depends on the position (an extrusion, a relative or partial move, an arc).
+    ``G92 E<original>`` where the logical E matters (absolute E mode, or absolute E further on), and
+    a travel back to the original end point when the next original move depends on the position (an
+    extrusion, a relative or partial move, an arc), or was made where the slicer's nozzle stood
+    (CuraEngine's infill wipe and layer change; that travel follows the slicer's retraction rules
+    and combing, :func:`~loadpath.splice.travel.travel`).
 """
 
 from __future__ import annotations
@@ -87,8 +90,21 @@ def _sets_f(text: str) -> bool:
     return bool(m) and any(w.upper() == "F" for w in _WORD_RE.findall(m.group(2)))
 
 
-def _next_needs_position(program: Program, after: int) -> bool:
-    """Tell whether the next XY-moving original line from ``after`` on depends on the nozzle position."""
+STOOD_MM = 1.0
+"""A non-extruding move after a replaced block that moved the slicer's nozzle less than this (mm)
+was made where the nozzle stood (:func:`_next_move`)."""
+
+
+def _next_move(program: Program, after: int) -> str:
+    """How the next XY-moving original line from ``after`` on depends on the nozzle position.
+
+    ``"position"``: it does (an extrusion, an arc, a relative or partial move).  ``"stood"``: it is
+    an absolute move that extrudes nothing and moved the slicer's nozzle less than :data:`STOOD_MM`:
+    a move made where the nozzle stood, such as CuraEngine's infill wipe (a 0.04 mm ``G1`` past the
+    last line, ``infill_wipe_dist``, at print speed) or its layer change (``G0 F600 X.. Y.. Z..`` at
+    the position it is at); from the new paths' end it would cross the part at that speed, primed.
+    ``""``: neither (a travel, or no move): it goes from wherever the nozzle is.
+    """
     s = program.state
     for j in range(after, program.n_lines):
         cmd = int(s.cmd[j])
@@ -100,13 +116,28 @@ def _next_needs_position(program: Program, after: int) -> bool:
         words = {x.upper() for x in _WORD_RE.findall(m.group(2))}
         if not ({"X", "Y"} & words) and cmd in (G + 0, G + 1):
             continue  # Z, E or F only: position-independent
-        return (
+        if (
             cmd in (G + 2, G + 3)
             or not bool(s.absolute_xyz[j])
             or not {"X", "Y"} <= words
             or float(s.de[j]) != 0.0
-        )
-    return False
+        ):
+            return "position"
+        moved = float(np.hypot(s.x[j] - s.x[j - 1], s.y[j] - s.y[j - 1])) if j > 0 else math.inf
+        return "stood" if moved < STOOD_MM else ""
+    return ""
+
+
+def returns_to(program: Program, b: Block) -> Points2 | None:
+    """Where the nozzle must travel back to after block ``b``'s new lines before the slicer's next
+    move, ``(2,)`` mm, when that move was made where the nozzle stood (:func:`_next_move`:
+    CuraEngine's infill wipe and layer change), else None.  The block's order weighs the travel to
+    there (:func:`loadpath.splice.plan.plan_block`'s ``end``)."""
+    end = b.exit_stop if b.detached_exit else b.span_stop
+    if _next_move(program, end) != "stood":
+        return None
+    s = program.state
+    return np.array([float(s.x[end - 1]), float(s.y[end - 1])])
 
 
 def _marker_lines(style: Style) -> tuple[str, ...]:
@@ -215,17 +246,19 @@ def _restore(w: Writer, st: TravelState, end: int, style: Style, keep_position: 
         w.marker(style.width, _width_text(float(p.width_of_line[i])))
     if style.height and not math.isnan(p.height_of_line[i]) and w.height != float(p.height_of_line[i]):
         w.marker(style.height, _width_text(float(p.height_of_line[i])))
-    if (
-        not keep_position
-        and _next_needs_position(p, end)
-        and (abs(w.x - s.x[i]) > 1e-6 or abs(w.y - s.y[i]) > 1e-6)
-    ):
+    away = abs(w.x - s.x[i]) > 1e-6 or abs(w.y - s.y[i]) > 1e-6
+    how = _next_move(p, end) if not keep_position and away else ""
+    if how == "position":
         w.travel(float(s.x[i]), float(s.y[i]), st.motion.travel_f)
+    elif how == "stood":  # a travel as the slicer travels (its retraction rules, combing), primed at the end
+        travel(w, st, np.array([float(s.x[i]), float(s.y[i])]), None)
     if abs(w.z - float(s.z[i])) > 1e-9:
         w.z_move(float(s.z[i]), st.motion.lift_f)
     if not math.isnan(s.f[i]) and (math.isnan(w.f) or abs(w.f - float(s.f[i])) > 1e-9):
         w.feed(float(s.f[i]))
-    if not bool(s.e_relative[i]) and round(w.e, 5) != round(float(s.e[i]), 5):
+    # absolute E: the next E word measures from here; relative E: the same once the file switches
+    # to absolute E further on (CuraEngine's end code: M82), else the logical E is nobody's concern
+    if bool(s.absolute_e_ahead[i]) and round(w.e, 5) != round(float(s.e[i]), 5):
         w.set_e(float(s.e[i]))
 
 

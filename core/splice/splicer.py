@@ -39,7 +39,7 @@ from loadpath.splice.beadruns import RunOptions, bead_runs
 from loadpath.splice.emit import STYLES, Style
 from loadpath.splice.flow import FlowModel
 from loadpath.splice.plan import PlanOptions, plan_block
-from loadpath.splice.rewrite import refusal, rewrite_block
+from loadpath.splice.rewrite import refusal, returns_to, rewrite_block
 from loadpath.splice.travel import Motion, Retraction
 from loadpath.toolpath import Path
 
@@ -397,7 +397,9 @@ def _splice_block(
     s0 = program.state_before(b.span_start)
     end = None
     if extruding is not None:
-        end = next_extrusion(program, max(b.span_stop, b.exit_stop), extruding)
+        end = returns_to(program, b)
+        if end is None:
+            end = next_extrusion(program, max(b.span_stop, b.exit_stop), extruding)
     plan = plan_block(
         fill.paths,
         np.array([s0.x, s0.y]),
