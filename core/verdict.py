@@ -32,7 +32,8 @@ __all__ = [
 HEADER_PREFIX = "; loadpath: "
 """How the verdict starts in the G-code header (and how a processed file is recognised)."""
 
-_HEADER_RE = re.compile(r"^; loadpath: loadpath (\S+) on (\S+?):")
+# the date as build() writes it (its minute has a colon of its own), else up to the first colon
+_HEADER_RE = re.compile(r"^; loadpath: loadpath (\S+) on (\d{4}-\d\d-\d\dT\d\d:\d\dZ|\S+?):")
 _HEADER_LINE_RE = re.compile(rb"(?m)^" + re.escape(HEADER_PREFIX.encode()) + rb"[^\n]*\n")
 
 

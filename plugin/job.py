@@ -292,6 +292,27 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
         raise SettingsError(why)
 
 
+def predicted_loss(stiff) -> str:  # type: ignore[no-untyped-def]
+    """A warning when the model predicts the new infill worse than the slicer's, beyond what it
+    resolves (:data:`~loadpath.plugin.density_choice.STIFFNESS_SPREAD`, ``SPREAD``) and not made up
+    by a gain in the other figure; "" otherwise (or when nothing was predicted)."""
+    from loadpath.plugin.density_choice import SPREAD, STIFFNESS_SPREAD
+
+    if stiff is None:
+        return ""
+    k, f = stiff.same_mass, stiff.failure_load_same_mass
+    softer = k < -STIFFNESS_SPREAD and not (f is not None and f > SPREAD)
+    weaker = f is not None and f < -SPREAD and not k > STIFFNESS_SPREAD
+    if not (softer or weaker):
+        return ""
+    what = "less stiff and weaker" if softer and weaker else "less stiff" if softer else "weaker"
+    figures = f"stiffness {k:+.1%}" + (f", failure load {f:+.1%}" if f is not None else "")
+    return (
+        f"the mechanics model predicts the new infill {what} than the slicer's ({figures} at the same mass): "
+        "print the slicer's G-code instead, or try another engine or principal stress"
+    )
+
+
 def _prediction(pres, warnings: list[str], cache=None, loadcase=None, known=None, workers: int = 1):
     """The predicted stiffness and failure-load change and, when there is none, why (a warning when the model failed).
 
@@ -373,8 +394,9 @@ def _run(
     if s.source("filament_diameter") == "default" and program.dialect.family == "cura":
         from loadpath import geometry
 
-        d = infer_cura_filament(program, geometry.layer_geometry(program))
-        if d is not None:
+        d = infer_cura_filament(program, geometry.layer_geometry(program, check=False))
+        bounds = settings_mod.schema_field("filament_diameter")
+        if d is not None and bounds.minimum <= d <= bounds.maximum:  # else a measure gone wrong: the default
             s = s.with_values({"filament_diameter": d}, "inferred from the G-code")
             result.settings = s
 
@@ -452,6 +474,9 @@ def _run(
     asked = pres.changed and request.predict
     known = judged.change(pres) if asked else None
     stiff, why = _prediction(pres, result.warnings, cache, lc, known, opts.workers) if asked else (None, "")
+    loss = predicted_loss(stiff)
+    if loss:
+        result.warnings.append(loss)
     # the printability counts reuse the output the prediction parsed; the report shows the same
     counts, counts_why = verdict_counts(pres)
     times["verdict"] = time.perf_counter() - t
@@ -475,7 +500,7 @@ def _run(
     )
     if not request.predict and pres.changed:
         v = dataclasses.replace(v, note="not asked for")
-    if result.density is not None and pres.changed:
+    if result.density is not None and "sparse" in v.kinds:  # no clause for sparse infill all kept as sliced
         v = dataclasses.replace(v, density=describe(result.density))
     if result.solid is not None and pres.changed:
         v = dataclasses.replace(v, solid=describe_solid(result.solid))

@@ -48,6 +48,7 @@ __all__ = [
     "Field",
     "SCHEMA",
     "field_json",
+    "schema_field",
     "Settings",
     "REPLACE_KINDS",
     "ENGINES",
@@ -247,6 +248,11 @@ def field_json(f: Field) -> dict[str, Any]:
         "group": f.group,
     }
 _FIELDS = {f.name: f for f in SCHEMA}
+
+
+def schema_field(name: str) -> Field:
+    """The :data:`SCHEMA` field called ``name`` (its type, unit and bounds)."""
+    return _FIELDS[name]
 
 
 @dataclass(frozen=True)

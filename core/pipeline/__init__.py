@@ -81,6 +81,7 @@ from loadpath.pipeline.units import (
     purge_blocks,
     select_units,
     unreliable_blocks,
+    unreliable_reason,
     with_overlap,
 )
 from loadpath.splice import BlockFill, SpliceOptions, SpliceResult, splice
@@ -382,8 +383,7 @@ def run(
         b = program.block(block)
         if geo_kind(geo, block) in options.replace:
             warnings.append(
-                f"layer {b.layer + 1}, {b.feature}: kept as sliced (its lines run {dist:.2f} mm outside "
-                "the infill region found from the perimeters)"
+                f"layer {b.layer + 1}, {b.feature}: kept as sliced ({unreliable_reason(dist)})"
             )
     units = select_units(geo, names, options.replace, options.pitch, exclude=purges | set(unsure))
     if options.overlap:
@@ -391,11 +391,7 @@ def run(
     check_engine_budget(units)  # before the FEA: a unit too big for the engines stops the run now
     clock.lap("loadcase")
     if not units:
-        kinds = ", ".join(options.replace)
-        why = (
-            f"nothing to replace: no infill of the kind(s) {kinds} in the objects the load case applies to; "
-            'choose other kinds with replace (e.g. replace = ["solid", "sparse"])'
-        )
+        why = _nothing_to_replace(geo, names, options.replace)
         return PipelineResult(
             program.data, program, geometry=geo, times=times, warnings=(*warnings, why), passthrough=why
         )
@@ -581,7 +577,7 @@ def run(
     clock.lap("splice")
     tell("splice", 1, 1)
 
-    check = None
+    check = counts = None
     if options.check:
         from loadpath.memory import trim
 
@@ -603,13 +599,41 @@ def run(
         if check.problems:
             raise SpliceError(
                 f"the new G-code failed its check ({len(check.problems)} problem(s); first: "
-                f"{check.problems[0]}); nothing was written: please report this with the file"
+                f"{check.problems[0]}); please report this with the file"  # the files' fate: the caller says
             )
     clock.lap("check")
     return PipelineResult(
         sres.data, program, sres, check, tuple(job_results), analyses, geo, times, tuple(warnings),
         fea_keys={k: v for k, v in fea_keys.items() if v}, counts=counts,
     )
+
+
+def _nothing_to_replace(geo: Any, names: Sequence[str], asked: Sequence[str]) -> str:
+    """Why a run replaced nothing, and what the user can ask for instead: the replaceable kinds of
+    infill the load case's objects do have (none: a vase, or 0 % infill without solid layers)."""
+    from loadpath.geometry.classify import REPLACEABLE
+
+    have = {
+        b.kind
+        for o in geo.objects if o.name in names
+        for lg in o.layers
+        for isl in lg.islands
+        for b in isl.blocks
+    }
+    other = [k for k in REPLACEABLE if k in have and k not in asked]
+    head = (
+        f"nothing to replace: no infill of the kind(s) {', '.join(asked)} in the objects the load case "
+        "applies to"
+    )
+    if not other:
+        return f"{head}, nor of any other kind loadpath replaces (a vase, or 0 % infill with no solid layers)"
+    it = "it" if len(other) == 1 else "them"
+    kinds = _toml_list([*asked, *other])
+    return f"{head}; they have {', '.join(other)}: choose {it} with replace (e.g. replace = {kinds})"
+
+
+def _toml_list(kinds: Sequence[str]) -> str:
+    return "[" + ", ".join(f'"{k}"' for k in kinds) + "]"
 
 
 _SIDE: list[Callable[[], Any]] = []

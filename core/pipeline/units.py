@@ -14,6 +14,7 @@ island, its pitch the slicer's (the median over its blocks) unless the user set 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 from dataclasses import dataclass, field, replace
@@ -187,6 +188,14 @@ def unreliable_blocks(geo: PrintGeometry) -> dict[int, float]:
                     if b.outside > check_tolerance(b.flow_width):
                         out[b.block_index] = max(out.get(b.block_index, 0.0), float(b.outside))
     return out
+
+
+def unreliable_reason(dist: float) -> str:
+    """Why :func:`unreliable_blocks` names a block whose lines leave its region by ``dist`` mm (a
+    block with no region of its own, ``inf``: other blocks of the layer cover its area)."""
+    if math.isinf(dist):
+        return "it has no region of its own: other blocks cover its area"
+    return f"its lines run {dist:.2f} mm outside the infill region found from the perimeters"
 
 
 def select_units(

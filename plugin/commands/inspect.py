@@ -118,14 +118,13 @@ def _draw(out: Path, program: Any, geo: Any, kinds: tuple[str, ...], resolved: A
 
 def _print_unreliable(program: Any, geo: Any) -> None:
     """One line per infill block whose own lines leave the region derived for it."""
-    from loadpath.pipeline.units import unreliable_blocks
+    from loadpath.pipeline.units import unreliable_blocks, unreliable_reason
 
     for b, dist in sorted(unreliable_blocks(geo).items()):
         line = int(program.blocks["start"][b]) + 1
         layer = int(program.blocks["layer"][b]) + 1
-        how = ("has no region of its own (other blocks cover its area)" if dist == float("inf")
-               else f"runs {dist:.2f} mm outside the region derived for it")
-        print(f"note: layer {layer}, block at line {line} {how}: `loadpath run` keeps it as sliced")
+        why = unreliable_reason(dist)
+        print(f"note: layer {layer}, block at line {line}: `loadpath run` keeps it as sliced ({why})")
 
 
 def _safe(name: str) -> str:

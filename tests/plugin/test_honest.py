@@ -114,6 +114,7 @@ def test_reprocessing_is_refused_unless_forced(shelf, capsys, monkeypatch):
     assert main(["run", str(out), "--loadcase", str(case), "--in-place", *FAST]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "already processed by loadpath 0." in err[0]
+    assert re.search(r" on \d{4}-\d\d-\d\dT\d\d:\d\dZ; run it", err[0]), err[0]  # the date to the minute
     assert "run it on the slicer's file, or pass --force" in err[0] and "is untouched" in err[0]
     assert sha(out) == once
     assert main(["run", str(out), "--loadcase", str(case), "--in-place", "--force", *FAST]) == 0

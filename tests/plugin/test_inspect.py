@@ -112,7 +112,7 @@ def test_blocks_the_geometry_cannot_vouch_for_are_noted_not_fatal(capsys, tmp_pa
     out = capsys.readouterr().out
     notes = [ln for ln in out.splitlines() if ln.startswith("note:")]
     assert len(notes) == 1 and notes[0].startswith("note: layer 3,"), notes
-    assert "mm outside the region derived for it" in notes[0]
+    assert "mm outside the infill region found from the perimeters" in notes[0]
     assert "`loadpath run` keeps it as sliced" in notes[0]
     # and it does: the run succeeds and the stray stroke is still there, the other layers replaced
     dst = tmp_path / "out.gcode"
