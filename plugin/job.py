@@ -288,8 +288,8 @@ def _check_paths(inp: Path, out: Path, in_place: bool) -> None:
     if kind is not None:
         raise SettingsError(f"G-code file {str(inp)!r} is {kind}, not a file; give the path of a .gcode file")
     why = check_output(out, None if in_place else inp, in_place)
-    if why:
-        raise SettingsError(why)
+    if why:  # before any work: nothing was read or written
+        raise SettingsError(f"{why}; {fate(inp, inp if same_file(out, inp) else out, False)}")
 
 
 def predicted_loss(stiff) -> str:  # type: ignore[no-untyped-def]

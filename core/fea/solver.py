@@ -186,7 +186,9 @@ def solve(
     nb = float(np.linalg.norm(b))
     if nb == 0.0:
         raise SolverError(
-            "the load vector is zero: no load reaches the free part of the mesh; check the load selectors"
+            "the load vector is zero: no load reaches the free part of the mesh (every loaded node is "
+            "held by a support: do a load and a support select the same edge?); check the load case's "
+            "[[loads]] and [[supports]] selectors"
         )
     fits = direct_fill_bytes(len(free), d) <= budget.DIRECT_BYTES
     if method == "auto":

@@ -49,6 +49,7 @@ def test_output_onto_a_fifo_is_refused_and_never_blocks(work, capsys):
     code, err = _run(capsys, g, "--loadcase", case, "-o", fifo)
     assert code == 1 and err.count("\n") == 0
     assert "is a FIFO (named pipe); loadpath writes only regular files" in err
+    assert err.endswith(f"the input {str(g)!r} is untouched and {str(fifo)!r} was not written")
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
     assert sorted(p.name for p in d.iterdir()) == ["out.gcode", "part.gcode"]
 
@@ -83,7 +84,7 @@ def test_output_equal_to_the_input_needs_in_place(work, capsys, monkeypatch, spe
         os.symlink("part.gcode", d / out)
     code, err = _run(capsys, "part.gcode", "--loadcase", case, "-o", out)
     assert code == 1 and err.count("\n") == 0
-    assert "is the input file; pass --in-place" in err
+    assert "is the input file; pass --in-place" in err and err.endswith("'part.gcode' is untouched")
     assert _digest(g) == before
     assert not [p for p in d.iterdir() if p.name.startswith(".")]
 
@@ -125,3 +126,13 @@ def test_in_place_through_a_symlink_rewrites_the_target_and_keeps_the_link(work,
     assert link.is_symlink() and os.readlink(link) == "part.gcode"
     assert _digest(g) != before
     assert sorted(p.name for p in d.iterdir()) == ["link.gcode", "part.gcode"]
+
+
+def test_output_into_a_missing_folder_says_what_became_of_the_files(work, capsys):
+    d, g, case = work
+    out = d / "nodir" / "x.gcode"
+    code, err = _run(capsys, g, "--loadcase", case, "-o", out)
+    assert code == 1 and err.count("\n") == 0
+    assert f"the folder of {str(out)!r} does not exist; create it or choose another output" in err
+    assert err.endswith(f"the input {str(g)!r} is untouched and {str(out)!r} was not written")
+    assert not (d / "nodir").exists()

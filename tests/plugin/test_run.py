@@ -234,3 +234,29 @@ def test_run_without_the_check(work, capsys):
     assert main(["run", str(g), "--loadcase", str(case), "--set", "check=false", "--no-cache"]) == 0
     assert (folder / "part.loadpath.gcode").is_file()
     assert "internal error" not in capsys.readouterr().err
+
+
+def test_a_block_kept_for_the_pitch_asked_for_blames_the_pitch(tmp_path, sliced, capsys):
+    """``--pitch 1`` on 0.45 mm solid infill lays 61 % of the slicer's plastic: the block is kept, and
+    the reason named the pitch asked for, not "the engine covered too little of the region"."""
+    case = tmp_path / "case.toml"
+    case.write_text(CASE, encoding="utf-8")
+    src = sliced("prusa", "ohs", "mixed")
+    out = tmp_path / "out.gcode"
+    assert main(["run", str(src), "--loadcase", str(case), "-o", str(out), "--pitch", "1", "--no-cache"]) == 0
+    err = capsys.readouterr().err
+    assert "at the pitch asked for (1 mm; unset, the slicer's pitch lays the slicer's plastic)" in err
+    assert "the engine covered" not in err
+
+
+def test_a_load_on_the_support_is_named_as_such(work, capsys):
+    """Clamp and pull on the same side: no load reaches the free part of the mesh; the message says
+    why it can be so and where to look, in one line."""
+    from cases import side_case
+
+    folder, g, case = work
+    case.write_text(side_case((1000.0, 0.0, 0.0), loaded="x_min"), encoding="utf-8")
+    assert main(["run", str(g), "--loadcase", str(case), "--no-cache"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "do a load and a support select the same edge?" in err
+    assert "[[loads]] and [[supports]]" in err and "is untouched" in err
