@@ -545,6 +545,22 @@ repeats move with PrusaSlicer's own re-slice (its threads write the same part di
 on 2026-12-06); this morning its solid choice lays the level sets through the cut (a tie within the
 model's spread: 227 retractions against 891 and 2858); which layout the run of 2026-12-06 chose is
 not known.
+
+Measured 2026-12-07 10:03-10:08 UTC on dcceaa0 (the engines and the PrusaSlicer path as above; the
+changes since touch CuraEngine files and messages), load 0.2 at the start, nothing else running,
+``--repeats 3``::
+
+    part                     layers  slice s  first s      x repeat s      x  peak MB   in MB out/in  cpu:sl   first  repeat
+    example                      10     0.12     3.50   29.2     0.51    4.2      299    0.25   2.51     0.1     5.7     0.7
+    specimen-100                100     0.29     3.98   13.7     1.73    6.0      317    2.31   2.99     0.4     6.5     2.8
+    gusset-gyroid30              40     0.33    10.58   32.3     2.46    7.5      378    2.32   1.02     0.5    15.3     3.2
+    gusset-gyroid30-sparse       40     0.33    14.50   44.4     4.16   12.7      335    2.32   0.25     0.5    21.6     5.8
+    gusset-100                   40     0.28    13.97   50.2     8.60   30.9      361    0.64   1.92     0.4    22.7    11.0
+    specimen-1000              1000     1.87    14.53    7.8    10.12    5.4      617   22.95   3.04     3.4    24.4    15.9
+
+The 1000-layer file's three first runs 14.35-14.59 s: under 15 s this time, by less than the run
+to run spread of the mornings above (15.19 s; 14.7 s on 2026-12-06), so met without margin; every
+ratio target still missed.
 """
 
 from __future__ import annotations
