@@ -352,7 +352,7 @@ def run(
     warnings: list[str] = []
     tell = progress or (lambda stage, done, total: None)
 
-    reason = passthrough_reason(program.config, cura_settings)
+    reason = passthrough_reason(program.config, cura_settings, program.moves)
     if reason:
         return PipelineResult(
             program.data,

@@ -1,7 +1,8 @@
 """``loadpath run`` on CuraEngine files sliced with settings other than the suite's defaults.
 
-Each case is a real CuraEngine 4.13 slice that a sweep of slicer settings (2026-12-07) found
-mishandled: a run that failed on a valid file, or an output a printer would print badly.
+Each case is a real slice (CuraEngine 4.13; one PrusaSlicer 2.5) that two sweeps of new parts and
+slicer settings (2026-12-07) found mishandled: a run that failed on a valid file, an output a
+printer would print badly, or a message that misled.
 """
 
 from __future__ import annotations
@@ -111,13 +112,22 @@ def test_no_sparse_density_clause_when_no_sparse_infill_was_replaced(tmp_path, s
     assert "sparse" not in res.verdict.kinds and "sparse density" not in line, line
 
 
-def test_nothing_to_replace_names_what_there_is(tmp_path, sliced):
-    """CuraEngine's spiralized vase (no settings in the file to say so) has only its bottom skins: the
-    run said to choose replace = ["solid", "sparse"], which it had been given."""
+def test_a_spiral_vase_is_passed_through_as_one(tmp_path, sliced):
+    """CuraEngine writes no settings, so its spiralized vase was not known as one: the run said it had
+    nothing to replace and suggested replace = ["solid", "sparse"], which it had been given.  Its
+    walls climb as they print: that says vase mode whatever the settings say."""
     src = sliced("cura", "ohs", "mixed", magic_spiralize="true")
     res, out = _run(tmp_path, src, GRIP_PULL, replace=("solid", "sparse"))
     assert res.error is None and not res.pipeline.changed
+    assert res.pipeline.passthrough == "vase mode (spiral vase): the part has no infill to replace"
+
+
+def test_nothing_to_replace_names_what_there_is(tmp_path, sliced):
+    """A part at 0 % infill has no sparse infill: the run named only the kinds asked for."""
+    src = sliced("prusa", "ohs", "mixed", fill_density="0%")
+    res, out = _run(tmp_path, src, GRIP_PULL, replace=("sparse",))
+    assert res.error is None and not res.pipeline.changed
     why = [w for w in res.warnings if w.startswith("nothing to replace")]
     assert len(why) == 1 and "they have " in why[0], res.warnings
-    assert "bottom" in why[0].split("they have ")[1]
-    assert 'e.g. replace = ["solid", "sparse"])' not in why[0]
+    have = why[0].split("they have ")[1].split(":")[0].split(", ")
+    assert "sparse" not in have and "bottom" in have and "replace = [\"sparse\", " in why[0]
