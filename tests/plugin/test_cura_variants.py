@@ -131,3 +131,13 @@ def test_nothing_to_replace_names_what_there_is(tmp_path, sliced):
     assert len(why) == 1 and "they have " in why[0], res.warnings
     have = why[0].split("they have ")[1].split(":")[0].split(", ")
     assert "sparse" not in have and "bottom" in have and "replace = [\"sparse\", " in why[0]
+
+
+def test_lines_drawn_twice_are_laid_at_their_plastic(tmp_path, sliced):
+    """CuraEngine's ``infill_multiplier = 2`` draws each sparse line twice, 0.4 mm apart: that spacing
+    was taken as the pitch, the new paths asked for 325 % of the plastic and every sparse block was
+    kept, while the verdict described the sparse density it chose."""
+    src = sliced("cura", "ohs", "mixed", infill_multiplier="2")
+    res, out = _run(tmp_path, src, GRIP_PULL, replace=("solid", "sparse"))
+    assert res.error is None and "sparse" in res.verdict.kinds, res.warnings
+    assert not any("kept as sliced" in w for w in res.warnings), res.warnings
