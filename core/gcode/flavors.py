@@ -58,6 +58,12 @@ class Role(IntEnum):
         return self in _INFILL
 
     @property
+    def is_solid_infill(self) -> bool:
+        """True for the infill roles every slicer prints at 100 % at its own flow (solid, top, bottom,
+        skin; not bridges, which have a flow of their own, nor sparse infill, whatever its density)."""
+        return self in (Role.SOLID_INFILL, Role.TOP_SOLID_INFILL, Role.BOTTOM_SOLID_INFILL, Role.SKIN)
+
+    @property
     def is_perimeter(self) -> bool:
         """True for perimeters / walls of any kind."""
         return self in (Role.PERIMETER, Role.EXTERNAL_PERIMETER, Role.OVERHANG_PERIMETER)

@@ -128,11 +128,6 @@ def flow_widths(moves: np.ndarray, diameter: float) -> np.ndarray:
     return np.where(ok, fw, np.nan)
 
 
-_SOLID_ROLES = frozenset({Role.SOLID_INFILL, Role.TOP_SOLID_INFILL, Role.BOTTOM_SOLID_INFILL, Role.SKIN})
-"""Roles every slicer prints at 100 % at its own flow (not bridges, not gap fill): what
-:func:`solid_infill_diameter` measures."""
-
-
 def solid_infill_diameter(program: Program, geo: PrintGeometry) -> float | None:
     """Filament diameter from the solid infill of a file without settings (Cura), mm, or None.
 
@@ -149,7 +144,7 @@ def solid_infill_diameter(program: Program, geo: PrintGeometry) -> float | None:
                 for b in isl.blocks:
                     # by the role, which slicers print solid: a kind is no proof (sparse infill on the
                     # first layer of a part without skins is its "bottom": 4 mm apart, d = 5.5 mm)
-                    if b.role in _SOLID_ROLES and b.length > 20 and b.pitch > 0:
+                    if b.role.is_solid_infill and b.length > 20 and b.pitch > 0:
                         blk = program.block(b.block_index)
                         if blk.e > 0:
                             area = b.pitch * b.height * blk.length / blk.e

@@ -325,8 +325,7 @@ def _with_pitch(bl: BlockLines, domain: Region, alone: bool) -> BlockLines:
     return BlockLines(bl.x0, bl.y0, bl.x1, bl.y1, bl.flow_width, float(max(pitch, bl.flow_width)))
 
 
-_FULL = frozenset({Role.SOLID_INFILL, Role.TOP_SOLID_INFILL, Role.BOTTOM_SOLID_INFILL, Role.SKIN,
-                   Role.BRIDGE_INFILL, Role.GAP_FILL})
+_FULL = frozenset({*(r for r in Role if r.is_solid_infill), Role.BRIDGE_INFILL, Role.GAP_FILL})
 """Roles every slicer prints at 100 %: their lines stand about one flow width apart (gap fill fills
 the gap it is in; its few scattered lines measured as sparse took the area the sparse blocks fill)."""
 
