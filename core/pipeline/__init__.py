@@ -85,6 +85,7 @@ from loadpath.pipeline.units import (
     with_overlap,
 )
 from loadpath.splice import BlockFill, SpliceOptions, SpliceResult, splice
+from loadpath.splice.splicer import ENGINE_COVERED
 from loadpath.splice.plan import PlanOptions, simplify
 from loadpath.splice.verify import SpliceCheck, check_output
 from loadpath.tolerances import TOL
@@ -709,7 +710,7 @@ def _whole_units(
     return fills, replace(again, skipped=tuple(sorted((*again.skipped, *extra))))
 
 
-_COVERED = re.compile(r": the engine covered too (much|little) of the region$")
+_COVERED = re.compile(re.escape(ENGINE_COVERED).replace(r"\{\}", "(much|little)") + "$")
 
 
 def _at_pitch_asked(skipped: Sequence[tuple[int, str]], pitch: float | None) -> list[tuple[int, str]]:

@@ -350,6 +350,10 @@ def splice(
 NO_PATHS = "no new path fits in its"
 """Why a block the engine laid nothing in is kept as sliced (the run's warnings group these)."""
 
+ENGINE_COVERED = ": the engine covered too {} of the region"
+"""Why the new paths of a kept block miss its volume, ``much`` or ``little`` filled in (the pipeline
+names the pitch instead where the user set it)."""
+
 _WORK: list[tuple] = []
 """What :func:`splice` hands to :func:`_splice_batch` (inherited by the forked workers, not pickled):
 ``(program, sorted fills, options, plan options, style, rows of the extruding moves)``."""
@@ -431,8 +435,8 @@ def _splice_block(
                 fill.block,
                 [],
                 None,
-                f"the new paths would extrude {plan.filament / aim:.0%} of the {whose}: the engine covered "
-                f"too {'much' if plan.filament > aim else 'little'} of the region",
+                f"the new paths would extrude {plan.filament / aim:.0%} of the {whose}"
+                + ENGINE_COVERED.format("much" if plan.filament > aim else "little"),
             )
     style = replace(style, path_xy_decimals=options.xy_decimals, e_decimals=options.e_decimals)
     arcs = None
