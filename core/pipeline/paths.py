@@ -776,7 +776,12 @@ def assign(paths: Sequence[Path], unit: Unit) -> dict[int, list[Path]]:
     return out
 
 
-def share_volume(fills: Sequence[Any], units: Sequence[Unit], filament: Callable[[int], float]) -> list[Any]:
+def share_volume(
+    fills: Sequence[Any],
+    units: Sequence[Unit],
+    filament: Callable[[int], float],
+    feature: Callable[[int], str] | None = None,
+) -> list[Any]:
     """The plastic of a unit of several blocks shared among them as its runs are (``BlockFill`` in and out).
 
     :func:`assign` gives each run to the block whose region holds its middle, but a linked run
@@ -789,19 +794,30 @@ def share_volume(fills: Sequence[Any], units: Sequence[Unit], filament: Callable
     deposit (its runs' length at a fixed flow width, else their ``area``): every run of the unit
     prints at one flow, and the unit lays the slicer's plastic (times its ``volume_scale``).
 
+    A block that got no run (a unit linked into fewer runs than it has blocks) aims at none: the
+    splicer empties it (:func:`loadpath.splice.rewrite.rewrite_block`) and its plastic goes to the
+    blocks whose runs cover its region, where one of them prints its feature (else the layer would
+    lose a feature type, which the splice check refuses).  Before 2026-12-07 such a unit kept its
+    blocks' own plastic: the block holding the runs then extruded 123-140 % of its own and the
+    whole unit was kept as sliced, "no new path fits in its 199.6 mm of bead" (a 24-tooth gear at
+    PrusaSlicer 20 % gyroid, two layers of nine).
+
     Parameters
     ----------
     fills : sequence of BlockFill
     units : sequence of Unit
     filament : callable
         ``filament(block) -> mm``: the slicer's filament of a block (``Program.block(b).e``).
+    feature : callable, optional
+        ``feature(block) -> str``: a block's feature name (``Program.block(b).feature``); None: a
+        block without a run is never emptied.
 
     Returns
     -------
     list of BlockFill
         ``fills`` with the shared blocks' ``volume_scale`` set and ``shared`` true.  A unit keeps its
-        blocks' own plastic where a block reaches into another island (its ``share`` below 1) or got
-        no run.
+        blocks' own plastic where a block reaches into another island (its ``share`` below 1), or got
+        no run and no block with runs prints its feature.
     """
     at = {f.block: k for k, f in enumerate(fills)}
     seen: dict[int, int] = {}
@@ -817,8 +833,14 @@ def share_volume(fills: Sequence[Any], units: Sequence[Unit], filament: Callable
             continue
         laid = np.array([sum(p.length if u.fixed_width else p.area for p in fills[at[i]].paths) for i in ids])
         own = np.array([filament(i) for i in ids])
-        if not (laid > 0).all() or not (own > 0).all():
+        if not (laid > 0).any() or not (own > 0).all():
             continue
+        if not (laid > 0).all():  # emptied blocks: only where a block with runs prints their feature
+            if feature is None:
+                continue
+            printed = {feature(i) for i, v in zip(ids, laid, strict=True) if v > 0}
+            if any(v <= 0 and feature(i) not in printed for i, v in zip(ids, laid, strict=True)):
+                continue
         aim = own.sum() * laid / laid.sum()
         for i, a, e in zip(ids, aim, own, strict=True):
             f = fills[at[i]]

@@ -53,7 +53,14 @@ from loadpath.gcode.state import LineState, Start
 from loadpath.gcode.words import G, M, tokenize
 from loadpath.splice.lineview import EXTRUSION_DTYPE, FAMILIES, Carry, read_piece
 from loadpath.splice.splicer import SpliceResult
-from loadpath.splice.verify import SpliceCheck, first_difference, kept_state, state_value
+from loadpath.splice.verify import (
+    SpliceCheck,
+    first_difference,
+    kept_state,
+    parked_lines,
+    state_value,
+    volume_ratio,
+)
 
 __all__ = ["check_pieces", "PIECE_LINES"]
 
@@ -177,6 +184,7 @@ def check_pieces(
         volume_tol=volume_tol,
         motion=np.isin(so.cmd[i_k], (G + 0, G + 1, G + 2, G + 3)),
         moving=np.isin(original.kind_of_line[i_k], (EXTRUDE, WIPE)) | np.isin(so.cmd[i_k], (G + 2, G + 3)),
+        parked=parked_lines(original, result)[i_k],
     )
     _SCAN[:] = [scan]
     try:
@@ -226,6 +234,7 @@ class _Scan:
     volume_tol: float
     motion: np.ndarray
     moving: np.ndarray
+    parked: np.ndarray
 
 
 @dataclass
@@ -399,7 +408,7 @@ def _read(scan: _Scan, p0: int, p1: int, carry: Carry, names: list[str]) -> _Tal
                     f"{state_value(a[k])} in the original, {state_value(b[k])} in the output"
                 )
 
-        for name, a, b, tol, mask in kept_state(so, st, ik, jk, scan.motion[sel]):
+        for name, a, b, tol, mask in kept_state(so, st, ik, jk, scan.motion[sel], scan.parked[sel]):
             differ(name, a, b, tol, mask)
         prev_o = np.maximum(ik - 1, 0)
         pj = np.maximum(j_k[sel] - 1, 0) - a_line  # -1: the previous piece's last line
@@ -591,7 +600,7 @@ def _block_checks(
     for m in mv:
         got += float(np.ascontiguousarray(m["e"]).sum())
     aim = b.e * rep.volume_scale
-    ratio[rep.block] = got / aim if aim > 0 else float("nan")
+    ratio[rep.block] = volume_ratio(got, aim)
     if not abs(ratio[rep.block] - 1.0) <= volume_tol:
         volume[rep.block] = (
             f"block {rep.block} (layer {b.layer + 1}, {b.feature}): new infill extrudes "

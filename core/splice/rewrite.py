@@ -27,6 +27,10 @@ afterwards
     extrusion, a relative or partial move, an arc), or was made where the slicer's nozzle stood
     (CuraEngine's infill wipe and layer change; that travel follows the slicer's retraction rules
     and combing, :func:`~loadpath.splice.travel.travel`).
+emptied (no chains)
+    A block whose unit's runs all print in its siblings' blocks (:func:`_emptied`): every move of
+    its span goes (the travel in, the lift, the prime, the wipe and retraction out) with its
+    markers; its other lines stay, and the machine is left as above, retracted as the original was.
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from loadpath._typing import Points2, Region
-from loadpath.gcode.blocks import BARRIER, NEUTRAL, TRAVEL, WIPE
+from loadpath.gcode.blocks import BARRIER, EXTRUDE, NEUTRAL, RETRACT, TRAVEL, UNRETRACT, WIPE
 from loadpath.gcode.model import Block, Program
 from loadpath.gcode.rowindex import move_rows
 from loadpath.gcode.words import G, M, T
@@ -301,7 +305,9 @@ def rewrite_block(
     st.fw = s0.fw_retracted
     w.retracted = s0.retracted
     chains = plan.chains
-    first = chains[0].points[0] if chains else None
+    if not chains:
+        return _emptied(w, st, b, style, volumetric_area)
+    first = chains[0].points[0]
 
     # entering part
     travelled = False
@@ -401,6 +407,66 @@ def rewrite_block(
     _leaving(w2, st, b.exit_start, b.exit_stop, last if last is not None else np.array([[w.x, w.y]] * 2))
     _restore(w2, st, b.exit_stop, style)
     return Rewritten(span_text, w2.text(_nl(p)), st.n_travels, st.n_retracts, end_xy, w.seconds + w2.seconds)
+
+
+_MOVES = (EXTRUDE, WIPE, RETRACT, UNRETRACT, TRAVEL)
+
+
+def _emptied(w: Writer, st: TravelState, b: Block, style: Style, volumetric_area: float | None) -> Rewritten:
+    """The text of a block left without a chain: its lines but the moves and markers, then the
+    machine as the original left it after the block (its retraction too: the prime in and the
+    retraction out are gone with the moves).  With a detached exit, the lines between the span and
+    the exit (barriers: an object's end label) find the machine retracted already."""
+    p = st.program
+    last = (b.exit_stop if b.detached_exit else b.span_stop) - 1
+    _unmoved(w, st, b.span_start, b.span_stop, style)
+    _retracted_as(w, st, last)
+    if not b.detached_exit:
+        _restore(w, st, b.span_stop, style)
+        return Rewritten(w.text(_nl(p)), None, st.n_travels, st.n_retracts, (w.x, w.y), w.seconds)
+    _restore(w, st, b.span_stop, style, keep_position=True)
+    span_text = w.text(_nl(p))
+    e0 = p.state_before(b.exit_start)
+    w2 = Writer(style, w.x, w.y, e0.z, e0.e, e0.f, e0.e_relative, volumetric_area)
+    w2.width, w2.height = e0.width, e0.height
+    w2.retracted = float(p.state.retracted[last])
+    _unmoved(w2, st, b.exit_start, b.exit_stop, style)
+    _restore(w2, st, b.exit_stop, style)
+    secs = w.seconds + w2.seconds
+    return Rewritten(span_text, w2.text(_nl(p)), st.n_travels, st.n_retracts, (w.x, w.y), secs)
+
+
+def _unmoved(w: Writer, st: TravelState, a: int, z: int, style: Style) -> None:
+    """Lines ``[a, z)`` but their moves, feature, width, height and wipe markers and ``G92 E``."""
+    p = st.program
+    s = p.state
+    kind = p.kind_of_line
+    markers = _marker_lines(style) + tuple(m.strip() for m in (style.wipe_start, style.wipe_end) if m)
+    for i in range(a, z):
+        text = p.line(i)
+        if kind[i] in _MOVES or text.strip().startswith(markers):
+            continue
+        if int(s.cmd[i]) in (G + 0, G + 1) and _MOTION_RE.match(text):  # feedrate-only lines
+            continue
+        if kind[i] == BARRIER and int(s.cmd[i]) == G + 92 and _G92_E_ONLY.match(text):
+            continue
+        _verbatim(w, st, i)
+
+
+def _retracted_as(w: Writer, st: TravelState, line: int) -> None:
+    """Retract or prime (or ``G10``/``G11``) so the filament stands as the original's after ``line``."""
+    s = st.program.state
+    r = st.motion.retraction
+    if bool(s.fw_retracted[line]) != st.fw:
+        w.raw("G10" if bool(s.fw_retracted[line]) else "G11")
+        st.fw = bool(s.fw_retracted[line])
+        return
+    more = float(s.retracted[line]) - w.retracted
+    if more > 1e-9:
+        w.e_move(-more, r.speed * 60.0)
+    elif more < -1e-9:
+        w.e_move(-more, (r.deretract_speed or r.speed) * 60.0)
+    w.retracted = float(s.retracted[line])
 
 
 def _nl(p: Program) -> str:

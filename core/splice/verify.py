@@ -125,6 +125,15 @@ def _extrusions(output: Program | LineView, start: int, stop: int) -> np.ndarray
     return mv[mv["extrude"]]
 
 
+def volume_ratio(got: float, aim: float) -> float:
+    """A replaced block's new filament over what it aims at (mm over mm).  A block that aims at none
+    (a unit's runs all printed in a sibling, :func:`loadpath.pipeline.paths.share_volume`) must lay
+    none: 1.0 when it lays none, else inf."""
+    if aim > 0:
+        return got / aim
+    return 1.0 if got <= 1e-9 else float("inf")
+
+
 def first_difference(a: np.ndarray, b: np.ndarray, tol: float = 0.0, mask: np.ndarray | None = None) -> int | None:
     """Index of the first entry where ``a`` and ``b`` (n,) differ by more than ``tol`` (NaN equal to
     NaN; only where ``mask``), or None."""
@@ -142,7 +151,26 @@ def state_value(x: object) -> str:
     return f"{v:.6g}" if isinstance(v, float) else repr(v)
 
 
-def kept_state(so, sn, i_k: np.ndarray, j_k: np.ndarray, motion: np.ndarray):
+def parked_lines(original: Program, result: SpliceResult) -> np.ndarray:
+    """Which original lines lie between an emptied block's span and its detached exit, ``(n_lines,)`` bool.
+
+    An emptied block (no new path: its unit's runs print in a sibling block,
+    :func:`loadpath.pipeline.paths.share_volume`) neither primes nor wipes; the lines between its
+    span and its leaving retraction (barriers: an object's end label) find the filament retracted
+    where the original had just extruded.  They move nothing, so their retraction is not compared.
+    """
+    out = np.zeros(original.n_lines, dtype=bool)
+    for rep in result.blocks:
+        if rep.n_paths == 0 and rep.filament_new == 0:
+            b = original.block(rep.block)
+            if b.detached_exit:
+                out[b.span_stop : b.exit_start] = True
+    return out
+
+
+def kept_state(
+    so, sn, i_k: np.ndarray, j_k: np.ndarray, motion: np.ndarray, parked: np.ndarray | None = None
+):
     """The machine state a kept line must see in the output as in the original, one field at a time.
 
     Parameters
@@ -153,6 +181,8 @@ def kept_state(so, sn, i_k: np.ndarray, j_k: np.ndarray, motion: np.ndarray):
         The kept lines' indices in each.
     motion : (k,) bool
         Which kept lines are moves (their feedrate counts).
+    parked : (k,) bool, optional
+        Kept lines whose retraction is not compared (:func:`parked_lines`).
 
     Yields
     ------
@@ -162,8 +192,9 @@ def kept_state(so, sn, i_k: np.ndarray, j_k: np.ndarray, motion: np.ndarray):
     yield "E mode", so.e_relative[i_k], sn.e_relative[j_k], 0.0, None
     yield "positioning mode", so.absolute_xyz[i_k], sn.absolute_xyz[j_k], 0.0, None
     yield "tool", so.tool[i_k], sn.tool[j_k], 0.0, None
-    yield "retraction", so.retracted[i_k], sn.retracted[j_k], 1e-4, None
-    yield "firmware retraction", so.fw_retracted[i_k], sn.fw_retracted[j_k], 0.0, None
+    free = None if parked is None or not parked.any() else ~parked
+    yield "retraction", so.retracted[i_k], sn.retracted[j_k], 1e-4, free
+    yield "firmware retraction", so.fw_retracted[i_k], sn.fw_retracted[j_k], 0.0, free
     yield "logical E", so.e[i_k], sn.e[j_k], 2e-5, ~so.e_relative[i_k]
     yield "feedrate", so.f[i_k], sn.f[j_k], 1e-6, motion
 
@@ -227,7 +258,7 @@ def check_splice(
             )
 
     motion = np.isin(so.cmd[i_k], (G + 0, G + 1, G + 2, G + 3))
-    for name, a, b, tol, mask in kept_state(so, sn, i_k, j_k, motion):
+    for name, a, b, tol, mask in kept_state(so, sn, i_k, j_k, motion, parked_lines(original, result)[i_k]):
         differ(name, a, b, tol, mask)
     moving = np.isin(original.kind_of_line[i_k], (EXTRUDE, WIPE)) | np.isin(so.cmd[i_k], (G + 2, G + 3))
     prev_o, prev_n = np.maximum(i_k - 1, 0), np.maximum(j_k - 1, 0)
@@ -263,7 +294,7 @@ def check_splice(
         for a, z in spans[rep.block]:
             got += float(np.ascontiguousarray(_extrusions(output, a, z)["e"]).sum())
         aim = b.e * rep.volume_scale  # the user's sparse fill may differ from the slicer's
-        ratio[rep.block] = got / aim if aim > 0 else float("nan")
+        ratio[rep.block] = volume_ratio(got, aim)
         if not abs(ratio[rep.block] - 1.0) <= volume_tol:
             problems.append(
                 f"block {rep.block} (layer {b.layer + 1}, {b.feature}): new infill extrudes "
