@@ -312,8 +312,12 @@ class Settings:
         """Return a copy with ``values`` (validated) applied, recording ``source`` for each."""
         unknown = sorted(set(values) - set(_FIELDS))
         if unknown:
+            import difflib
+
+            near = [m for k in unknown for m in difflib.get_close_matches(k, _FIELDS, 1)]
+            hint = f"did you mean {', '.join(near)}? " if near else ""
             raise SettingsError(
-                f"unknown setting(s) {', '.join(unknown)} ({source}); known: {', '.join(_FIELDS)}"
+                f"unknown setting(s) {', '.join(unknown)} ({source}); {hint}known: {', '.join(_FIELDS)}"
             )
         clean = {k: _convert(_FIELDS[k], v, source) for k, v in values.items() if v is not None}
         src = dict(self.sources)
@@ -451,9 +455,8 @@ def cli_values(args: argparse.Namespace) -> dict[str, Any]:
         if "=" not in item:
             raise SettingsError(f"--set {item!r} must look like KEY=VALUE (e.g. --set width_max=1.4)")
         key, value = (x.strip() for x in item.split("=", 1))
-        if key not in _FIELDS:
-            raise SettingsError(f"--set {key}: unknown setting; known: {', '.join(sorted(_FIELDS))}")
-        out[key] = value
+        out[key] = value  # an unknown key fails in the job (Settings.with_values), where --on-failure
+        # keep applies and the message says what became of the files
     if getattr(args, "no_cache", False):
         out["cache"] = False
     return out

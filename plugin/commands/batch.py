@@ -76,13 +76,15 @@ def run(args: argparse.Namespace) -> int:
         from loadpath.errors import SettingsError
 
         raise SettingsError(f"--jobs {args.files_at_once}: give a number of files >= 1 (0: one per core)")
+    cli = settings.cli_values(args)
+    settings.Settings().with_values(cli, "command line")  # a mistyped --set key: one error, not one a file
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
     tasks = batch.plan(
         args.inputs,
         args.loadcase,
         args.out,
-        settings.cli_values(args),
+        cli,
         args.report,
         args.metrics,
         Path(args.slicer_settings) if args.slicer_settings else None,

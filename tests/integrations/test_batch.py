@@ -186,3 +186,12 @@ def test_metrics_summary_weights_by_area_and_layers():
     beta, cov = batch.metrics_summary(m)
     assert beta == pytest.approx(0.75) and cov == pytest.approx(0.75)
     assert batch.metrics_summary({"layers": []}) == (None, None)
+
+
+def test_a_mistyped_set_key_stops_the_batch_before_any_file(folder, tmp_path, capsys):
+    out = tmp_path / "out"
+    status = main(["batch", str(folder), "--loadcase", str(folder / "case.toml"), "--out", str(out),
+                   "--set", "widht_max=1.4"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and len(err) == 1 and "did you mean width_max?" in err[0], err
+    assert not out.exists()

@@ -151,3 +151,30 @@ def test_cura_setting_definitions_from_the_schema():
     assert defs["engine"]["type"] == "enum" and set(defs["engine"]["options"]) == set(engines.NAMES) == {"swarm", "streamlines", "levelset"}
     assert defs["pitch"]["unit"] == "mm" and defs["K"]["default_value"] == 5.0
     json.dumps(defs)  # what getSettingDataString needs
+
+
+def test_a_mistyped_set_key_is_named_with_its_near_miss():
+    with pytest.raises(SettingsError, match=r"unknown setting\(s\) widht_max .*did you mean width_max\?"):
+        S.Settings().with_values({"widht_max": "1.4"}, "command line")
+
+
+def test_an_unknown_set_key_fails_in_the_run_so_on_failure_keep_holds(tmp_path, sliced, capsys):
+    """A typo in ``--set`` stopped a PrusaSlicer export hooked with ``--on-failure keep``: the key was
+    refused while the command line was read, before the run that keeps the slicer's G-code, and the
+    message did not say what became of the files."""
+    from loadpath.plugin.cli import main
+
+    src = sliced("prusa", "ohs", "mixed")
+    case = tmp_path / "case.toml"
+    case.write_text(GRIP_PULL, encoding="utf-8")
+    out = tmp_path / "out.gcode"
+    base = ["run", str(src), "--loadcase", str(case), "-o", str(out), "--set", "foo=1"]
+    assert main([*base, "--on-failure", "keep"]) == 0
+    err = capsys.readouterr().err
+    assert "unknown setting(s) foo" in err and "is a copy of the slicer's G-code" in err
+    assert out.read_bytes() == src.read_bytes()
+    out.unlink()
+    assert main(base) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown setting(s) foo" in err[0] and "was not written" in err[0]
+    assert not out.exists()
