@@ -426,7 +426,9 @@ def run(
         return options.principal
 
     jobs = plan_jobs(units, field_of, principal_of, lambda u: kind_of[u.object])
-    if options.density is not None and options.density.criterion != "uniform":
+    dens = options.density
+    if dens is not None and (dens.criterion != "uniform" or dens.fill is not None):
+        # "uniform" with a sparse fill set: an even field at that fill (unset: the slicer's pitch)
         nu = float(loadcase.material.poissons_ratio)
         shares = {o.name: solid_share(o) for o in geo.objects} if options.density.criterion == "stack" else {}
         jobs = [

@@ -92,3 +92,18 @@ def test_user_fill_sets_the_mass_and_uniform_keeps_the_slicers_density(beam):
     assert all("zones" not in jr.paths.stats for jr in res.pipeline.jobs)
     _, new = _sparse(out)
     assert new["e"].sum() == pytest.approx(old["e"].sum(), rel=0.02)
+
+
+def test_uniform_density_at_the_users_fill(beam):
+    """``density = "uniform"`` with ``sparse_fill`` lays that fill evenly (before 2026-12-07 it kept the
+    slicer's plastic, while the report listed the fill asked for)."""
+    out, res = _run(beam, "uniform30.gcode", density="uniform", sparse_fill="30%")
+    _, old = _sparse(beam[0])
+    _, new = _sparse(out)
+    u = res.pipeline.jobs[0].units[0]
+    assert new["e"].sum() == pytest.approx(0.3 / (u.flow_width / u.pitch) * old["e"].sum(), rel=0.03)
+    zones = [z for jr in res.pipeline.jobs for z in jr.paths.stats.get("zones", [])]
+    assert len({round(z["pitch"], 6) for z in zones}) <= 1  # even: one pitch, no graded zones
+    mid = 0.5 * (min(old["y0"].min(), old["y1"].min()) + max(old["y0"].max(), old["y1"].max()))
+    outer, inner = _bands(new, mid)
+    assert 0.67 < outer / inner < 1.5
