@@ -479,6 +479,16 @@ def _run(
         result.warnings.append(loss)
     # the printability counts reuse the output the prediction parsed; the report shows the same
     counts, counts_why = verdict_counts(pres)
+    if counts is not None:  # the print time with the firmware's acceleration and jerk, everywhere
+        from loadpath.splice.splicer import retimed
+
+        dt = counts["loadpath"]["print_s"] - counts["slicer"]["print_s"]
+        sres = retimed(pres.program, pres.splice, dt)
+        parsed = vars(pres).get("output")  # the same moves: only comment lines changed
+        pres = dataclasses.replace(pres, data=sres.data, splice=sres)
+        if parsed is not None:
+            vars(pres)["output"] = parsed
+        result.pipeline = pres
     times["verdict"] = time.perf_counter() - t
     report = None
     if request.report is not None:

@@ -366,3 +366,38 @@ def test_the_verdict_names_the_layers_it_replaced_not_their_span():
     assert _layers(tuple(range(2, 10))) == "8 layers (2-9)"
     assert _layers((7,)) == "1 layer (7)" and _layers(()) == "no layers"
     assert _layers((1, 2, 5, 8, 9, 12, 15, 16)) == "8 layers (1-2, 5, 8-9, ..., 15-16)"
+
+
+def test_print_time_is_the_firmware_kinematics_everywhere_and_the_footer_follows_the_mass(tmp_path, sliced):
+    """The verdict, the report and the footer state one print-time change: the counts' (acceleration
+    and jerk from the file) -- before 2026-12-07 the splice's distance over feedrate, +2.6 min on a
+    lever where the counts said +9.6 -- and the footer's weight, volume and cost follow a new mass."""
+    from cases import GRIP_PULL
+    from loadpath.plugin.job import JobRequest, run_job
+    from loadpath.splice.splicer import format_duration, parse_duration
+
+    src = sliced("prusa", "ohs", "mixed")
+    case = tmp_path / "case.toml"
+    case.write_text(GRIP_PULL, encoding="utf-8")
+    out = tmp_path / "out.gcode"
+    cli = {"cache": False, "replace": ("sparse",), "engine": "streamlines", "sparse_fill": "0.4"}
+    res = run_job(JobRequest(src, case, output=out, cli=cli, report=tmp_path / "rep"))
+    assert res.error is None and res.verdict.printability is not None
+    p = res.verdict.printability
+    dt = p["loadpath"]["print_s"] - p["slicer"]["print_s"]
+    assert res.verdict.time_change_s == pytest.approx(dt)
+    metrics = json.loads((tmp_path / "rep" / "metrics.json").read_text("utf-8"))
+    assert metrics["print_time_change_s"] == pytest.approx(dt)
+    footer = {}
+    pattern = re.compile(
+        r"^; (estimated printing time|filament used) (after loadpath )?(\(normal mode\)|\[mm\]|\[g\]) = (.+)$"
+    )
+    for line in out.read_text("utf-8").splitlines():
+        m = pattern.match(line)
+        if m:
+            footer[(m.group(1), bool(m.group(2)), m.group(3))] = m.group(4)
+    t0 = parse_duration(footer[("estimated printing time", False, "(normal mode)")])
+    assert footer[("estimated printing time", True, "(normal mode)")] == format_duration(t0 + dt)
+    mm0, mm1 = float(footer[("filament used", False, "[mm]")]), float(footer[("filament used", True, "[mm]")])
+    g0, g1 = float(footer[("filament used", False, "[g]")]), float(footer[("filament used", True, "[g]")])
+    assert mm1 > mm0 * 1.02 and g1 == pytest.approx(g0 * mm1 / mm0, abs=0.01)
