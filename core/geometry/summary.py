@@ -167,4 +167,5 @@ def describe_resolved(resolved: Any) -> list[str]:
             what = f"pressure {item.pressure:g} MPa"
         out.append(f"  {role} {sel.name!r} ({sel.selector.describe()}): {what}; picked boundary length "
                    f"{length:.3f} mm, area {sel.measure(resolved.analysis):.3f} mm2, lines in {box}")
+    out += [f"  warning: {w}" for w in resolved.held_loads()]
     return out

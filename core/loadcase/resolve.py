@@ -19,6 +19,7 @@ from loadpath.body import Body, merge_slabs
 from loadpath.errors import LoadCaseError
 from loadpath.loadcase.model import HoleSelector, Load, LoadCase, Support
 from loadpath.loadcase.select import Selection, nearest_hole, select
+from loadpath.tolerances import TOL
 from shapely.geometry.base import BaseGeometry
 
 __all__ = ["ResolvedBody", "resolve", "resolve_body", "empty_selections"]
@@ -91,6 +92,33 @@ class ResolvedBody:
         if not parts:
             return None
         return shapely.line_merge(shapely.unary_union(parts))
+
+    def held_loads(self, least: float = 0.02) -> list[str]:
+        """Warnings for loads that act where a support holds the part, one line each.
+
+        A load's force on the supported nodes goes straight into the support and never loads the
+        part: all of it fails the solve ("the load vector is zero"), a share of it was lost
+        silently (a load within 20 mm of an edge a support holds within 10 mm: 60 % of its edge).
+        Counted on the picked side-wall lines (xy); ``least``: the share below which nothing is said.
+        """
+        out = []
+        eps = max(10.0 * TOL.length_mm, 1e-6)
+        for ld, lsel in self.loads:
+            lines = lsel.lines
+            if lines is None or lines.is_empty or lines.length <= 0:
+                continue
+            for sp, ssel in self.supports:
+                held = ssel.lines
+                if held is None or held.is_empty:
+                    continue
+                share = float(lines.intersection(held.buffer(eps)).length / lines.length)
+                if share >= least:
+                    out.append(
+                        f"object {self.name!r}: load {ld.name!r} acts where support {sp.name!r} holds the part "
+                        f"on {share:.0%} of its edge, and that share of its force goes straight into the "
+                        "support; move the two selectors apart"
+                    )
+        return out
 
     def refine_lines(self) -> list[BaseGeometry]:
         """Return the picked side-wall lines (xy), where the mesh is refined."""

@@ -368,6 +368,7 @@ def run(
     clock.lap("geometry")
     resolved = resolve(loadcase, geo.bodies())
     names = [rb.name for rb in resolved]
+    warnings.extend(w for rb in resolved for w in rb.held_loads())
     for obj in geo.objects:
         if obj.name not in names:
             warnings.append(

@@ -166,3 +166,16 @@ def test_hole_near_without_radius_takes_the_nearest_hole_within_its_diameter():
     far = pin.replace("[75.0, 20.0]", "[77.0, 20.0]")  # 5 mm from a 4 mm hole: none
     with pytest.raises(LoadCaseError, match=r"hole_near = \[77\.0, 20\.0\]\) selects no boundary"):
         resolve(parse(_case(CLAMP, far)), [Body.from_layers("b", _layers(two))])
+
+
+def test_a_load_on_a_supported_edge_is_named_with_the_share_it_loses():
+    """Support within 10 mm of x_min, load within 20 mm of it: the end face and 10 of the load's 20 mm
+    along each long side are held, (36 + 2 * 10) of (36 + 2 * 20) mm: 74 % of the load never loads the
+    part.  The solver refuses only a load held everywhere; this share was lost without a word."""
+    spec = [Body.from_layers("spec", _layers(SPECIMEN))]
+    hang = '[[loads]]\nname = "hang"\nwhere = { side = "x_min", within = 20.0 }\nforce = [0.0, -100.0, 0.0]'
+    (rb,) = resolve(parse(_case(CLAMP, hang)), spec)
+    (w,) = rb.held_loads()
+    assert "load 'hang' acts where support 'clamp' holds the part on 74% of its edge" in w
+    (rb,) = resolve(parse(_case(CLAMP, PULL)), spec)
+    assert rb.held_loads() == []
