@@ -114,9 +114,9 @@ class ResolvedBody:
                 share = float(lines.intersection(held.buffer(eps)).length / lines.length)
                 if share >= least:
                     out.append(
-                        f"object {self.name!r}: load {ld.name!r} acts where support {sp.name!r} holds the part "
-                        f"on {share:.0%} of its edge, and that share of its force goes straight into the "
-                        "support; move the two selectors apart"
+                        f"object {self.name!r}: load {ld.name!r} acts where support {sp.name!r} holds the "
+                        f"part on {share:.0%} of its edge, and that share of its force goes straight into "
+                        "the support; move the two selectors apart"
                     )
         return out
 
