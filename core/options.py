@@ -311,10 +311,11 @@ def convert(f: Field, value: Any, where: str) -> Any:
             items = value.split(",") if isinstance(value, str) else list(value)
             v = tuple(dict.fromkeys(str(x).strip().lower() for x in items if str(x).strip()))
             bad = [x for x in v if x not in f.choices]
-            if bad or not v:
+            if not v:
+                raise SettingsError(f"{where} is empty; name at least one of {', '.join(f.choices)}")
+            if bad:
                 raise SettingsError(
-                    f"{where}: {', '.join(bad) or 'nothing'} is not an infill kind; use any of "
-                    f"{', '.join(f.choices)}"
+                    f"{where}: {', '.join(bad)} is not an infill kind; use any of {', '.join(f.choices)}"
                 )
             return v
         else:
@@ -328,8 +329,10 @@ def convert(f: Field, value: Any, where: str) -> Any:
         raise SettingsError(f"{where} = {v!r} is not one of {', '.join(f.choices)}")
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         if (f.minimum is not None and v < f.minimum) or (f.maximum is not None and v > f.maximum):
+            unit = f" {f.unit}" if f.unit else ""
             raise SettingsError(
-                f"{where} = {v} {f.unit} is outside {f.minimum}..{f.maximum} {f.unit}; {f.help}"
+                f"{where} = {v:g}{unit} is outside {f.minimum:g}..{f.maximum:g}{unit}"
+                + (f" ({f.help})" if f.help else "")
             )
     return v
 

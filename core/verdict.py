@@ -135,8 +135,8 @@ class Verdict:
             parts.append(text)
         else:
             parts.append(f"stiffness not predicted ({self.note or 'no model result'})")
-        pct = f" ({self.time_change_pct:+.1f} %)" if self.time_change_pct is not None else ""
-        parts.append(f"print time {self.time_change_s / 60:+.1f} min{pct}")
+        pct = f" ({_signed(self.time_change_pct)} %)" if self.time_change_pct is not None else ""
+        parts.append(f"print time {_signed(self.time_change_s / 60)} min{pct}")
         parts.append(_counts(self.printability, self.printability_note))
         parts.append(f"mass {self.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00"))
         parts.append(w)
@@ -160,6 +160,18 @@ def _counts(p: dict | None, note: str) -> str:
         f"infill paths {s['paths']:d} -> {n['paths']:d}, retractions {s['retractions']:d} -> "
         f"{n['retractions']:d}, travel {s['travel_mm']:.0f} -> {n['travel_mm']:.0f} mm"
     )
+
+
+def _signed(v: float) -> str:
+    """``v`` to one decimal with its sign, a change that rounds to nothing as ``+0.0`` (not ``-0.0``).
+
+    Examples
+    --------
+    >>> _signed(-0.04), _signed(-0.06), _signed(2.345)
+    ('+0.0', '-0.1', '+2.3')
+    """
+    r = round(v, 1)
+    return f"{r + 0.0:+.1f}" if r != 0 else "+0.0"
 
 
 def _pct(v: float | None) -> str:

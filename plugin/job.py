@@ -263,15 +263,17 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     from loadpath import verdict as verdict_mod
 
     result.error = error
+    # an input loadpath already processed is not the slicer's G-code: say "the input's"
+    whose = "the input" if error.startswith("already processed") else "the slicer's G-code"
     if not same_file(out, inp) and inp.is_file() and not result.written:
         write_atomic(out, read_regular(inp), mode_like=inp)
         result.written = True
-        kept = f"{str(out)!r} is a copy of the slicer's G-code; the input is untouched"
+        kept = f"{str(out)!r} is a copy of {whose}; the input is untouched"
     elif result.written:
         kept = fate(inp, out, True)
     else:
-        kept = f"the slicer's G-code {str(inp)!r} is untouched"
-    result.warnings.append(f"kept the slicer's G-code: {error}; {kept}")
+        kept = f"{whose} {str(inp)!r} is untouched"
+    result.warnings.append(f"kept {whose}: {error}; {kept}")
     result.changed = False
     result.verdict = verdict_mod.build(
         None, str(request.cli.get("engine") or "?"), 1.75, len(result.warnings), note=f"failed: {error}"

@@ -49,7 +49,12 @@ def test_the_toolpath_table_takes_the_schemas_keys_and_bounds():
     assert (lc.toolpath.pitch, lc.toolpath.K, lc.toolpath.principal) == (0.5, 2.0, "tensile")
     # the bounds are the schema's: the command line and the load case refuse the same values
     for key, value in (("pitch", 0.01), ("pitch", 60.0), ("K", 2000.0)):
-        with pytest.raises(LoadCaseError, match=rf"toolpath\.{key} = {value} .*is outside"):
+        with pytest.raises(LoadCaseError, match=rf"toolpath\.{key} = {value:g}\b.*is outside"):
             loadcase.parse(CASE.format(toolpath=f"{key} = {value}"))
-        with pytest.raises(SettingsError, match=rf"{key} \(command line\) = {value} .*is outside"):
+        with pytest.raises(SettingsError, match=rf"{key} \(command line\) = {value:g}\b.*is outside"):
             S.Settings().with_values({key: value}, "command line")
+    # a setting without a unit reads without gaps, its help in brackets; an empty kind list is empty
+    with pytest.raises(SettingsError, match=r"^K \(command line\) = -3 is outside 0\.\.1000 \(swarm: "):
+        S.Settings().with_values({"K": -3}, "command line")
+    with pytest.raises(SettingsError, match=r"^replace \(command line\) is empty; name at least one of solid"):
+        S.Settings().with_values({"replace": ""}, "command line")

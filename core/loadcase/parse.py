@@ -40,6 +40,9 @@ __all__ = ["read", "parse", "from_dict"]
 
 _TOP_KEYS = ("version", "object", "frame", "material", "supports", "loads", "toolpath")
 _MATERIAL_KEYS = ("youngs_modulus", "poissons_ratio", "printed")
+E_PLAUSIBLE = (5.0, 100_000.0)
+"""Young's moduli a printed part may have, MPa: from the softest TPU (85A: about 10) to carbon-filled
+nylon and PEEK (up to about 20 000), with room either side."""
 _SUPPORT_KEYS = ("name", "where", "fix")
 _LOAD_KEYS = ("name", "where", "force", "pressure")
 MAX_FORCE_N = 1.0e8
@@ -235,6 +238,12 @@ def _material(c: _Ctx, value: Any) -> Material:
     nu = c.number(t.get("poissons_ratio", PLA.poissons_ratio), "material.poissons_ratio", "dimensionless")
     if not e > 0:
         raise c.fail(f"material.youngs_modulus = {e} must be > 0 MPa (PLA: 3500)")
+    if not E_PLAUSIBLE[0] <= e <= E_PLAUSIBLE[1]:  # 3.5 for PLA is GPa written where MPa is asked
+        raise c.fail(
+            f"material.youngs_modulus = {e:g} MPa is outside what printers print ({E_PLAUSIBLE[0]:g} to "
+            f"{E_PLAUSIBLE[1]:g} MPa: a soft TPU about 10, PLA 3500); give it in MPa"
+            + (f" ({e:g} GPa is {e * 1000:g} MPa)" if e < E_PLAUSIBLE[0] else "")
+        )
     if not -1.0 < nu < 0.5:
         raise c.fail(f"material.poissons_ratio = {nu} must lie in (-1, 0.5) (PLA: 0.35)")
     printed = None

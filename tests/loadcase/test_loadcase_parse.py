@@ -122,6 +122,10 @@ def _case(**sections: str) -> str:
             _case(material="[material]\nyoungs_modulus = -3500"),
             r"material\.youngs_modulus = -3500\.0 must be > 0 MPa",
         ),
+        (  # PLA's modulus in GPa where MPa is asked
+            _case(material="[material]\nyoungs_modulus = 3.5"),
+            r"material\.youngs_modulus = 3\.5 MPa is outside what printers print .*\(3\.5 GPa is 3500 MPa\)",
+        ),
         (
             _case(material="[material]\nyoungs_modulus = '3500'"),
             r"material\.youngs_modulus = '3500' must be a number \(MPa\)",

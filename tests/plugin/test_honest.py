@@ -117,6 +117,13 @@ def test_reprocessing_is_refused_unless_forced(shelf, capsys, monkeypatch):
     assert re.search(r" on \d{4}-\d\d-\d\dT\d\d:\d\dZ; run it", err[0]), err[0]  # the date to the minute
     assert "run it on the slicer's file, or pass --force" in err[0] and "is untouched" in err[0]
     assert sha(out) == once
+    # kept under --on-failure keep, the copy is the input's, not "the slicer's G-code"
+    copy = folder / "copy.gcode"
+    keep = ["--on-failure", "keep", *FAST]
+    assert main(["run", str(out), "--loadcase", str(case), "-o", str(copy), *keep]) == 0
+    err = capsys.readouterr().err
+    assert "kept the input: already processed" in err and f"{str(copy)!r} is a copy of the input;" in err
+    assert "slicer's G-code" not in err and sha(copy) == once
     assert main(["run", str(out), "--loadcase", str(case), "--in-place", "--force", *FAST]) == 0
     assert sha(out) != once
 
