@@ -722,8 +722,11 @@ def _at_pitch_asked(skipped: Sequence[tuple[int, str]], pitch: float | None) -> 
     infill: 197 % of the slicer's plastic, every block kept, "the engine covered too much")."""
     if not pitch:
         return list(skipped)
+    from loadpath.splice.splicer import NO_PATHS
+
     fix = f" at the pitch asked for ({pitch:g} mm; unset, the slicer's pitch lays the slicer's plastic)"
-    return [(k, _COVERED.sub(fix, why)) for k, why in skipped]
+    asked = f" at the pitch asked for ({pitch:g} mm)"  # --pitch 50: no path fits a 3 mm wide part
+    return [(k, why + asked if why.startswith(NO_PATHS) else _COVERED.sub(fix, why)) for k, why in skipped]
 
 
 def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: int = 3) -> list[str]:
@@ -756,8 +759,11 @@ def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: 
         shown = ", ".join(map(str, layers[:8])) + (f" and {len(layers) - 8} more" if len(layers) > 8 else "")
         if key == NO_PATHS:
             longest = max(b.length for b, _ in members)
+            asked = next(
+                (why[why.index(" at the pitch asked") :] for _, why in members if " at the pitch asked" in why), ""
+            )
             out.append(
-                f"{len(members)} blocks kept as sliced, no new path fits in them (at most "
+                f"{len(members)} blocks kept as sliced, no new path fits in them{asked} (at most "
                 f"{longest:.1f} mm of the slicer's bead each; layers {shown})"
             )
             continue
