@@ -759,9 +759,8 @@ def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: 
         shown = ", ".join(map(str, layers[:8])) + (f" and {len(layers) - 8} more" if len(layers) > 8 else "")
         if key == NO_PATHS:
             longest = max(b.length for b, _ in members)
-            asked = next(
-                (why[why.index(" at the pitch asked") :] for _, why in members if " at the pitch asked" in why), ""
-            )
+            mark = " at the pitch asked"
+            asked = next((why[why.index(mark) :] for _, why in members if mark in why), "")
             out.append(
                 f"{len(members)} blocks kept as sliced, no new path fits in them{asked} (at most "
                 f"{longest:.1f} mm of the slicer's bead each; layers {shown})"

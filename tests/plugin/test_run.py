@@ -248,7 +248,8 @@ def test_a_block_kept_for_the_pitch_asked_for_blames_the_pitch(tmp_path, sliced,
     assert "at the pitch asked for (1 mm; unset, the slicer's pitch lays the slicer's plastic)" in err
     assert "the engine covered" not in err
     # --pitch 40 on a 36 mm wide specimen: no path fits at all, and the reason names that pitch too
-    assert main(["run", str(src), "--loadcase", str(case), "-o", str(out), "--pitch", "40", "--no-cache"]) == 0
+    at40 = ["--pitch", "40", "--no-cache"]
+    assert main(["run", str(src), "--loadcase", str(case), "-o", str(out), *at40]) == 0
     err = capsys.readouterr().err
     assert "no new path fits in" in err and "at the pitch asked for (40 mm)" in err, err
 
