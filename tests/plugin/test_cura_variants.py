@@ -141,3 +141,24 @@ def test_lines_drawn_twice_are_laid_at_their_plastic(tmp_path, sliced):
     res, out = _run(tmp_path, src, GRIP_PULL, replace=("solid", "sparse"))
     assert res.error is None and "sparse" in res.verdict.kinds, res.warnings
     assert not any("kept as sliced" in w for w in res.warnings), res.warnings
+
+
+def test_blocks_the_slicer_lays_twice_over_are_kept_for_that_reason(tmp_path):
+    """CuraEngine at 100 % lays four layers under a lever's top skins at 192 % of a solid layer's
+    plastic (its skin edge support lines over the infill lines): one layer of new paths extrudes 60 %
+    of that, so the blocks are kept as sliced -- rightly -- but the reason blamed the engine ("the
+    engine covered too little of the region")."""
+    import manifold3d as mf
+
+    bar = mf.CrossSection.square((84.0, 16.0)).translate((8.0, 0.0))
+    for x in (8.0, 92.0):
+        bar = bar + mf.CrossSection.circle(8.0, 64).translate((x, 8.0))
+    for x in (8.0, 92.0):
+        bar = bar - mf.CrossSection.circle(3.0, 48).translate((x, 8.0))
+    lever = slicing._at_origin(slicing._to_trimesh(mf.Manifold.extrude(bar, 4.0)))
+    src = slicing.slice_cura(slicing.write_stl(lever, tmp_path / "lever.stl"), tmp_path / "lever.gcode",
+                             **slicing.CURA_SOLID)
+    res, _ = _run(tmp_path, src, GRIP_PULL)
+    kept = [w for w in res.warnings if "kept as sliced" in w]
+    assert kept and all("of a solid layer's plastic in it (lines over lines)" in w for w in kept), kept
+    assert not any("the engine covered" in w for w in res.warnings)
