@@ -108,6 +108,11 @@ def execute(request, quiet: bool = False):
         bar.close()
     for w in result.warnings:
         print(f"loadpath: warning: {w}", file=sys.stderr)
+    if result.error is None and result.written and sys.stderr.isatty():  # the verdict ends the run
+        print(
+            f"loadpath: wrote {result.output}" + (f"; report {result.report}" if result.report else ""),
+            file=sys.stderr,
+        )
     if result.verdict is not None:  # on a terminal or not: hooks, logs and scripts see it too
         print(result.verdict.line(), file=sys.stderr)
     return result
@@ -132,10 +137,5 @@ def run(args: argparse.Namespace) -> int:
         slicer_settings=Path(args.slicer_settings) if args.slicer_settings else None,
         force=args.force,
     )
-    result = execute(req)
-    if result.error is None and result.written and sys.stderr.isatty():
-        print(
-            f"loadpath: wrote {result.output}" + (f"; report {result.report}" if result.report else ""),
-            file=sys.stderr,
-        )
+    execute(req)
     return 0

@@ -265,3 +265,20 @@ def test_a_load_on_the_support_is_named_as_such(work, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "do a load and a support select the same edge?" in err
     assert "[[loads]] and [[supports]]" in err and "is untouched" in err
+
+
+def test_on_a_terminal_the_verdict_is_the_last_line(work, monkeypatch):
+    """interface.md: every run ends with its verdict line; on a terminal "wrote OUT" came after it."""
+    import io
+    import sys
+
+    class Tty(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    folder, g, case = work
+    err = Tty()
+    monkeypatch.setattr(sys, "stderr", err)
+    assert main(["run", str(g), "--loadcase", str(case), "--engine", "streamlines", "--no-cache"]) == 0
+    lines = [ln for ln in err.getvalue().replace("\r", "\n").splitlines() if ln.strip()]
+    assert lines[-1].startswith("loadpath 0.") and any(ln.startswith("loadpath: wrote ") for ln in lines[:-1])
