@@ -22,6 +22,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,9 @@ from typing import Any
 from loadpath import __version__
 from loadpath.report.layers import LayerReport, layer_report
 from loadpath.report.svg import colorbar
+
+_OWN_FIGURE = re.compile(r"(?:layer-\d+(?:-detail)?|part-\d+)\.svg")
+"""The names of the report's figures (:meth:`Report.write` removes an earlier report's others)."""
 
 __all__ = ["write_report", "build_report", "Report", "LayerReport", "layer_report"]
 
@@ -108,6 +112,11 @@ class Report:
         directory.mkdir(parents=True, exist_ok=True)
         for name, text in self.files.items():
             (directory / name).write_text(text, encoding="utf-8")
+        # an earlier report's figures this one does not have (a run with more layers) would sit
+        # beside it as if they were its own: only files named as the report names its own go
+        for old in directory.iterdir():
+            if _OWN_FIGURE.fullmatch(old.name) and old.name not in self.files and old.is_file():
+                old.unlink()
         return directory / "index.html"
 
 
