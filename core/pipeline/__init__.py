@@ -574,7 +574,7 @@ def run(
     if back:
         job_results, fills = relink(back, {key: laid[key][f] for key, f in back.items()})
     clock.lap("paths")
-    fills = share_volume(fills, units, lambda b: program.block(b).e, lambda b: program.block(b).feature)
+    fills = share_volume(fills, units, lambda b: program.block(b).e)
     sres = splice(program, fills, splice_options, workers=options.workers)
     fills, sres = _whole_units(program, fills, units, sres, splice_options, options.workers)
     sres = replace(sres, skipped=tuple(_at_pitch_asked(sres.skipped, options.pitch)))

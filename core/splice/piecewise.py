@@ -55,6 +55,8 @@ from loadpath.splice.lineview import EXTRUSION_DTYPE, FAMILIES, Carry, read_piec
 from loadpath.splice.splicer import SpliceResult
 from loadpath.splice.verify import (
     SpliceCheck,
+    emptied_features,
+    features_differ,
     first_difference,
     kept_state,
     parked_lines,
@@ -568,8 +570,9 @@ def _verdict(scan: _Scan, tallies: list[_Tally], result: SpliceResult, regions, 
         for (layer, name), line in pairs.items():
             if line < print_end:
                 fn[layer].add(name)
+        gone = emptied_features(original, result)
         for k, (a, b) in enumerate(zip(layer_features(original), fn, strict=True)):
-            if a != b:
+            if features_differ(a, b, gone[k]):
                 problems.append(f"layer {k + 1}: feature types {sorted(a)} became {sorted(b)}")
                 break
 

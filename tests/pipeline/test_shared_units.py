@@ -72,8 +72,8 @@ def test_a_unit_prints_whole_or_as_sliced(tmp_path, monkeypatch):
     real = pipeline.share_volume
     spoiled = []
 
-    def spoil(fills, units, filament, feature=None):
-        out = real(fills, units, filament, feature)
+    def spoil(fills, units, filament):
+        out = real(fills, units, filament)
         k = next(i for i, f in enumerate(out) if f.shared)
         spoiled.append(out[k].block)
         out[k] = replace(out[k], volume_scale=2.0 * out[k].volume_scale)

@@ -403,7 +403,8 @@ def test_block_replaced_by_nothing_keeps_the_machine_state(sliced):
 def test_a_block_emptied_for_its_sibling_leaves_no_move_and_a_clean_check(case, sliced):
     """A block that aims at no plastic (its unit's runs printed in a sibling block,
     :func:`loadpath.pipeline.paths.share_volume`) is written empty and passes the check: relative and
-    absolute E, firmware retraction, volumetric E, both slicers."""
+    absolute E, firmware retraction, volumetric E, both slicers, a block alone of its feature type on
+    its layer or not."""
     from loadpath.splice import BlockFill
 
     slicer, part, settings, overrides = CASES[case]
@@ -414,18 +415,12 @@ def test_a_block_emptied_for_its_sibling_leaves_no_move_and_a_clean_check(case, 
     gone = fills[k].block
     fills[k] = BlockFill(gone, (), fills[k].region, volume_scale=0.0)
     result, out, check = run_splice(program, fills)
-    b = program.block(gone)
-    lost = all(
-        program.block(j).feature != b.feature or program.block(j).layer != b.layer
-        for j in blocks
-        if j != gone
-    )
-    # the only complaint allowed: the layer lost the feature type when no other block printed it;
-    # the same from the check the pipeline runs, on the output's bytes read piece by piece
-    assert [p for p in check.problems if not (lost and "became" in p)] == []
+    # clean, though the layer may have lost the feature type (its region is its siblings' now); the
+    # same from the check the pipeline runs, on the output's bytes read piece by piece
+    assert check.problems == []
     regions = {f.block: f.region for f in fills if f.region is not None}
     pieces = check_output(program, result.data, result, regions=regions, piece_lines=3000)
-    assert [p for p in pieces.problems if not (lost and "became" in p)] == []
+    assert pieces.problems == []
     assert _span_kinds(program, result, out, gone).isdisjoint({EXTRUDE, WIPE})
     assert any(r.block == gone and r.filament_new == 0 for r in result.blocks)
     assert {r.block for r in result.blocks} == {f.block for f in fills}
