@@ -722,11 +722,14 @@ def _at_pitch_asked(skipped: Sequence[tuple[int, str]], pitch: float | None) -> 
     infill: 197 % of the slicer's plastic, every block kept, "the engine covered too much")."""
     if not pitch:
         return list(skipped)
-    from loadpath.splice.splicer import NO_PATHS
+    from loadpath.splice.splicer import MEAN_PITCH, NO_PATHS
 
     fix = f" at the pitch asked for ({pitch:g} mm; unset, the slicer's pitch lays the slicer's plastic)"
     asked = f" at the pitch asked for ({pitch:g} mm)"  # --pitch 50: no path fits a 3 mm wide part
-    return [(k, why + asked if why.startswith(NO_PATHS) else _COVERED.sub(fix, why)) for k, why in skipped]
+    return [
+        (k, why.split(MEAN_PITCH)[0] + asked if why.startswith(NO_PATHS) else _COVERED.sub(fix, why))
+        for k, why in skipped
+    ]
 
 
 def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: int = 3) -> list[str]:
@@ -738,7 +741,7 @@ def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: 
     only in its percentages (the volume a thin wall's paths would extrude: an angle bracket's 25 mm
     wall at CuraEngine 20 % kept 56 of them, each its own warning) give their range.
     """
-    from loadpath.splice.splicer import NO_PATHS
+    from loadpath.splice.splicer import MEAN_PITCH, NO_PATHS
 
     def reason(why: str) -> str:
         return NO_PATHS if why.startswith(NO_PATHS) else re.sub(r"\d+%", "#%", why, count=1)
@@ -761,6 +764,11 @@ def _kept_as_sliced(program: Program, skipped: Sequence[tuple[int, str]], most: 
             longest = max(b.length for b, _ in members)
             mark = " at the pitch asked"
             asked = next((why[why.index(mark) :] for _, why in members if mark in why), "")
+            far = sorted(float(w.split(MEAN_PITCH)[1].split()[0]) for _, w in members if MEAN_PITCH in w)
+            if far and not asked:  # lines set far apart: their mean pitches
+                lo, hi = f"{far[0]:.3g}", f"{far[-1]:.3g}"
+                asked = f"{MEAN_PITCH}{lo} mm" if lo == hi else f" at mean pitches of {lo}-{hi} mm"
+
             out.append(
                 f"{len(members)} blocks kept as sliced, no new path fits in them{asked} (at most "
                 f"{longest:.1f} mm of the slicer's bead each; layers {shown})"

@@ -538,3 +538,27 @@ def test_blocks_spliced_in_worker_processes_give_the_same_bytes(sliced):
     assert two.edits == one.edits and two.skipped == one.skipped
     assert [r.block for r in two.blocks] == [r.block for r in one.blocks]
     assert two.blocks == one.blocks
+
+
+def test_sparse_blocks_no_path_fits_in_name_their_pitch(sliced):
+    """Sparse lines set far apart (PrusaSlicer's lightning at 15 % lays a chain link's lower layers at
+    7-8 mm) may leave no path in a block: the reason names the mean pitch, one block's or the range
+    of many, where "no new path fits in its 145.2 mm of bead" alone read like a bug."""
+    from loadpath.pipeline import _kept_as_sliced
+    from loadpath.splice import BlockFill
+
+    program = gcode.read(sliced("prusa", "ohs", "mixed"))
+    sparse = [i for i in infill_blocks(program) if program.block(i).role == Role.SPARSE_INFILL][:4]
+    fills = [BlockFill(i, (), flow_width=0.45, nominal_pitch=6.0 + k, volume_scale=1.0 if k else 0.5)
+             for k, i in enumerate(sparse)]
+    result, _, check = run_splice(program, fills)
+    why = dict(result.skipped)
+    b = program.block(sparse[1])
+    assert why[sparse[1]] == f"no new path fits in its {b.length:.1f} mm of bead at a mean pitch of 7 mm"
+    assert why[sparse[0]].endswith("at a mean pitch of 12 mm")  # half the slicer's plastic: twice the pitch
+    (line,) = _kept_as_sliced(program, result.skipped)
+    assert "no new path fits in them at mean pitches of 7-12 mm (at most " in line
+    # a solid block (no fixed flow width) or lines a flow width apart: no pitch named
+    (i,) = [i for i in infill_blocks(program) if program.block(i).role == Role.SOLID_INFILL][:1]
+    result, _, _ = run_splice(program, [BlockFill(i, (), nominal_pitch=0.45)])
+    assert result.skipped[0][1].endswith("mm of bead")
