@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from loadpath.errors import GCodeParseError
 from loadpath.gcode.flavors import Role
-from loadpath.gcode.model import Program
+from loadpath.gcode.model import Program, climbing
 from loadpath.gcode.words import G, M
 
 __all__ = ["Bounds", "bounds_of", "check_bounds", "MARGIN_MM", "GENEROUS_MM"]
@@ -250,8 +250,7 @@ def check_bounds(program: Program) -> None:
     floor = np.where(wall, MIN_WALL_FLOW_SHARE, MIN_FLOW_SHARE)
     # a spiral vase climbs while its first turn ramps the flow up from nothing (PrusaSlicer's
     # spiral_vase: 9.7 % of the bead 100 mm into the turn): climbing extrusions are not damaged walls
-    climbing = np.abs(mv["z1"] - mv["z0"]) > 1e-6
-    starved = in_layer & ~climbing & (seg > MIN_LEN_STARVED_MM) & (w > 0) & (h > 0) & (share < floor)
+    starved = in_layer & ~climbing(mv) & (seg > MIN_LEN_STARVED_MM) & (w > 0) & (h > 0) & (share < floor)
     checks.append((starved, lambda i: (
         f"the extrusion runs {seg[i]:.1f} mm with {e[i]:g} mm of filament, {100 * share[i]:.2g} % of what "
         f"its bead ({w[i]:.3g} x {h[i]:.3g} mm{'' if np.isfinite(mv['width'][i]) else typical}) needs (at "

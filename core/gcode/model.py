@@ -15,7 +15,7 @@ from loadpath._typing import Ints
 from loadpath.gcode.flavors import Dialect, Role
 from loadpath.gcode.state import LineState
 
-__all__ = ["MOVE_DTYPE", "Program", "Layer", "Block", "MachineState"]
+__all__ = ["MOVE_DTYPE", "Program", "Layer", "Block", "MachineState", "climbing"]
 
 MOVE_DTYPE = np.dtype(
     [
@@ -46,6 +46,12 @@ MOVE_DTYPE = np.dtype(
     ]
 )
 """Fields of one move (one row of ``Program.moves``)."""
+
+
+def climbing(moves: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool: the moves (MOVE_DTYPE rows) that change Z as they go, by more than a micrometre
+    (a spiral vase's walls climb while they print; a lift or a layer change is a move of its own)."""
+    return np.abs(moves["z1"] - moves["z0"]) > 1e-6
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import shapely
 from loadpath._typing import Region
+from loadpath.gcode.model import climbing
 from loadpath.geometry import InfillBlock, PrintGeometry
 from loadpath.options import user_pitch
 
@@ -137,12 +138,12 @@ def passthrough_reason(
     """
     cfg = {k.lower(): str(v).strip() for k, v in config.items()}
     cura = {k.lower(): str(v).strip().lower() for k, v in (cura_settings or {}).items()}
-    climbing = 0
+    spiral = False
     if moves is not None and len(moves):
         ext = moves["extrude"]
-        climbing = int(np.count_nonzero(ext & (np.abs(moves["z1"] - moves["z0"]) > 1e-6)))
-        climbing = climbing if climbing >= max(SPIRAL_MOVES, 0.01 * np.count_nonzero(ext)) else 0
-    if cfg.get("spiral_vase") == "1" or cura.get("magic_spiralize") == "true" or climbing:
+        climbs = int(np.count_nonzero(ext & climbing(moves)))
+        spiral = climbs >= max(SPIRAL_MOVES, 0.01 * np.count_nonzero(ext))
+    if cfg.get("spiral_vase") == "1" or cura.get("magic_spiralize") == "true" or spiral:
         return "vase mode (spiral vase): the part has no infill to replace"
     if cfg.get("complete_objects") == "1" or cura.get("print_sequence") == "one_at_a_time":
         return (

@@ -150,6 +150,28 @@ def _marker_lines(style: Style) -> tuple[str, ...]:
     return tuple(p.strip() for p in out)
 
 
+def _dropped(p: Program, i: int, markers: tuple[str, ...]) -> bool:
+    """Whether line ``i`` of a rewritten block goes although it moves nothing: a feature, width or
+    height marker (``markers``), a feedrate-only ``G0``/``G1`` (the new lines set their own) or a
+    ``G92 E`` (the logical E is restored where it matters)."""
+    text = p.line(i)
+    cmd = int(p.state.cmd[i])
+    return (
+        text.strip().startswith(markers)
+        or (cmd in (G + 0, G + 1) and bool(_MOTION_RE.match(text)))
+        or (cmd == G + 92 and bool(_G92_E_ONLY.match(text)))
+    )
+
+
+def _exit_writer(p: Program, b: Block, at: Writer, style: Style, volumetric_area: float | None) -> Writer:
+    """A writer for block ``b``'s detached exit: the original's state before it, at ``at``'s position."""
+    e0 = p.state_before(b.exit_start)
+    w2 = Writer(style, at.x, at.y, e0.z, e0.e, e0.f, e0.e_relative, volumetric_area)
+    w2.width, w2.height = e0.width, e0.height
+    w2.retracted = e0.retracted
+    return w2
+
+
 def _width_text(v: float) -> str:
     return fmt(v, 6, True)
 
@@ -314,7 +336,7 @@ def rewrite_block(
     kind = p.kind_of_line
     for i in range(b.span_start, b.start):
         if kind[i] == TRAVEL and s.moved_xy[i]:
-            if not travelled and first is not None:
+            if not travelled:
                 z = float(s.z[i]) if s.z[i] != (s.z[i - 1] if i > 0 else 0.0) else None
                 f = float(s.f[i]) if _sets_f(p.line(i)) else None
                 travel(w, st, first, None, f, z)
@@ -331,26 +353,23 @@ def rewrite_block(
     for i in core.tolist():
         k = kind[i]
         text = p.line(i)
+        if _dropped(p, i, markers):
+            continue
         if k == NEUTRAL:
-            t = text.strip()
-            if t.startswith(markers) or (int(s.cmd[i]) in (G + 0, G + 1) and _MOTION_RE.match(text)):
-                continue
             if _M73.match(text):
                 j = int(np.searchsorted(lines, i, "left")) - 1
                 m73.append((float(frac[j]) if j >= 0 else 0.0, text))
                 continue
             w.raw(text)
         elif k == BARRIER:
-            if int(s.cmd[i]) == G + 92 and _G92_E_ONLY.match(text):
-                continue
             w.raw(text)
-    if first is not None and not travelled:
+    if not travelled:
         travel(w, st, first, None)
-    if chains and (w.retracted > 1e-9 or st.fw):
+    if w.retracted > 1e-9 or st.fw:
         unretract(w, st)
     w.marker(style.feature, b.feature)
     h = float(p.height_of_line[b.stop - 1])
-    if chains and style.height and not math.isnan(h):
+    if style.height and not math.isnan(h):
         w.marker(style.height, _width_text(h))
         w.height = h
     w.width = math.nan  # the first chain states its width
@@ -367,17 +386,15 @@ def rewrite_block(
             prepare_wipes(st, [c.points for c in chains[:-1]], wipe_distance(motion), style.leading_zero)
     # the chains' width changes and times in one pass each (Writer.extrude_many's, the same figures)
     changes: list = [None] * len(chains)
-    secs: list = [None] * len(chains)
-    if chains:
-        sizes = [len(c.width) for c in chains]
-        if style.width:
-            widths = np.concatenate([c.width for c in chains])
-            changes = width_changes(widths, sizes, MARK_STEP, MARK_HYSTERESIS)
-        ratio = np.concatenate([c.segments for c in chains]) / np.maximum(
-            np.concatenate([c.feedrate for c in chains]), 1e-9
-        )
-        bounds = np.cumsum([0, *sizes]).tolist()
-        secs = [float(np.sum(ratio[a:z]) * 60.0) for a, z in zip(bounds[:-1], bounds[1:], strict=True)]
+    sizes = [len(c.width) for c in chains]
+    if style.width:
+        widths = np.concatenate([c.width for c in chains])
+        changes = width_changes(widths, sizes, MARK_STEP, MARK_HYSTERESIS)
+    ratio = np.concatenate([c.segments for c in chains]) / np.maximum(
+        np.concatenate([c.feedrate for c in chains]), 1e-9
+    )
+    bounds = np.cumsum([0, *sizes]).tolist()
+    secs = [float(np.sum(ratio[a:z]) * 60.0) for a, z in zip(bounds[:-1], bounds[1:], strict=True)]
     for ci, c in enumerate(chains):
         if ci > 0:
             travel(w, st, c.points[0], last, last_length=chains[ci - 1].length)
@@ -399,11 +416,8 @@ def rewrite_block(
     _restore(w, st, b.span_stop, style, keep_position=True)
     span_text = w.text(_nl(p))
     # detached exit: start from the original state there, at our position
-    e0 = p.state_before(b.exit_start)
-    w2 = Writer(style, w.x, w.y, e0.z, e0.e, e0.f, e0.e_relative, volumetric_area)
-    w2.width, w2.height = e0.width, e0.height
-    w2.retracted = e0.retracted
-    st.fw = e0.fw_retracted
+    w2 = _exit_writer(p, b, w, style, volumetric_area)
+    st.fw = bool(s.fw_retracted[b.exit_start - 1])  # the exit follows the block: never line 0
     _leaving(w2, st, b.exit_start, b.exit_stop, last if last is not None else np.array([[w.x, w.y]] * 2))
     _restore(w2, st, b.exit_stop, style)
     return Rewritten(span_text, w2.text(_nl(p)), st.n_travels, st.n_retracts, end_xy, w.seconds + w2.seconds)
@@ -426,10 +440,8 @@ def _emptied(w: Writer, st: TravelState, b: Block, style: Style, volumetric_area
         return Rewritten(w.text(_nl(p)), None, st.n_travels, st.n_retracts, (w.x, w.y), w.seconds)
     _restore(w, st, b.span_stop, style, keep_position=True)
     span_text = w.text(_nl(p))
-    e0 = p.state_before(b.exit_start)
-    w2 = Writer(style, w.x, w.y, e0.z, e0.e, e0.f, e0.e_relative, volumetric_area)
-    w2.width, w2.height = e0.width, e0.height
-    w2.retracted = float(p.state.retracted[last])
+    w2 = _exit_writer(p, b, w, style, volumetric_area)
+    w2.retracted = float(p.state.retracted[last])  # as _retracted_as left it, not as the original was
     _unmoved(w2, st, b.exit_start, b.exit_stop, style)
     _restore(w2, st, b.exit_stop, style)
     secs = w.seconds + w2.seconds
@@ -439,18 +451,11 @@ def _emptied(w: Writer, st: TravelState, b: Block, style: Style, volumetric_area
 def _unmoved(w: Writer, st: TravelState, a: int, z: int, style: Style) -> None:
     """Lines ``[a, z)`` but their moves, feature, width, height and wipe markers and ``G92 E``."""
     p = st.program
-    s = p.state
     kind = p.kind_of_line
     markers = _marker_lines(style) + tuple(m.strip() for m in (style.wipe_start, style.wipe_end) if m)
     for i in range(a, z):
-        text = p.line(i)
-        if kind[i] in _MOVES or text.strip().startswith(markers):
-            continue
-        if int(s.cmd[i]) in (G + 0, G + 1) and _MOTION_RE.match(text):  # feedrate-only lines
-            continue
-        if kind[i] == BARRIER and int(s.cmd[i]) == G + 92 and _G92_E_ONLY.match(text):
-            continue
-        _verbatim(w, st, i)
+        if kind[i] not in _MOVES and not _dropped(p, i, markers):
+            _verbatim(w, st, i)
 
 
 def _retracted_as(w: Writer, st: TravelState, line: int) -> None:

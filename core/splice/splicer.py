@@ -449,8 +449,6 @@ def _splice_block(
     whose = "slicer's volume" if fill.volume_scale == 1.0 else "volume of the sparse fill asked for"
     if fill.shared:
         whose = "share of the island's volume its runs take"
-    if aim <= 0 and plan.filament > 0:  # to be emptied (its unit's runs print beside it), yet laid
-        return fill.block, [], None, f"{NO_PATHS} {b.length:.1f} mm of bead"
     if options.volume_tol is not None and aim > 0:
         if plan.filament <= 0:  # a sliver (PrusaSlicer's 0.6 mm solid bits), or lines set far apart
             return fill.block, [], None, f"{NO_PATHS} {b.length:.1f} mm of bead{_far_apart(fill)}"

@@ -160,11 +160,10 @@ def parked_lines(original: Program, result: SpliceResult) -> np.ndarray:
     where the original had just extruded.  They move nothing, so their retraction is not compared.
     """
     out = np.zeros(original.n_lines, dtype=bool)
-    for rep in result.blocks:
-        if rep.volume_scale == 0 and rep.filament_new == 0:
-            b = original.block(rep.block)
-            if b.detached_exit:
-                out[b.span_stop : b.exit_start] = True
+    for rep in _emptied(result):
+        b = original.block(rep.block)
+        if b.detached_exit:
+            out[b.span_stop : b.exit_start] = True
     return out
 
 
@@ -172,10 +171,15 @@ def emptied_features(original: Program, result: SpliceResult) -> list[set[str]]:
     """Per layer, the features of its emptied blocks (:func:`parked_lines`): a layer may lose such a
     feature type, its region printed by a sibling block's runs under the sibling's feature name."""
     out: list[set[str]] = [set() for _ in original.layers]
-    for rep in result.blocks:
-        if rep.volume_scale == 0 and rep.filament_new == 0 and 0 <= rep.layer < len(out):
+    for rep in _emptied(result):
+        if 0 <= rep.layer < len(out):
             out[rep.layer].add(rep.feature)
     return out
+
+
+def _emptied(result: SpliceResult) -> list:
+    """The reports of the blocks emptied by design: aiming at no plastic, and laying none."""
+    return [rep for rep in result.blocks if rep.volume_scale == 0 and rep.filament_new == 0]
 
 
 def features_differ(before: set[str], after: set[str], emptied: set[str]) -> bool:
