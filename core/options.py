@@ -208,7 +208,8 @@ TOOLPATH_FIELDS: tuple[Field, ...] = (
         0.06,
         "fraction",
         "two layouts the mechanics model ranks closer than this share of failure load (and 1 % of "
-        "stiffness) are a tie, kept by fewer retractions (density 'auto'; solid layers where the level "
+        "stiffness) are a tie, kept by fewer retractions, then by a print time 2 % shorter (density "
+        "'auto'; solid layers where the level "
         "sets gave way); 0: the model's rank alone. Default: how far round-off moves the model's "
         "failure load between layouts",
         minimum=0.0,

@@ -28,7 +28,8 @@ A near tie is settled at the printer (:func:`settle`).  The model's failure load
 up to 6 % between layouts laid from fields that differ by round-off (:data:`SPREAD`), its stiffness
 by well under 1 % (:data:`STIFFNESS_SPREAD`), so a candidate that ranks higher by less than that on
 both is not known to be better; of two such, the one that prints with fewer retractions in the
-replaced blocks is kept (:func:`retractions`), the higher-ranked one where they are not counted.
+replaced blocks is kept, on equal retractions the one whose replaced blocks print :data:`QUICKER`
+quicker (:func:`printer_cost`), the higher-ranked one where they are not counted.
 """
 
 from __future__ import annotations
@@ -41,7 +42,8 @@ from loadpath.options import field
 
 __all__ = [
     "CANDIDATES", "MASS_TOLERANCE", "SPREAD", "STIFFNESS_SPREAD", "Choice", "Judge", "score", "tie", "settle",
-    "settled", "retractions", "mass_change", "lays_sparse", "run_choosing", "judge", "describe", "figure",
+    "settled", "retractions", "printer_cost", "QUICKER", "mass_change", "lays_sparse", "run_choosing",
+    "judge", "describe", "figure",
 ]
 
 CANDIDATES = ("energy", "stack")
@@ -79,6 +81,8 @@ class Choice:
         was settled by them (:func:`settle`); ``()`` where the model's ranks decided.
     spread : float
         The share within which ranks were a tie (setting ``tie_spread``).
+    seconds : tuple of (float or None)
+        Per candidate of ``tried``, as ``retractions``: the print time of its replaced blocks, s.
     """
 
     criterion: str
@@ -86,6 +90,7 @@ class Choice:
     off_mass: tuple[tuple[str, float], ...] = ()
     retractions: tuple[int | None, ...] = ()
     spread: float = SPREAD
+    seconds: tuple[float | None, ...] = ()
 
 
 def score(stiffness: float | None, failure: float | None, keeps_mass: bool = True) -> tuple[int, int, float]:
@@ -135,7 +140,30 @@ def retractions(pres: Any) -> int | None:
     return None if counts is None else int(counts["loadpath"]["retractions"])
 
 
-def settle(results: Sequence[Any], top: int, tied: Sequence[int]) -> tuple[int, tuple[int | None, ...]]:
+QUICKER = 0.02
+"""On equal retractions, a tied result whose replaced blocks print at least this share quicker than
+the one ranked highest is kept (:func:`settle`).  CuraEngine combs inside the infill and retracts
+nowhere there, so on its files retractions never settled a tie: on the bench's L-bracket at
+CuraEngine 100 % (``benchmarks/bench_printability.py``) the swarm ranked 0.3 % above the level sets
+and was kept, with 551 s in the replaced blocks against 494 s and twice their travel."""
+
+
+def printer_cost(pres: Any) -> tuple[int, float | None] | None:
+    """Retractions and kinematic print time (s; None where not timed) of a run's replaced blocks
+    (:func:`loadpath.printability.verdict_counts`), or None where they are not counted."""
+    from loadpath.printability import verdict_counts
+
+    counts, _ = verdict_counts(pres)
+    if counts is None:
+        return None
+    own = counts["loadpath"]
+    secs = own.get("print_s")
+    return int(own["retractions"]), None if secs is None else float(secs)
+
+
+def settle(
+    results: Sequence[Any], top: int, tied: Sequence[int]
+) -> tuple[int, tuple[int | None, ...], tuple[float | None, ...]]:
     """A tie settled at the printer: which of the results tied with the one ranked highest is kept.
 
     Parameters
@@ -150,14 +178,26 @@ def settle(results: Sequence[Any], top: int, tied: Sequence[int]) -> tuple[int, 
     -------
     kept : int
         The one of ``top`` and ``tied`` that prints with the fewest retractions in the replaced
-        blocks, ``top`` on equal counts or where any result is not counted (the higher rank stands).
+        blocks; among those with as few, ``top`` (else the first of ``tied``) unless another prints
+        them :data:`QUICKER` quicker (then the quickest).  ``top`` where any result is not counted
+        (the higher rank stands).
     counts : tuple of (int or None)
         Every result's retractions, in the order given.
+    seconds : tuple of (float or None)
+        Every result's print time of its replaced blocks, s.
     """
-    n = tuple(retractions(r) for r in results)
+    costs = [printer_cost(r) for r in results]
+    n = tuple(None if c is None else c[0] for c in costs)
+    secs = tuple(None if c is None else c[1] for c in costs)
     if None in n:
-        return top, n
-    return min([top, *tied], key=lambda k: (n[k], k != top)), n
+        return top, n, secs
+    pool = [k for k in (top, *tied) if n[k] == min(n[j] for j in (top, *tied))]
+    kept = pool[0]
+    if all(secs[k] is not None for k in pool):
+        quickest = min(pool, key=lambda k: secs[k])
+        if secs[quickest] < (1.0 - QUICKER) * secs[kept]:
+            kept = quickest
+    return kept, n, secs
 
 
 def lays_sparse(pres: Any) -> bool:
@@ -242,14 +282,16 @@ def run_choosing(
     ranked.sort(key=lambda r: r[:2], reverse=True)  # higher rank first; on equal ranks the earlier
     best = ranked[0]
     retr: tuple[int | None, ...] = ()
+    secs: tuple[float | None, ...] = ()
     # a tie within the model's spread: the printer decides.  What the second would print is what
     # must lie within the spread of the best (ties do not chain: each candidate's own is one already)
     if len(ranked) > 1 and ranked[1][5] == best[5] and tie(best[4], ranked[1][6], spread):
-        kept, n = settle([best[2], ranked[1][2]], 0, [1])
+        kept, n, t = settle([best[2], ranked[1][2]], 0, [1])
         order = [c for c, *_ in tried]
         retr = tuple(n[0] if c == best[3] else n[1] for c in order)
+        secs = tuple(t[0] if c == best[3] else t[1] for c in order)
         best = ranked[kept]
-    return best[2], Choice(best[3], tuple(tried), tuple(off), retr, spread)
+    return best[2], Choice(best[3], tuple(tried), tuple(off), retr, spread, secs)
 
 
 def figure(name: str, stiffness: float | None, failure: float | None) -> str:
@@ -274,18 +316,24 @@ def describe(choice: Choice) -> str:
         f"; {crit} laid {share:+.0%} of the slicer's plastic (blocks kept as sliced), not its mass"
         for crit, share in choice.off_mass
     )
-    tied = f"; {settled(choice.retractions, choice.spread)}" if choice.retractions else ""
+    tied = f"; {settled(choice.retractions, choice.spread, choice.seconds)}" if choice.retractions else ""
     model = "auto, by loadpath compare's model over the slicer's file"
     return f"'{choice.criterion}' ({model}: {figures}{off}{tied})"
 
 
-def settled(counts: tuple[int | None, ...], spread: float = SPREAD) -> str:
+def settled(
+    counts: tuple[int | None, ...], spread: float = SPREAD, seconds: tuple[float | None, ...] = ()
+) -> str:
     """The verdict's words for a tie settled at the printer (``counts``: each layout's retractions,
-    in the order the figures name them; ``spread``: the share within which the ranks tied)."""
+    in the order the figures name them; ``spread``: the share within which the ranks tied;
+    ``seconds``: each one's print time of the replaced blocks, where counted)."""
     head = f"a tie within the model's {spread:.0%} spread"
     if None in counts:
         return f"{head}: retractions not counted, the higher rank kept"
     if len(set(counts)) == 1:
+        if len(seconds) == len(counts) and None not in seconds:
+            times = " against ".join(f"{t:.0f} s" for t in seconds)
+            return f"{head}, {counts[0]} retractions each: print time {times}"
         return f"{head}, {counts[0]} retractions each: the higher rank kept"
     return f"{head}: retractions " + " against ".join(map(str, counts))
 

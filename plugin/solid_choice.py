@@ -50,10 +50,12 @@ model says so (the L-bracket through the cut: 0.941 / 0.546), and the other layo
 A near tie is settled at the printer, as ``density = "auto"`` settles its own
 (:func:`loadpath.plugin.density_choice.tie`): the model's failure load of one part moves by up to 6 %
 between layouts laid from fields that differ by round-off, while the swarm's fragments cost three to
-five times the level sets' retractions on the same files.  On the PrusaSlicer L-bracket above, one
-run judged the level sets 1.008 / 0.925 and the swarm 1.007 / 0.954 and kept the swarm, with 485
-retractions against the level sets' 149 (the slicer's: 25); the median of the three runs had ranked
-them the other way.
+five times the level sets' retractions on the same files (on CuraEngine's files, which retract
+nowhere in the infill, the replaced blocks' print time settles it:
+:data:`loadpath.plugin.density_choice.QUICKER`).  On the PrusaSlicer L-bracket above, one run judged
+the level sets 1.008 / 0.925 and the swarm 1.007 / 0.954 and kept the swarm, with 485 retractions
+against the level sets' 149 (the slicer's: 25); the median of the three runs had ranked them the
+other way.
 
 With ``density = "auto"`` each density candidate settles its own tie, and so prints the layout it
 settled; the candidates are ranked by the layout the model ranked first in each
@@ -118,6 +120,8 @@ class SolidChoice:
         The share within which ranks were a tie (setting ``tie_spread``).
     through : bool
         The level sets kept are those through the cut (:data:`THROUGH`).
+    seconds : tuple of (float or None)
+        Per layout, as ``retractions``: the print time of its replaced blocks, s.
     judged : bool
         False: the model did not judge the part (a 3D analysis) and it has no sparse infill, so the
         level sets were kept unjudged (:data:`UNJUDGED`); ``tried`` is empty.
@@ -130,6 +134,7 @@ class SolidChoice:
     spread: float = SPREAD
     through: bool = False
     judged: bool = True
+    seconds: tuple[float | None, ...] = ()
 
 
 UNJUDGED = (
@@ -222,15 +227,18 @@ class SolidChooser:
             return pres
         first = top = max(range(len(judged)), key=lambda k: (score(*judged[k][2]), -k))
         retr: tuple[int | None, ...] = ()
+        secs: tuple[float | None, ...] = ()
         tied = [
             k for k in range(len(judged)) if k != first and tie(judged[first][2], judged[k][2], self.spread)
         ]
         if tied:  # within the model's spread: the printer decides, among those tied with the best
-            top, retr = settle([j[1] for j in judged], top, tied)
+            top, retr, secs = settle([j[1] for j in judged], top, tied)
         best = judged[top]
         kept = best[1]
         tried = tuple((name, *ratios) for name, _, ratios in judged)
-        choice = SolidChoice(kept is not pres, other, tried, retr, self.spread, best[0] == THROUGH)
+        choice = SolidChoice(
+            kept is not pres, other, tried, retr, self.spread, best[0] == THROUGH, seconds=secs
+        )
         self._chosen[id(kept)] = (kept, choice, judged[first][2] if top != first else None)
         return kept
 
@@ -245,5 +253,5 @@ def describe(choice: SolidChoice) -> str:
         kept = f"{layout} on every solid layer"
     else:
         kept = f"{choice.given_way} where the level sets gave way"
-    why = f"; {settled(choice.retractions, choice.spread)}" if choice.retractions else ""
+    why = f"; {settled(choice.retractions, choice.spread, choice.seconds)}" if choice.retractions else ""
     return f"{kept} (by loadpath compare's model over the slicer's file: {figures}{why})"
