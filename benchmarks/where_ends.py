@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/where_ends.py GCODE CASE.toml [--engine swarm] [--replace solid]
+    python benchmarks/where_ends.py GCODE CASE.toml [--engine default] [--replace solid]
 
 Runs loadpath on the file (as ``loadpath run`` does) and, in the replaced blocks of the output,
 sorts every travel between two of the new paths by what its two ends lie next to: ``edge`` (within
@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("gcode")
     ap.add_argument("case")
-    ap.add_argument("--engine", default="swarm")
+    ap.add_argument("--engine", default="default", help="an engine, or 'default': the product's own choice")
     ap.add_argument("--replace", default="solid")
     ap.add_argument("--principal", default="max_abs")
     args = ap.parse_args(argv)
@@ -58,7 +58,11 @@ def main(argv: list[str] | None = None) -> int:
             Path(args.gcode),
             Path(args.case),
             output=out,
-            cli={"engine": args.engine, "replace": (args.replace,), "principal": args.principal},
+            cli={
+                **({} if args.engine == "default" else {"engine": args.engine}),
+                "replace": tuple(args.replace.split(",")),
+                "principal": args.principal,
+            },
         )
     )
     pr = res.pipeline
