@@ -134,26 +134,37 @@ def test_overlap_in_worker_processes_gives_the_same_units(sliced):
 def test_the_grown_region_holds_no_more_than_the_slicers_plastic(sliced, slicer):
     """The region grows into the walls only as far as the slicer's plastic tiles it: CuraEngine runs
     its lines 0.24 mm into the walls at their ends only, and a region grown that far all round took
-    3.5 % more area than the plastic covers (every bead printed narrower than its spacing)."""
-    from loadpath.pipeline.units import plastic_area
+    3.5 % more area than the plastic covers (every bead printed narrower than its spacing).  One
+    share of the reach for layers alike, in steps: they keep regions alike (one engine run)."""
+    from loadpath.geometry.groups import group_regions
+    from loadpath.pipeline.units import SHARE_STEP, _grown, growth_shares, plastic_area
 
     program = gcode.read(sliced(slicer, "ohs", "solid"))
     geo = geometry.layer_geometry(program, check=False)
     units = select_units(geo, [o.name for o in geo.objects], ("solid",))
+    domains = {
+        (o.name, lg.layer_index, i.index): i.domain for o in geo.objects for lg in o.layers for i in lg.islands
+    }
     grown = with_overlap(units, program, geo)
-    capped = 0
-    for u, g in zip(units, grown, strict=True):
+    share = growth_shares(units, program, domains, geo.filament_diameter)
+    assert all(abs(s / SHARE_STEP - round(s / SHARE_STEP)) < 1e-9 and 0 <= s <= 1 for s in share)
+    mid = share[len(share) // 2]
+    assert mid <= 0.25 if slicer == "cura" else mid >= 0.5, share
+    over = []
+    for u, g, s in zip(units, grown, share, strict=True):
         room = plastic_area(program, u, geo.filament_diameter)
         # the slicer's plastic at the layer height: about the region it fills, a few % either way
         assert 0.9 * u.region.area < room < 1.1 * u.region.area
-        assert g.fill_region.area <= max(room, u.region.area) * (1 + 1e-3)
         measured = slicer_overlap(program, u)
-        assert g.overlap <= measured + 1e-9
-        capped += g.overlap < measured - 1e-6
-        if slicer == "cura" and measured > 0.15:  # ends 0.24 mm into the walls: more than the plastic
-            assert g.overlap < measured - 1e-6
-    if slicer == "cura":
-        assert capped >= len(units) // 2
+        assert g.overlap == pytest.approx(s * measured) or (g.overlap == 0 and s * measured < 1e-3)
+        over.append(g.fill_region.area / max(room, u.region.area) - 1.0)
+    # no layer's region outgrows its plastic by more than a few tenths of a percent
+    assert max(over) < 0.005, over
+    # layers alike stay alike: no more groups of engine regions than grown by the whole reach
+    whole = [_grown(u, program, domains, 1.0) for u in units]
+    before = group_regions([u.region if w is None else w[1] for u, w in zip(units, whole, strict=True)])
+    after = group_regions([g.fill_region for g in grown])
+    assert len(set(after)) <= len(set(before))
 
 
 def test_cura_solid_beads_are_printed_at_their_spacing(tmp_path, sliced):
