@@ -42,7 +42,7 @@ from loadpath.options import field
 
 __all__ = [
     "CANDIDATES", "MASS_TOLERANCE", "SPREAD", "STIFFNESS_SPREAD", "Choice", "Judge", "score", "tie", "settle",
-    "settled", "retractions", "printer_cost", "QUICKER", "mass_change", "lays_sparse", "run_choosing",
+    "settled", "printer_cost", "QUICKER", "mass_change", "lays_sparse", "run_choosing",
     "judge", "describe", "figure",
 ]
 
@@ -132,20 +132,12 @@ def tie(higher: Ratios, lower: Ratios, spread: float = SPREAD) -> bool:
     return s_h <= s_l * (1.0 + STIFFNESS_SPREAD) and f_h <= f_l * (1.0 + spread)
 
 
-def retractions(pres: Any) -> int | None:
-    """Retractions in a run's replaced blocks (:func:`loadpath.printability.verdict_counts`), or None."""
-    from loadpath.printability import verdict_counts
-
-    counts, _ = verdict_counts(pres)
-    return None if counts is None else int(counts["loadpath"]["retractions"])
-
-
 QUICKER = 0.02
 """On equal retractions, a tied result whose replaced blocks print at least this share quicker than
 the one ranked highest is kept (:func:`settle`).  CuraEngine combs inside the infill and retracts
 nowhere there, so on its files retractions never settled a tie: on the bench's L-bracket at
 CuraEngine 100 % (``benchmarks/bench_printability.py``) the swarm ranked 0.3 % above the level sets
-and was kept, with 551 s in the replaced blocks against 494 s and twice their travel."""
+and was kept, with 551 s in the replaced blocks against 482 s and twice their travel."""
 
 
 def printer_cost(pres: Any) -> tuple[int, float | None] | None:

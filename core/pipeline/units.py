@@ -365,7 +365,7 @@ def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry, workers: in
     The region is grown by :func:`slicer_overlap` towards the walls only (not into the blocks that
     are kept), so the engine's outermost beads and path ends meet the perimeters as the slicer's
     did instead of stopping at the perimeters' flow edge, and no further than the slicer's plastic
-    tiles (:func:`growth_share`).  Fixed-width (sparse) units are left as they are.  ``workers``:
+    tiles (:func:`growth_shares`).  Fixed-width (sparse) units are left as they are.  ``workers``:
     processes for the units (:func:`loadpath.procs.fork_map`, contiguous batches; each unit's region
     depends on that unit and its object's share alone: the same regions; the 1000-layer specimen's
     998 units took 1.4-2.8 s of one core).
@@ -422,7 +422,7 @@ SHARE_STEP = 0.05
 whose plastic moves by round-off keeps the same engine regions (and the cache's paths)."""
 
 
-def labels_of(n: int, members: Sequence[int], labels: Sequence[int]) -> list[int]:
+def _labels_of(n: int, members: Sequence[int], labels: Sequence[int]) -> list[int]:
     """Per index ``0 .. n - 1`` its label among ``members`` (``-1``: not a member)."""
     out = [-1] * n
     for i, lab in zip(members, labels, strict=True):
@@ -461,7 +461,7 @@ def growth_shares(units: Sequence[Unit], program, domains: dict, diameter: float
         room = plastic_area(program, u, diameter) - u.region.area
         fit = 1.0 if extra <= room else max(room, 0.0) / extra
         first[lab] = math.floor(fit / SHARE_STEP + 1e-9) * SHARE_STEP
-    return [first.get(lab, 1.0) for lab in labels_of(len(units), solid, labels)]
+    return [first.get(lab, 1.0) for lab in _labels_of(len(units), solid, labels)]
 
 
 def _grow(u: Unit, domains: dict, by: float):
@@ -477,7 +477,7 @@ def _grow(u: Unit, domains: dict, by: float):
 
 def _grown(u: Unit, program, domains: dict, share: float = 1.0) -> tuple[float, Any] | None:
     """``(overlap, engine region)`` of one unit (:func:`with_overlap`), None when it stays as it is:
-    grown by ``share`` of :func:`slicer_overlap` (:func:`growth_share`)."""
+    grown by ``share`` of :func:`slicer_overlap` (:func:`growth_shares`)."""
     o = 0.0 if u.fixed_width else share * slicer_overlap(program, u)
     if o < 1e-3:
         return None
