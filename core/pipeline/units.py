@@ -379,7 +379,7 @@ def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry, workers: in
     }
     from loadpath.procs import fork_map, spans
 
-    share = growth_shares(units, program, domains, geo.filament_diameter)
+    share = growth_shares(units, program, domains, geo.filament_diameter, workers)
     _WORK = [(units, program, domains, share)]
     try:
         grown = [g for got in fork_map(_overlap_batch, spans(len(units), workers, 4), workers) for g in got]
@@ -422,15 +422,9 @@ SHARE_STEP = 0.05
 whose plastic moves by round-off keeps the same engine regions (and the cache's paths)."""
 
 
-def _labels_of(n: int, members: Sequence[int], labels: Sequence[int]) -> list[int]:
-    """Per index ``0 .. n - 1`` its label among ``members`` (``-1``: not a member)."""
-    out = [-1] * n
-    for i, lab in zip(members, labels, strict=True):
-        out[i] = lab
-    return out
-
-
-def growth_shares(units: Sequence[Unit], program, domains: dict, diameter: float) -> list[float]:
+def growth_shares(
+    units: Sequence[Unit], program, domains: dict, diameter: float, workers: int = 1
+) -> list[float]:
     """The share of the slicer's bead reach each unit's engine region grows by, in [0, 1].
 
     The slicer's beads reach into the walls only at their line ends, while a region grown all round
@@ -442,26 +436,60 @@ def growth_shares(units: Sequence[Unit], program, domains: dict, diameter: float
     grew of each group of alike regions (:func:`loadpath.geometry.group_regions`) and taken down to
     a multiple of :data:`SHARE_STEP`, one share for the group: layers alike keep engine regions alike
     (one engine run), though their plastic differs a little (PrusaSlicer's +-45 degree layers: 0.77
-    and 0.88 of the reach fit).
+    and 0.88 of the reach fit).  The groups' first units are measured in ``workers`` processes
+    (a part whose every layer differs has a group per layer), the next ones only where the slicer
+    did not grow the first.
     """
+    global _FIT_WORK
     from loadpath.geometry import group_regions
+    from loadpath.procs import fork_map, spans
 
     solid = [i for i, u in enumerate(units) if not u.fixed_width]
     keys = [(units[i].object, units[i].kind) for i in solid]
     labels = group_regions([units[i].region for i in solid], keys=keys)
-    first: dict[int, float] = {}  # group -> its share, from its first member the slicer grew
+    members: dict[int, list[int]] = {}
     for i, lab in zip(solid, labels, strict=True):
-        if lab in first:
-            continue
-        u = units[i]
-        o = slicer_overlap(program, u)
-        if o <= 0:  # not grown whatever its share (a first layer over the skin, laid inside it)
-            continue
-        extra = _grow(u, domains, o).area - u.region.area
-        room = plastic_area(program, u, diameter) - u.region.area
-        fit = 1.0 if extra <= room else max(room, 0.0) / extra
-        first[lab] = math.floor(fit / SHARE_STEP + 1e-9) * SHARE_STEP
-    return [first.get(lab, 1.0) for lab in _labels_of(len(units), solid, labels)]
+        members.setdefault(lab, []).append(i)
+    share = [1.0] * len(units)
+    left = dict(members)  # each group's members not measured yet
+    while left:
+        reps = [(lab, idx[0]) for lab, idx in left.items()]
+        _FIT_WORK = [([units[i] for _, i in reps], program, domains, diameter)]
+        try:
+            fits = [f for got in fork_map(_fit_batch, spans(len(reps), workers, 4), workers) for f in got]
+        finally:
+            _FIT_WORK = []
+        nxt = {}
+        for (lab, _), fit in zip(reps, fits, strict=True):
+            if fit is not None:
+                for i in members[lab]:
+                    share[i] = math.floor(fit / SHARE_STEP + 1e-9) * SHARE_STEP
+            elif len(left[lab]) > 1:  # not grown by the slicer (a first layer over the skin): the next
+                nxt[lab] = left[lab][1:]
+        left = nxt
+    return share
+
+
+_FIT_WORK: list[tuple] = []
+"""What :func:`growth_shares` hands to :func:`_fit_batch` (inherited by forked workers):
+``(units to measure, program, island domains, filament diameter)``."""
+
+
+def _fit_batch(span: tuple[int, int]) -> list[float | None]:
+    """:func:`_fit` of the units ``[a, z)`` of :data:`_FIT_WORK`."""
+    units, program, domains, diameter = _FIT_WORK[0]
+    return [_fit(u, program, domains, diameter) for u in units[slice(*span)]]
+
+
+def _fit(u: Unit, program, domains: dict, diameter: float) -> float | None:
+    """The share of the slicer's reach whose band the unit's plastic still tiles (1: the whole reach),
+    or None where the slicer did not grow it."""
+    o = slicer_overlap(program, u)
+    if o <= 0:
+        return None
+    extra = _grow(u, domains, o).area - u.region.area
+    room = plastic_area(program, u, diameter) - u.region.area
+    return 1.0 if extra <= room else max(room, 0.0) / extra
 
 
 def _grow(u: Unit, domains: dict, by: float):
