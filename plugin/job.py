@@ -219,6 +219,10 @@ def run_job(request: JobRequest, progress: Callable[[str, int, int], None] | Non
     log are written after it, and their failure is a warning that says the G-code was written.
     Every failure message ends with what became of the input and the output (:func:`fate`).
 
+    ``progress(stage, done, total)`` hears each stage of every layout laid; before each layout,
+    ``progress("layout", k, 0)`` numbers it (1, 2, ...: ``density = "auto"`` and the solid choice
+    lay several and keep one).
+
     Raises
     ------
     LoadpathError
@@ -442,7 +446,12 @@ def _run(
 
         cache = Cache(Path(scratch.enter_context(tempfile.TemporaryDirectory(prefix="loadpath-run-"))))
     result.cache = cache
+    laid = [0]
+
     def run_with(o: pipeline.PipelineOptions) -> pipeline.PipelineResult:
+        laid[0] += 1
+        if progress is not None:  # the layouts a run lays and judges, numbered (run_job)
+            progress("layout", laid[0], 0)
         return pipeline.run(
             program, lc, o, settings_mod.splice_options(s), progress=progress, cura_settings=cura,
             analyze=request.analyze, cache=cache,

@@ -74,19 +74,31 @@ class Progress:
         self.on = bool(getattr(self.stream, "isatty", lambda: False)())
         self.t0 = time.perf_counter()
         self.last = ""
+        self.layout = 0
 
     def __call__(self, stage: str, done: int, total: int) -> None:
-        """Show ``done`` of ``total`` for a stage."""
+        """Show ``done`` of ``total`` for a stage.
+
+        The stage ``"layout"`` (:func:`loadpath.plugin.job.run_job`) draws nothing: ``done`` numbers
+        the layout the run lays from now on, and from the second one the bar names it, so a run that
+        lays and judges several (``density = "auto"``, the solid layouts) does not seem to start over.
+        """
+        if stage == "layout":
+            self.layout = done
+            return
         if not self.on:
             return
         width = 24
         fill = int(width * done / total) if total else width
+        label = self.LABELS.get(stage, stage)
+        if self.layout > 1:
+            label = f"layout {self.layout}: {label}"
         line = (
-            f"\rloadpath: {self.LABELS.get(stage, stage):<16} [{'#' * fill}{'.' * (width - fill)}] "
+            f"\rloadpath: {label:<16} [{'#' * fill}{'.' * (width - fill)}] "
             f"{done}/{total}  {time.perf_counter() - self.t0:5.1f} s"
         )
         if line != self.last:
-            self.stream.write(line)
+            self.stream.write(line + " " * max(0, len(self.last) - len(line)))  # no tail of a longer one
             self.stream.flush()
             self.last = line
 

@@ -227,6 +227,54 @@ def test_progress_bar_only_on_a_terminal():
     assert pipe.getvalue() == ""
 
 
+def test_progress_bar_names_the_layout_after_the_first():
+    """A run that lays several layouts (``density = "auto"``, the solid choice) numbers them from the
+    second, so the bar does not seem to start over; a shorter line leaves no tail of a longer one."""
+    import io
+
+    from loadpath.plugin.commands.run import Progress
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    stream = Tty()
+    bar = Progress(stream)
+    bar("layout", 1, 0)
+    bar("paths", 2, 4)
+    first = stream.getvalue()
+    assert "layout" not in first and "paths" in first
+    bar("layout", 2, 0)
+    assert stream.getvalue() == first  # the layout event itself draws nothing
+    bar("splice", 1, 3)
+    second = stream.getvalue()[len(first):]
+    assert "layout 2: writing G-code" in second
+    bar("fea", 0, 1)
+    third = stream.getvalue()[len(first) + len(second):]
+    assert len(third) >= len(second)  # padded over the longer line before it
+
+
+def test_run_job_numbers_each_layout_it_lays(tmp_path, sliced):
+    """``run_job`` tells its progress the layouts it lays: ``density = "auto"`` on sparse infill lays
+    two candidates (real PrusaSlicer slice)."""
+    from loadpath.plugin.job import JobRequest, run_job
+
+    case = tmp_path / "case.toml"
+    case.write_text(CASE, encoding="utf-8")
+    heard: list[tuple[str, int, int]] = []
+    res = run_job(
+        JobRequest(sliced("prusa", "ohs", "mixed"), case, output=tmp_path / "out.gcode",
+                   cli={"replace": ("solid", "sparse"), "cache": False}),
+        progress=lambda stage, done, total: heard.append((stage, done, total)),
+    )
+    assert res.written and res.density is not None
+    layouts = [done for stage, done, _ in heard if stage == "layout"]
+    assert layouts == list(range(1, len(layouts) + 1)) and len(layouts) >= 2
+    # every layout's stages follow its number
+    starts = [i for i, h in enumerate(heard) if h[0] == "layout"]
+    assert starts[0] == 0 and all(heard[i + 1][0] != "layout" for i in starts)
+
+
 def test_run_without_the_check(work, capsys):
     """``--set check=false`` skips the re-read: the run writes its output (it crashed on the counts the
     check's side process makes)."""
