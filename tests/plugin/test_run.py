@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -208,16 +209,17 @@ def test_demo_writes_result_and_report(tmp_path, monkeypatch, capsys):
     assert os.path.getsize(out / "ohs.loadpath.gcode") > 100_000
 
 
-def test_progress_bar_only_on_a_terminal():
-    import io
+class _Tty(io.StringIO):
+    """A stream that says it is a terminal."""
 
+    def isatty(self):
+        return True
+
+
+def test_progress_bar_only_on_a_terminal():
     from loadpath.plugin.commands.run import Progress
 
-    class Tty(io.StringIO):
-        def isatty(self):
-            return True
-
-    tty, pipe = Tty(), io.StringIO()
+    tty, pipe = _Tty(), io.StringIO()
     for stream in (tty, pipe):
         bar = Progress(stream)
         bar("fea", 0, 1)
@@ -230,15 +232,9 @@ def test_progress_bar_only_on_a_terminal():
 def test_progress_bar_names_the_layout_after_the_first():
     """A run that lays several layouts (``density = "auto"``, the solid choice) numbers them from the
     second, so the bar does not seem to start over; a shorter line leaves no tail of a longer one."""
-    import io
-
     from loadpath.plugin.commands.run import Progress
 
-    class Tty(io.StringIO):
-        def isatty(self):
-            return True
-
-    stream = Tty()
+    stream = _Tty()
     bar = Progress(stream)
     bar("layout", 1, 0)
     bar("paths", 2, 4)
