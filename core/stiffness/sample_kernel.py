@@ -11,6 +11,13 @@ classes ascending, then pieces, then along, then across), with the same arithmet
 each batch from zero before it is added, as ``np.bincount`` does: the sums are bit-identical.  The
 volume of the points outside the mesh is returned point by point and summed by numpy, as before.
 
+A sample point is first tested against the element of the point before it (:data:`HINT`), which
+holds it most of the time (the points step 0.1 mm along and across a piece; the elements are
+millimetres wide), and goes through its grid cell's candidates only when that fails: the same
+element for every point, so the same sums bit for bit.  The shipped example's prediction pair (12
+batches, one core): 3.04 -> 0.43-0.72 s; the verdict's stage of its first run 3.9 -> 2.0-2.7 s
+(in process, two workers, another job on the cores).
+
 Compiled with the engines' ``njit`` (:mod:`loadpath.engines.finish._numba`, stamped with this file
 and the point location's).
 """
@@ -29,6 +36,14 @@ __all__ = ["sample_batch"]
 
 _njit, _ = jit_family((Path(__file__).resolve(), Path(locate_kernel.__file__).resolve()))
 
+HINT = 1e-6
+"""A point whose barycentric coordinates in the element of the point before all exceed this lies in
+that element and in no other: :func:`~loadpath.fea.locate_kernel.find` accepts an element down to
+``-eps`` (1e-9), and a neighbour across an edge sees the point at ``-d / h'`` where the element sees
+``d / h``, so the two agree unless the neighbour is 1000 times taller.  Such points skip the grid
+cell's candidates; the others are located as before, and every point gets the element it got
+before."""
+
 
 @_njit
 def _batch(  # noqa: PLR0913
@@ -38,6 +53,7 @@ def _batch(  # noqa: PLR0913
 ):
     bary = np.zeros(3)
     n_out = 0
+    last = -1  # the element of the point before: the next one along or across a piece is mostly in it
     for nac in classes:
         for r in range(rows.shape[0]):
             s = rows[r]
@@ -58,11 +74,23 @@ def _batch(  # noqa: PLR0913
                     off = (j + 0.5) / nac - 0.5
                     px = cx + off * nx0
                     py = cy + off * ny0
-                    e = find(px, py, ox, oy, step, nx, ny, start, cand, x0, y0, m00, m01, m10, m11, eps, bary)
+                    e = -1
+                    if last >= 0:  # inside it by more than HINT: no other element's test passes
+                        q0 = px - x0[last]
+                        q1 = py - y0[last]
+                        l1 = m00[last] * q0 + m01[last] * q1
+                        l2 = m10[last] * q0 + m11[last] * q1
+                        if l1 > HINT and l2 > HINT and 1.0 - l1 - l2 > HINT:
+                            e = last
+                    if e < 0:
+                        e = find(
+                            px, py, ox, oy, step, nx, ny, start, cand, x0, y0, m00, m01, m10, m11, eps, bary
+                        )
                     if e < 0:
                         outside[n_out] = share
                         n_out += 1
                         continue
+                    last = e
                     i = base + e
                     vol[i] += share
                     for h in range(4):

@@ -115,6 +115,29 @@ def test_fine_sampling_partly_off_the_mesh_gives_numpys_fields_bit_for_bit(examp
     _same(got, want)  # the lost volume to 1e-9: summed by chunk of layers (module docstring)
 
 
+def test_points_on_element_edges_get_numpys_elements_bit_for_bit():
+    """The compiled sampling tries the element of the point before first (``sample_kernel.HINT``);
+    a point on an edge or a vertex must still get the element the grid scan gives it.  Beads laid
+    along a horizontal, a vertical and a diagonal edge of a mesh of unit squares (two triangles
+    each, split along that diagonal), five sample points across each (the middle one on the edge),
+    against numpy's sampling."""
+    from loadpath.stiffness import sample_kernel
+
+    assert sample_kernel.HINT > 100 * 1e-9  # well clear of the locator's eps
+    mesh = rectangle_tri6(8.0, 8.0, 8, 8, thickness=1.0)
+    start = np.array([[0.3, 4.0], [3.0, 0.3], [0.5, 0.5], [7.7, 2.0]])
+    end = np.array([[7.7, 4.0], [3.0, 7.7], [7.5, 7.5], [0.3, 2.0]])
+    length = np.hypot(*(end - start).T)
+    height = np.full(4, 0.2)
+    dep = Deposits(start, end, np.zeros(4), height, 0.5 * height * length, np.zeros(4, dtype=np.int64),
+                   np.full(4, int(Role.SOLID_INFILL)))
+    pieces, attrs = attributes(dep, MAT.E1, MAT.G12)
+    w = pieces.volume / (pieces.length * pieces.height)
+    assert np.all(np.ceil(w / 0.1 - 1e-9) % 2 == 1)  # an odd count across: one sample on the centre line
+    want = fields_mod.sample_deposits(mesh, pieces, 0.1, attrs)
+    _same(layered.sample_beads(mesh, dep, 0.1, MAT.E1, MAT.G12), want)
+
+
 def _peak(fn) -> int:
     tracemalloc.start()
     try:
