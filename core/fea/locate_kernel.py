@@ -19,9 +19,21 @@ from pathlib import Path
 import numpy as np
 from loadpath.jit import jit_family
 
-__all__ = ["locate_points", "find", "grid_arrays"]
+__all__ = ["locate_points", "find", "barycentric", "grid_arrays"]
 
 _njit, njit_inline = jit_family((Path(__file__).resolve(),))
+
+
+@njit_inline
+def barycentric(x, y, t, x0, y0, m00, m01, m10, m11):  # noqa: N803
+    """Barycentric coordinates ``(l0, l1, l2)`` of point ``(x, y)`` in triangle ``t`` (the locator's
+    corner ``x0, y0`` and inverse edge matrix ``m``).  Compiled into each caller: :func:`find`, and
+    :mod:`loadpath.stiffness.sample_kernel`'s test of the element of the point before."""
+    q0 = x - x0[t]
+    q1 = y - y0[t]
+    l1 = m00[t] * q0 + m01[t] * q1
+    l2 = m10[t] * q0 + m11[t] * q1
+    return 1.0 - l1 - l2, l1, l2
 
 
 @njit_inline
@@ -40,11 +52,7 @@ def find(x, y, ox, oy, step, nx, ny, start, cand, x0, y0, m00, m01, m10, m11, ep
     c = ix * ny + iy
     for k in range(start[c], start[c + 1]):
         t = cand[k]
-        q0 = x - x0[t]
-        q1 = y - y0[t]
-        l1 = m00[t] * q0 + m01[t] * q1
-        l2 = m10[t] * q0 + m11[t] * q1
-        l0 = 1.0 - l1 - l2
+        l0, l1, l2 = barycentric(x, y, t, x0, y0, m00, m01, m10, m11)
         if l0 >= -eps and l1 >= -eps and l2 >= -eps:
             bary[0] = l0
             bary[1] = l1

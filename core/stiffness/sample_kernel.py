@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from loadpath.jit import jit_family
 from loadpath.fea import locate_kernel
-from loadpath.fea.locate_kernel import find, grid_arrays
+from loadpath.fea.locate_kernel import barycentric, find, grid_arrays
 from loadpath.stiffness.fields import bead_grid
 
 __all__ = ["sample_batch"]
@@ -76,11 +76,8 @@ def _batch(  # noqa: PLR0913
                     py = cy + off * ny0
                     e = -1
                     if last >= 0:  # inside it by more than HINT: no other element's test passes
-                        q0 = px - x0[last]
-                        q1 = py - y0[last]
-                        l1 = m00[last] * q0 + m01[last] * q1
-                        l2 = m10[last] * q0 + m11[last] * q1
-                        if l1 > HINT and l2 > HINT and 1.0 - l1 - l2 > HINT:
+                        l0, l1, l2 = barycentric(px, py, last, x0, y0, m00, m01, m10, m11)
+                        if l0 > HINT and l1 > HINT and l2 > HINT:
                             e = last
                     if e < 0:
                         e = find(
