@@ -320,6 +320,17 @@ def sparse_pitch(line_pitch: float, area: float, length: float, flow_width: floa
     return float(min(line_pitch, area / length))
 
 
+def _extruding_rows(program, unit: Unit) -> list[np.ndarray]:
+    """Indices of the extruding rows of ``program.moves`` in each of the unit's blocks, one array per
+    block (indices, not the rows: the callers read two or three of their columns)."""
+    extrude = program.moves["extrude"]
+    out = []
+    for b in unit.blocks:
+        a, z = (int(program.blocks[k][b.block_index]) for k in ("move_start", "move_stop"))
+        out.append(np.arange(a, z)[extrude[a:z]])
+    return out
+
+
 def slicer_overlap(program, unit: Unit) -> float:
     """How far the slicer's beads of a unit's blocks reach past the region's edge, mm.
 
@@ -337,12 +348,7 @@ def slicer_overlap(program, unit: Unit) -> float:
     """
     m = program.moves
     ends = []
-    for b in unit.blocks:
-        a, z = (
-            int(program.blocks["move_start"][b.block_index]),
-            int(program.blocks["move_stop"][b.block_index]),
-        )
-        rows = np.arange(a, z)[m["extrude"][a:z]]
+    for rows in _extruding_rows(program, unit):
         if len(rows):
             ends.append(np.column_stack([m["x0"][rows], m["y0"][rows]]))
             ends.append(np.column_stack([m["x1"][rows], m["y1"][rows]]))
@@ -409,11 +415,9 @@ def plastic_area(program, unit: Unit, diameter: float) -> float:
     m = program.moves
     near = unit.region.buffer(unit.flow_width, quad_segs=4)  # a block may print other islands too
     vol = 0.0
-    for b in unit.blocks:
-        a, z = (int(program.blocks[k][b.block_index]) for k in ("move_start", "move_stop"))
-        mv = m[a:z][m["extrude"][a:z]]
-        mid = 0.5 * (mv["x0"] + mv["x1"]), 0.5 * (mv["y0"] + mv["y1"])
-        vol += float(np.sum(mv["e"][shapely.contains_xy(near, *mid)]))
+    for rows in _extruding_rows(program, unit):
+        mid = 0.5 * (m["x0"][rows] + m["x1"][rows]), 0.5 * (m["y0"][rows] + m["y1"][rows])
+        vol += float(np.sum(m["e"][rows][shapely.contains_xy(near, *mid)]))
     return vol * math.pi * diameter**2 / 4 / unit.height if unit.height > 0 else 0.0
 
 
