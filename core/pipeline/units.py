@@ -365,6 +365,17 @@ def slicer_overlap(program, unit: Unit) -> float:
     return float(np.clip(0.5 * w - np.median(d[near]), 0.0, 0.5 * w))
 
 
+def island_domains(geo: PrintGeometry) -> dict[tuple[str, int, int], Region]:
+    """Every island's infill domain, keyed ``(object name, layer index, island index)`` as a unit
+    names its island: what :func:`with_overlap` and :func:`growth_shares` grow the units within."""
+    return {
+        (obj.name, lg.layer_index, isl.index): isl.domain
+        for obj in geo.objects
+        for lg in obj.layers
+        for isl in lg.islands
+    }
+
+
 def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry, workers: int = 1) -> list[Unit]:
     """Units whose engine region reaches as far into the perimeters as the slicer's own beads did.
 
@@ -377,12 +388,7 @@ def with_overlap(units: Sequence[Unit], program, geo: PrintGeometry, workers: in
     998 units took 1.4-2.8 s of one core).
     """
     global _WORK
-    domains = {
-        (obj.name, lg.layer_index, isl.index): isl.domain
-        for obj in geo.objects
-        for lg in obj.layers
-        for isl in lg.islands
-    }
+    domains = island_domains(geo)
     from loadpath.procs import fork_map, spans
 
     share = growth_shares(units, program, domains, geo.filament_diameter, workers)

@@ -137,14 +137,12 @@ def test_the_grown_region_holds_no_more_than_the_slicers_plastic(sliced, slicer)
     3.5 % more area than the plastic covers (every bead printed narrower than its spacing).  One
     share of the reach for layers alike, in steps: they keep regions alike (one engine run)."""
     from loadpath.geometry.groups import group_regions
-    from loadpath.pipeline.units import SHARE_STEP, _grown, growth_shares, plastic_area
+    from loadpath.pipeline.units import SHARE_STEP, _grown, growth_shares, island_domains, plastic_area
 
     program = gcode.read(sliced(slicer, "ohs", "solid"))
     geo = geometry.layer_geometry(program, check=False)
     units = select_units(geo, [o.name for o in geo.objects], ("solid",))
-    domains = {
-        (o.name, lg.layer_index, i.index): i.domain for o in geo.objects for lg in o.layers for i in lg.islands
-    }
+    domains = island_domains(geo)
     grown = with_overlap(units, program, geo)
     share = growth_shares(units, program, domains, geo.filament_diameter)
     assert all(abs(s / SHARE_STEP - round(s / SHARE_STEP)) < 1e-9 and 0 <= s <= 1 for s in share)
