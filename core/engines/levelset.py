@@ -32,7 +32,9 @@ any loop) fall where the direction is least defined.  Where the followed directi
 across a bending neutral axis turns by 90 degrees) no scalar field has both sides' gradients: the
 fit is cut there (triangles whose corners differ by more than :data:`JUMP_DEG`), each side's level
 sets end on the cut, and no path runs along it.  With ``heal`` the direction is healed across the
-jump instead (:func:`_healed`): the level sets run through it, along a beam's fibres.
+jump instead (:func:`_healed`): the level sets run through it, along a beam's fibres.  A jump that
+runs along the edge within a few pitches of it is the edge's own (a free edge's stress is uniaxial
+along it): it is not cut, the inside's direction is carried on to the edge (:data:`EDGE_SKIN`).
 
 Negligible stress (issue 15).  Where ``|sigma|`` is below ``relief`` of the field's scale (a column
 loaded along its axis: the in-plane stress of every layer), its direction is noise, and following
@@ -103,6 +105,28 @@ JUMP_DEG = 50.0
 
 CUT_WEIGHT = 0.05
 """How firmly phi keeps level on the cut (relative to the spacing term)."""
+
+EDGE_SKIN = 3.0
+"""A jump of the followed direction that lies nowhere deeper than this many nominal pitches inside
+the region, and runs along its edge (:data:`SKIN_LENGTH`), in a region whose inradius is more than
+twice that, is the edge's own skin, not a jump to cut the fit at: there the direction of the part's
+inside is carried on to the edge (:func:`_over_skin`).  At a free edge the stress is uniaxial along
+it, so where the pull across the part fades towards the edge (the end face of a grip zone) the
+larger principal stress turns along the edge in the last millimetre.  Cut there, the level sets
+ended 0.4-1.0 mm short of the end face of a 100-layer open-hole specimen pulled through its grip
+zone (``tests/cases.py``'s ``GRIP_PULL``), their links along that face left a void beside the
+perimeter on every layer, and ``loadpath compare`` predicted 0.255x the slicer's failure load, the
+first ply failing at that void.  Carried over: 1.039x (stiffness 1.009x -> 1.013x), and the run's
+retractions 593 -> 541, its travel 17.3 -> 16.0 m.  The linking's ``band_depth``
+(:class:`loadpath.engines.linking.LinkOptions`) draws the same line for the band it links along."""
+
+SKIN_LENGTH = 8.0
+"""A jump in the edge's skin (:data:`EDGE_SKIN`) is carried over only where it runs along the edge
+for at least this many times its depth (the diagonal of its nodes' box).  The hoop compression at an
+open hole's flanks meets the pull in blobs about three times as long as they are deep (the 100-layer
+specimen: 3.4x; the same end face: 35x): carried over there too, the level sets ran straight into the
+flanks, and ``bench_printability.py``'s tension bar lost 1.3 % of its failure load against the slicer
+(1.035x -> 1.022x) and its travel rose from 0.97x to 1.59x the slicer's."""
 
 GIVE_WAY = 1.0
 """Solid infill whose cut is longer than this many times the square root of the region's area
@@ -331,6 +355,91 @@ def _orient(n: np.ndarray, edges: np.ndarray, count: int) -> np.ndarray:
     return np.where(parity == 1, -1.0, 1.0)
 
 
+def _over_skin(
+    q: np.ndarray, cut: np.ndarray, tri: np.ndarray, act: np.ndarray, inside: np.ndarray, nodes: Points2,
+    region: Region, depth: float,
+) -> np.ndarray | None:
+    """The nodes' direction doubles with the inside's direction carried over the edge's skin
+    (:data:`EDGE_SKIN`); None where no jump lies there.
+
+    Parameters
+    ----------
+    q : (ny nx, 2) float
+        Every grid node's direction double ``(cos 2t, sin 2t)`` (scaled by how defined it is).
+    cut : (t,) bool
+        The triangles on a jump.
+    tri : (t, 3) int
+        Their nodes, as indices into ``act``.
+    act : (m,) int
+        The active nodes' flat grid indices.
+    inside : (ny, nx) bool
+        The nodes inside the region.
+    nodes : (ny nx, 2) float, mm
+    region : Polygon or MultiPolygon, mm
+    depth : float, mm
+        The skin's depth.
+
+    Returns
+    -------
+    (ny nx, 2) float or None
+        A piece of the cut (8-neighbours) with no node deeper than ``depth`` inside the region,
+        at least :data:`SKIN_LENGTH` times as long as that, is the edge's own.  Around each, the
+        nodes within ``depth`` of the edge whose direction turns more than :data:`JUMP_DEG` from the
+        nearest deeper node's (the jump and the skin beyond it, up to the edge) take that node's
+        direction, and the nodes outside the region their nearest inside node's.  None when no
+        piece lies in the skin, or the region's inradius is at most ``2 depth`` (a narrow part's
+        jump lies near its edge everywhere: it stays cut).
+    """
+    from scipy import ndimage
+
+    if not cut.any():
+        return None
+    shape = inside.shape
+    h = float(np.hypot(*(nodes[1] - nodes[0])))
+    if float(ndimage.distance_transform_edt(inside).max()) * h <= 2.0 * depth:
+        return None
+    edge = shapely.boundary(region)
+    shapely.prepare(edge)
+    flat = inside.ravel()
+    dist = np.zeros(len(flat))
+    dist[flat] = shapely.distance(edge, shapely.points(nodes[flat]))
+    dist = dist.reshape(shape)
+    on = np.zeros(flat.size, dtype=bool)
+    on[act[np.unique(tri[cut])]] = True
+    on = on.reshape(shape)
+    eight = np.ones((3, 3), dtype=bool)
+    labels, count = ndimage.label(on, structure=eight)
+    deepest = np.zeros(count + 1)
+    np.maximum.at(deepest, labels[on], np.where(inside[on], dist[on], 0.0))
+    # each piece's extent: the diagonal of its nodes' bounding box
+    xy = nodes.reshape(*shape, 2)[on]
+    lo = np.full((count + 1, 2), np.inf)
+    hi = np.full((count + 1, 2), -np.inf)
+    np.minimum.at(lo, labels[on], xy)
+    np.maximum.at(hi, labels[on], xy)
+    extent = np.hypot(*np.where(np.isfinite(hi - lo), hi - lo, 0.0).T)
+    strip = (deepest <= depth) & (extent >= SKIN_LENGTH * np.maximum(deepest, h))
+    skin = strip[labels] & on
+    deep = inside & (dist > depth)
+    if not skin.any() or not deep.any():
+        return None
+    qg = q.reshape(*shape, 2)
+    _, (iy, ix) = ndimage.distance_transform_edt(~deep, return_indices=True)
+    ref = qg[iy, ix]  # the nearest node deeper than the skin
+    # the double angles turn by more than twice the jump's
+    dot = np.einsum("...i,...i->...", qg, ref)
+    size = np.linalg.norm(qg, axis=-1) * np.linalg.norm(ref, axis=-1)
+    turned = dot < np.cos(np.radians(2.0 * JUMP_DEG)) * size
+    near = (inside & ~deep & turned) | skin
+    labels, _ = ndimage.label(near, structure=eight)
+    zone = np.isin(labels, np.unique(labels[skin])) & inside
+    out = qg.copy()
+    out[zone] = ref[zone]
+    _, (iy, ix) = ndimage.distance_transform_edt(~inside, return_indices=True)
+    out = out[iy, ix]  # outside the region: the nearest inside node's, as the fit's margin
+    return out.reshape(-1, 2)
+
+
 class GivesWay(Exception):
     """Raised by :func:`fit` before the solve when the cut is longer than ``give_way_mm``."""
 
@@ -454,10 +563,6 @@ def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf)
     if options.heal > 0 and np.any(inside):
         q = _healed(q.reshape(ny, nx, 2), np.where(np.isfinite(smp.mass), smp.mass, 0.0).reshape(ny, nx),
                     inside, h, options.heal).reshape(-1, 2)
-    qa = np.hypot(q[:, 0], q[:, 1])
-    t = 0.5 * np.arctan2(q[:, 1], q[:, 0])
-    dvec = np.stack([np.cos(t), np.sin(t)], axis=1)
-    nvec = np.stack([-dvec[:, 1], dvec[:, 0]], axis=1)
     if inp.density is not None:
         scale = p0 / inp.density.base_pitch
         s0 = 1.0 / (inp.density.pitch_at(nodes) * scale)
@@ -476,9 +581,6 @@ def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf)
     ev = np.stack([grid_idx[:-1, :].ravel(), grid_idx[1:, :].ravel()], axis=1)
     edges = np.concatenate([eh, ev])
     edges = edges[(edges >= 0).all(axis=1)]
-    signs = _orient(nvec[act], edges, m)
-    n_act = nvec[act] * signs[:, None]
-    qa_act = qa[act]
     share_act = share[act]
 
     # two triangles per cell whose corners are all active: (a, b, c) with grad = ((b-a), (c-a)) / h
@@ -498,18 +600,32 @@ def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf)
     nt = len(tri)
     if nt == 0:
         raise GeometryError("the replace region is narrower than the level-set engine's grid; use a finer grid")
-    nsum = n_act[tri].sum(axis=1) / 3.0
-    agree = np.hypot(nsum[:, 0], nsum[:, 1])  # 1: the corners agree; ~0 across a flip
+
+    def along(q: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The nodes' direction doubles ``q`` (ny nx, 2) read on the active nodes and triangles:
+        the oriented normals, each triangle's mean normal, its agreement and definedness, and the
+        triangles on a jump (a jump of the followed direction, max_abs across a neutral axis, or a
+        fold: the fit is cut there, so the level sets of each side end on the cut instead of
+        flattening a band around it)."""
+        t = 0.5 * np.arctan2(q[:, 1], q[:, 0])
+        nvec = np.stack([-np.sin(t), np.cos(t)], axis=1)
+        n_act = nvec[act] * _orient(nvec[act], edges, m)[:, None]
+        nsum = n_act[tri].sum(axis=1) / 3.0
+        agree = np.hypot(nsum[:, 0], nsum[:, 1])  # 1: the corners agree; ~0 across a flip
+        qt = np.hypot(q[act, 0], q[act, 1])[tri].mean(axis=1)
+        nn = n_act[tri]
+        pairs = ((0, 1), (0, 2), (1, 2))
+        spread = np.min(np.abs(np.stack([np.einsum("ij,ij->i", nn[:, a], nn[:, b]) for a, b in pairs])), axis=0)
+        return nsum, agree, qt, spread < np.cos(np.radians(JUMP_DEG))
+
+    nsum, agree, qt, cut = along(q)
+    # a jump that lies wholly in the edge's skin is the edge's own: the inside's direction carried over it
+    carried = _over_skin(q, cut, tri, act, inside, nodes, region, EDGE_SKIN * p0)
+    if carried is not None:
+        q = carried
+        nsum, agree, qt, cut = along(q)
     nt_vec = nsum / np.maximum(agree, 1e-12)[:, None]
     dt_vec = np.stack([nt_vec[:, 1], -nt_vec[:, 0]], axis=1)
-    qt = qa_act[tri].mean(axis=1)
-    # a jump of the followed direction (max_abs across a neutral axis) or a fold: the fit is cut
-    # there, so the level sets of each side end on the cut instead of flattening a band around it
-    nn = n_act[tri]
-    spread = np.min(
-        np.abs(np.stack([np.einsum("ij,ij->i", nn[:, a], nn[:, b]) for a, b in ((0, 1), (0, 2), (1, 2))])), axis=0
-    )
-    cut = spread < np.cos(np.radians(JUMP_DEG))
     # its length: the cut triangles' area (h^2 / 2 each) over the grid spacing
     cut_mm = 0.5 * h * float(np.count_nonzero(cut))
     if cut_mm > give_way_mm:

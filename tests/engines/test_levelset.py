@@ -160,6 +160,42 @@ def test_a_jump_of_the_followed_stress_cuts_the_fit_and_no_path_runs_along_it():
     assert al.beta >= 0.95, al
 
 
+def fading_pull(length: float, fade: float, across: float):
+    """A pull along x that fades to nothing over the last ``fade`` mm before x = ``length`` (the end
+    face of a grip zone), over a steady stress ``across`` along y: the larger principal stress turns
+    from x to y where the pull falls below ``across``."""
+
+    def f(p):
+        sxx = 10.0 * np.clip((length - p[:, 0]) / fade, 0.0, 1.0)
+        return np.stack([sxx, np.full(len(p), across), np.zeros(len(p))], axis=1)
+
+    return f
+
+
+@pytest.mark.parametrize("kind", ["solid", "sparse"])
+def test_a_jump_in_the_edges_skin_is_not_cut_and_the_level_sets_run_to_the_edge(kind):
+    """Where the pull fades at an end face, max_abs turns along the face in its last 0.8 mm.  Cut
+    there, the level sets ended up to a millimetre short of the face and their links left a void
+    beside it, where ``loadpath compare`` put the first ply's failure (0.26x the slicer's on a
+    100-layer specimen pulled through its grip zone)."""
+    region = box(0, 0, 30, 10)
+    inp = EngineInput(region, AnalyticField(fading_pull(30.0, 2.0, 4.0), region, scale=10.0), PITCH)
+    machine = Machine(flow_width=0.45) if kind == "sparse" else None
+    assert fit(inp, LevelSetOptions()).cut.is_empty
+    tp = generate("levelset", inp, **({"machine": machine} if machine else {}))
+    assert tp.band is None
+    right = _ends(tp)[:, 0].max()
+    assert right > 30.0 - 0.25, right  # the ends keep the engine's gap to the edge, no more
+    # the same turn three millimetres deep is a jump of the part's own: cut
+    deep = EngineInput(region, AnalyticField(fading_pull(30.0, 7.5, 4.0), region, scale=10.0), PITCH)
+    f = fit(deep, LevelSetOptions())
+    assert not f.cut.is_empty and f.cut.bounds[0] > 24.0 and f.cut.bounds[2] < 28.0, f.cut.bounds
+    # a narrow part (inradius 0.9 mm, under twice the skin) keeps its cut where it lies
+    strip = box(0, 0, 30, 1.8)
+    narrow = EngineInput(strip, AnalyticField(fading_pull(30.0, 2.0, 4.0), strip, scale=10.0), PITCH)
+    assert not fit(narrow, LevelSetOptions()).cut.is_empty
+
+
 def test_solid_infill_cut_along_its_length_gives_way_when_asked_sparse_and_an_open_hole_do_not():
     """Option ``give_way``: the pipeline then lays such solid infill with the swarm (issue 19)."""
     region = box(0, 0, 30, 10)
