@@ -27,6 +27,7 @@ __all__ = [
     "find_header",
     "without_header",
     "total_print_seconds",
+    "signed",
 ]
 
 HEADER_PREFIX = "; loadpath: "
@@ -135,8 +136,8 @@ class Verdict:
             parts.append(text)
         else:
             parts.append(f"stiffness not predicted ({self.note or 'no model result'})")
-        pct = f" ({_signed(self.time_change_pct)} %)" if self.time_change_pct is not None else ""
-        parts.append(f"print time {_signed(self.time_change_s / 60)} min{pct}")
+        pct = f" ({signed(self.time_change_pct)} %)" if self.time_change_pct is not None else ""
+        parts.append(f"print time {signed(self.time_change_s / 60)} min{pct}")
         parts.append(_counts(self.printability, self.printability_note))
         parts.append(f"mass {self.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00"))
         parts.append(w)
@@ -162,12 +163,12 @@ def _counts(p: dict | None, note: str) -> str:
     )
 
 
-def _signed(v: float) -> str:
+def signed(v: float) -> str:
     """``v`` to one decimal with its sign, a change that rounds to nothing as ``+0.0`` (not ``-0.0``).
 
     Examples
     --------
-    >>> _signed(-0.04), _signed(-0.06), _signed(2.345)
+    >>> signed(-0.04), signed(-0.06), signed(2.345)
     ('+0.0', '-0.1', '+2.3')
     """
     r = round(v, 1)
@@ -175,7 +176,15 @@ def _signed(v: float) -> str:
 
 
 def _pct(v: float | None) -> str:
-    return "?" if v is None or not math.isfinite(v) else f"{100 * v:+.1f} %"
+    """A relative change ``v`` in per cent, one decimal, signed (a change that rounds to nothing reads
+    ``+0.0 %``, as :func:`signed`); ``?`` when unknown.
+
+    Examples
+    --------
+    >>> _pct(-0.0004), _pct(0.0123), _pct(None)
+    ('+0.0 %', '+1.2 %', '?')
+    """
+    return "?" if v is None or not math.isfinite(v) else f"{signed(100 * v)} %"
 
 
 def _layers(layers: tuple[int, ...]) -> str:

@@ -303,6 +303,7 @@ def predicted_loss(stiff) -> str:  # type: ignore[no-untyped-def]
     resolves (:data:`~loadpath.plugin.density_choice.STIFFNESS_SPREAD`, ``SPREAD``) and not made up
     by a gain in the other figure; "" otherwise (or when nothing was predicted)."""
     from loadpath.plugin.density_choice import SPREAD, STIFFNESS_SPREAD
+    from loadpath.verdict import signed
 
     if stiff is None:
         return ""
@@ -312,7 +313,9 @@ def predicted_loss(stiff) -> str:  # type: ignore[no-untyped-def]
     if not (softer or weaker):
         return ""
     what = "less stiff and weaker" if softer and weaker else "less stiff" if softer else "weaker"
-    figures = f"stiffness {k:+.1%}" + (f", failure load {f:+.1%}" if f is not None else "")
+    figures = f"stiffness {signed(100 * k)}%"
+    if f is not None:
+        figures += f", failure load {signed(100 * f)}%"
     return (
         f"the mechanics model predicts the new infill {what} than the slicer's ({figures} at the same mass): "
         "print the slicer's G-code instead, or try another engine or principal stress"

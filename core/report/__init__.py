@@ -30,6 +30,7 @@ from typing import Any
 from loadpath import __version__
 from loadpath.report.layers import LayerReport, layer_report
 from loadpath.report.svg import colorbar
+from loadpath.verdict import signed
 
 _OWN_FIGURE = re.compile(r"(?:layer-\d+(?:-detail)?|part-\d+)\.svg")
 """The names of the report's figures (:meth:`Report.write` removes an earlier report's others)."""
@@ -248,7 +249,7 @@ def _per_part(verdict: Any) -> str:
         return ""
 
     def pct(v):
-        return "–" if v is None or not math.isfinite(v) else f"{100 * v:+.1f} %"
+        return "–" if v is None or not math.isfinite(v) else f"{signed(100 * v)} %"
 
     rows = [
         ("layers replaced", f"{len(verdict.layers)} ({', '.join(verdict.kinds)})"),
@@ -264,8 +265,8 @@ def _per_part(verdict: Any) -> str:
         ),
         (
             "print time (kinematic estimate)",
-            f"{verdict.time_change_s / 60:+.1f} min"
-            + (f" ({verdict.time_change_pct:+.1f} %)" if verdict.time_change_pct is not None else ""),
+            f"{signed(verdict.time_change_s / 60)} min"
+            + (f" ({signed(verdict.time_change_pct)} %)" if verdict.time_change_pct is not None else ""),
         ),
         ("mass", f"{verdict.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00")),
     ]
