@@ -113,7 +113,7 @@ twice that, is the edge's own skin, not a jump to cut the fit at: there the dire
 inside is carried on to the edge (:func:`_over_skin`).  At a free edge the stress is uniaxial along
 it, so where the pull across the part fades towards the edge (the end face of a grip zone) the
 larger principal stress turns along the edge in the last millimetre.  Cut there, the level sets
-ended 0.4-1.0 mm short of the end face of a 100-layer open-hole specimen pulled through its grip
+ended 0.4-0.75 mm short of the end face of a 100-layer open-hole specimen pulled through its grip
 zone (``tests/cases.py``'s ``GRIP_PULL``), their links along that face left a void beside the
 perimeter on every layer, and ``loadpath compare`` predicted 0.255x the slicer's failure load, the
 first ply failing at that void.  Carried over: 1.039x (stiffness 1.009x -> 1.013x), and the run's
