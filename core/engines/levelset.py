@@ -355,9 +355,24 @@ def _orient(n: np.ndarray, edges: np.ndarray, count: int) -> np.ndarray:
     return np.where(parity == 1, -1.0, 1.0)
 
 
+def _inradius(inside: np.ndarray, h: float) -> float:
+    """The largest distance of a node inside (``inside`` (ny, nx) bool) from every node outside, mm."""
+    from scipy import ndimage
+
+    return float(ndimage.distance_transform_edt(inside).max()) * h
+
+
+def _nearest(source: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(iy, ix)``, each (ny, nx) int: for every grid node, the nearest node of ``source`` (ny, nx) bool."""
+    from scipy import ndimage
+
+    _, (iy, ix) = ndimage.distance_transform_edt(~source, return_indices=True)
+    return iy, ix
+
+
 def _over_skin(
     q: np.ndarray, cut: np.ndarray, tri: np.ndarray, act: np.ndarray, inside: np.ndarray, nodes: Points2,
-    region: Region, depth: float,
+    h: float, region: Region, depth: float,
 ) -> np.ndarray | None:
     """The nodes' direction doubles with the inside's direction carried over the edge's skin
     (:data:`EDGE_SKIN`); None where no jump lies there.
@@ -375,6 +390,8 @@ def _over_skin(
     inside : (ny, nx) bool
         The nodes inside the region.
     nodes : (ny nx, 2) float, mm
+    h : float, mm
+        The grid's node spacing.
     region : Polygon or MultiPolygon, mm
     depth : float, mm
         The skin's depth.
@@ -395,8 +412,7 @@ def _over_skin(
     if not cut.any():
         return None
     shape = inside.shape
-    h = float(np.hypot(*(nodes[1] - nodes[0])))
-    if float(ndimage.distance_transform_edt(inside).max()) * h <= 2.0 * depth:
+    if _inradius(inside, h) <= 2.0 * depth:
         return None
     edge = shapely.boundary(region)
     shapely.prepare(edge)
@@ -424,8 +440,7 @@ def _over_skin(
     if not skin.any() or not deep.any():
         return None
     qg = q.reshape(*shape, 2)
-    _, (iy, ix) = ndimage.distance_transform_edt(~deep, return_indices=True)
-    ref = qg[iy, ix]  # the nearest node deeper than the skin
+    ref = qg[_nearest(deep)]  # the nearest node deeper than the skin
     # the double angles turn by more than twice the jump's
     dot = np.einsum("...i,...i->...", qg, ref)
     size = np.linalg.norm(qg, axis=-1) * np.linalg.norm(ref, axis=-1)
@@ -435,8 +450,7 @@ def _over_skin(
     zone = np.isin(labels, np.unique(labels[skin])) & inside
     out = qg.copy()
     out[zone] = ref[zone]
-    _, (iy, ix) = ndimage.distance_transform_edt(~inside, return_indices=True)
-    out = out[iy, ix]  # outside the region: the nearest inside node's, as the fit's margin
+    out = out[_nearest(inside)]  # outside the region: the nearest inside node's, as the fit's margin
     return out.reshape(-1, 2)
 
 
@@ -486,8 +500,7 @@ def _healed(q: np.ndarray, mass: np.ndarray, inside: np.ndarray, h: float, heal:
     jump &= inside
     if not jump.any():
         return q
-    inradius = float(ndimage.distance_transform_edt(inside).max()) * h
-    sigma = heal * inradius
+    sigma = heal * _inradius(inside, h)
     # ``mass`` outside the part is 0: its filled directions weigh nothing
     avg = np.stack([ndimage.gaussian_filter(q[..., k] * mass, sigma / h, mode="nearest") for k in (0, 1)], -1)
     avg /= np.maximum(np.hypot(avg[..., 0], avg[..., 1]), 1e-300)[..., None]
@@ -546,9 +559,7 @@ def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf)
         share = np.ones(len(nodes))
     inside = smp.inside.reshape(ny, nx)
     if np.any(inside) and not np.all(inside):
-        from scipy import ndimage
-
-        _, (iy, ix) = ndimage.distance_transform_edt(~inside, return_indices=True)
+        iy, ix = _nearest(inside)
         q = q.reshape(ny, nx, 2)[iy, ix].reshape(-1, 2)
         share = share.reshape(ny, nx)[iy, ix].ravel()
     if options.relief > 0 and np.any(share < 1):
@@ -620,7 +631,7 @@ def fit(inp: EngineInput, options: LevelSetOptions, give_way_mm: float = np.inf)
 
     nsum, agree, qt, cut = along(q)
     # a jump that lies wholly in the edge's skin is the edge's own: the inside's direction carried over it
-    carried = _over_skin(q, cut, tri, act, inside, nodes, region, EDGE_SKIN * p0)
+    carried = _over_skin(q, cut, tri, act, inside, nodes, h, region, EDGE_SKIN * p0)
     if carried is not None:
         q = carried
         nsum, agree, qt, cut = along(q)
