@@ -28,6 +28,7 @@ __all__ = [
     "without_header",
     "total_print_seconds",
     "signed",
+    "percent",
 ]
 
 HEADER_PREFIX = "; loadpath: "
@@ -123,12 +124,12 @@ class Verdict:
             parts.append(f"solid infill: {self.solid}")
         if self.stiffness is not None and math.isfinite(self.stiffness):
             text = (
-                f"predicted stiffness {_pct(self.stiffness)} absolute, {_pct(self.stiffness_same_mass)} at the "
+                f"predicted stiffness {percent(self.stiffness)} absolute, {percent(self.stiffness_same_mass)} at the "
                 f"same mass"
             )
             if self.failure_load is not None:
                 text += (
-                    f", failure load {_pct(self.failure_load)} absolute, {_pct(self.failure_load_same_mass)} at the "
+                    f", failure load {percent(self.failure_load)} absolute, {percent(self.failure_load_same_mass)} at the "
                     f"same mass ({self.model})"
                 )
             else:
@@ -139,7 +140,7 @@ class Verdict:
         pct = f" ({signed(self.time_change_pct)} %)" if self.time_change_pct is not None else ""
         parts.append(f"print time {signed(self.time_change_s / 60)} min{pct}")
         parts.append(_counts(self.printability, self.printability_note))
-        parts.append(f"mass {self.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00"))
+        parts.append(f"mass {signed(self.mass_change_g, 2)} g")
         parts.append(w)
         return head + "; ".join(parts)
 
@@ -163,28 +164,29 @@ def _counts(p: dict | None, note: str) -> str:
     )
 
 
-def signed(v: float) -> str:
-    """``v`` to one decimal with its sign, a change that rounds to nothing as ``+0.0`` (not ``-0.0``).
+def signed(v: float, digits: int = 1) -> str:
+    """``v`` to ``digits`` decimals with its sign, a change that rounds to nothing as ``+0.0`` (not
+    ``-0.0``).
 
     Examples
     --------
-    >>> signed(-0.04), signed(-0.06), signed(2.345)
-    ('+0.0', '-0.1', '+2.3')
+    >>> signed(-0.04), signed(-0.06), signed(2.345), signed(-0.004, 2)
+    ('+0.0', '-0.1', '+2.3', '+0.00')
     """
-    r = round(v, 1)
-    return f"{r + 0.0:+.1f}" if r != 0 else "+0.0"
+    r = round(v, digits)
+    return f"{r + 0.0:+.{digits}f}" if r != 0 else f"+{0.0:.{digits}f}"
 
 
-def _pct(v: float | None) -> str:
-    """A relative change ``v`` in per cent, one decimal, signed (a change that rounds to nothing reads
-    ``+0.0 %``, as :func:`signed`); ``?`` when unknown.
+def percent(v: float | None, unknown: str = "?") -> str:
+    """A relative change ``v`` in per cent, one decimal, signed as :func:`signed`; ``unknown`` when
+    there is none (the verdict line and the report's table).
 
     Examples
     --------
-    >>> _pct(-0.0004), _pct(0.0123), _pct(None)
+    >>> percent(-0.0004), percent(0.0123), percent(None)
     ('+0.0 %', '+1.2 %', '?')
     """
-    return "?" if v is None or not math.isfinite(v) else f"{signed(100 * v)} %"
+    return unknown if v is None or not math.isfinite(v) else f"{signed(100 * v)} %"
 
 
 def _layers(layers: tuple[int, ...]) -> str:

@@ -30,7 +30,7 @@ from typing import Any
 from loadpath import __version__
 from loadpath.report.layers import LayerReport, layer_report
 from loadpath.report.svg import colorbar
-from loadpath.verdict import signed
+from loadpath.verdict import percent, signed
 
 _OWN_FIGURE = re.compile(r"(?:layer-\d+(?:-detail)?|part-\d+)\.svg")
 """The names of the report's figures (:meth:`Report.write` removes an earlier report's others)."""
@@ -249,7 +249,7 @@ def _per_part(verdict: Any) -> str:
         return ""
 
     def pct(v):
-        return "–" if v is None or not math.isfinite(v) else f"{signed(100 * v)} %"
+        return percent(v, "–")
 
     rows = [
         ("layers replaced", f"{len(verdict.layers)} ({', '.join(verdict.kinds)})"),
@@ -268,7 +268,7 @@ def _per_part(verdict: Any) -> str:
             f"{signed(verdict.time_change_s / 60)} min"
             + (f" ({signed(verdict.time_change_pct)} %)" if verdict.time_change_pct is not None else ""),
         ),
-        ("mass", f"{verdict.mass_change_g + 0.0:+.2f} g".replace("-0.00", "+0.00")),
+        ("mass", f"{signed(verdict.mass_change_g, 2)} g"),
     ]
     body = "".join(f"<tr><td>{e(a)}</td><td>{e(b)}</td></tr>" for a, b in rows)
     return f"<h2>Per part: what changed</h2><table><tr><th>whole part</th><th>change</th></tr>{body}</table>"
