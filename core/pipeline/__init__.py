@@ -1208,6 +1208,7 @@ def _fills(
                 simplified=True,
                 volume_scale=e["scale"],
                 linked=options.link,
+                comb=u.outline,
             )
         )
     return job_results, fills

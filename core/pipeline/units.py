@@ -73,6 +73,9 @@ class Unit:
         perimeters (:func:`slicer_overlap`); 0 until :func:`with_overlap` measured it.
     engine_region : Polygon or MultiPolygon or None
         What the engine fills: the region grown by ``overlap`` towards the walls (None: the region).
+    outline : Polygon or None
+        The island's part outline (:attr:`loadpath.geometry.Island.outline`): where the splice's
+        travels may cross the walls to reach the region.
     """
 
     object: str
@@ -87,6 +90,7 @@ class Unit:
     z: float
     overlap: float = 0.0
     engine_region: Region | None = field(default=None, repr=False)
+    outline: Region | None = field(default=None, repr=False)
 
     @property
     def fill_region(self) -> Region:
@@ -277,6 +281,7 @@ def select_units(
                             fw,
                             float(lg.height),
                             float(lg.z),
+                            outline=isl.outline,
                         )
                     )
     out.sort(key=lambda u: (u.layer, min(b.block_index for b in u.blocks)))

@@ -297,6 +297,7 @@ def rewrite_block(
     style: Style,
     volumetric_area: float | None,
     arcs: ArcOptions | None = None,
+    comb: Region | None = None,
 ) -> Rewritten:
     """Write the new text of one block (see the module docstring).
 
@@ -315,6 +316,9 @@ def rewrite_block(
     arcs : ArcOptions or None
         Write runs of segments that lie on a circle as ``G2``/``G3`` (:mod:`loadpath.splice.arcfit`;
         only where the file allows arcs).
+    comb : shapely geometry or None
+        The island's part outline: a travel from the slicer's walls into the region (or back) may
+        cross them inside it (:func:`~loadpath.splice.travel.route`).
     """
     p = program
     s = p.state
@@ -323,7 +327,7 @@ def rewrite_block(
     w = Writer(style, s0.x, s0.y, s0.z, s0.e, s0.f, s0.e_relative, volumetric_area)
     w.width = s0.width
     w.height = s0.height
-    st = TravelState(p, region, motion, layer_z)
+    st = TravelState(p, region, motion, layer_z, comb)
     st.fw = s0.fw_retracted
     w.retracted = s0.retracted
     chains = plan.chains

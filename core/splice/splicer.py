@@ -142,6 +142,11 @@ class BlockFill:
     shared : bool
         The block is one of several in its island printing one unit's runs, and ``volume_scale``
         gives it its runs' share of their plastic (:func:`loadpath.pipeline.paths.share_volume`).
+    comb : shapely Polygon or MultiPolygon, optional
+        The island's part outline (:attr:`loadpath.geometry.Island.outline`): a travel between the
+        slicer's walls and the region may step over the walls inside it where the file combs or
+        avoids crossing perimeters (:func:`loadpath.splice.travel.route`).  None: only within
+        :data:`~loadpath.splice.travel.SHORT_REACH` of the region.
     """
 
     block: int
@@ -154,6 +159,7 @@ class BlockFill:
     volume_scale: float = 1.0
     linked: bool = False
     shared: bool = False
+    comb: Region | None = None
 
 
 @dataclass(frozen=True)
@@ -471,7 +477,7 @@ def _splice_block(
     arcs = None
     if options.arcs is not None and arcs_allowed(program.config):
         arcs = replace(options.arcs, chord=max(runs.resolution * unit - options.plan.resolution, 0.0))
-    rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area, arcs)
+    rw = rewrite_block(program, b, plan, fill.region, options.motion, style, vol_area, arcs, fill.comb)
     edits = [(b.span_start, b.span_stop, rw.span.encode("utf-8"))]
     old_rows = [move_rows(program, b.span_start, b.span_stop)]
     if rw.exit is not None:

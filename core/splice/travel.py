@@ -8,8 +8,8 @@ a post-processor can apply them; ``slicer-conventions.md`` §5):
 - with ``avoid_crossing_perimeters`` (PrusaSlicer) or combing (Cura, and wherever
   ``only_retract_when_crossing_perimeters`` / ``reduce_infill_retraction`` is on), a travel whose
   straight segment leaves the region is routed inside it: along the region's edge around each
-  piece it would cross (:func:`route`); a travel that cannot be routed (another island) stays
-  straight;
+  piece it would cross (:func:`route`), from the slicer's walls by a step over them inside the
+  island's outline (``comb``); a travel that cannot be routed (another island) stays straight;
 - a travel that leaves the region (not routed) retracts, unless it is shorter than
   ``retract_before_travel`` and stays within :data:`SHORT_REACH` of the region (over the innermost
   perimeter): PrusaSlicer retracts no travel shorter than that (``GCode::needs_retraction``,
@@ -134,7 +134,14 @@ class Motion:
 class TravelState:
     """Bookkeeping of a rewrite that the Writer does not hold."""
 
-    def __init__(self, program: Program, region: Region | None, motion: Motion, layer_z: float) -> None:
+    def __init__(
+        self,
+        program: Program,
+        region: Region | None,
+        motion: Motion,
+        layer_z: float,
+        comb: Region | None = None,
+    ) -> None:
         self.program = program
         self.motion = motion
         self.layer_z = layer_z
@@ -143,6 +150,10 @@ class TravelState:
         if region is not None:
             self.region = region.buffer(1e-3)
             shapely.prepare(self.region)
+        self.comb = None  # the island's part outline: where a travel may cross the walls (route)
+        if comb is not None and not comb.is_empty:
+            self.comb = comb.buffer(1e-3)
+            shapely.prepare(self.comb)
         self.n_travels = 0
         self.n_retracts = 0
         self._rings: list | None = None
@@ -199,6 +210,12 @@ def route(st: TravelState, a: Points2, b: Points2, reach: float = 0.35) -> Point
     layer start: its travel ends on the infill line's end, 0.04 mm outside the region found from
     the perimeters, and the first new run may start a few mm along that edge: a straight travel
     over the edge, not one round it (the edge walk cannot start from a point off the edge).
+
+    Any other piece at an end goes round the edge too, from the edge's point nearest that end, when
+    the straight step between the two lies inside ``st.comb`` (the island's part outline): the
+    nozzle is on the island's own walls, as where a block follows its outer wall, and crosses them
+    to the region the way the slicer's combing would (CuraEngine combs inside the part).  Without
+    ``comb`` such a piece is not routed (a start a millimetre off the edge may be another island's).
     """
     from shapely.ops import substring
 
@@ -218,17 +235,25 @@ def route(st: TravelState, a: Points2, b: Points2, reach: float = 0.35) -> Point
         pos_on_line.append((min(t0, t1), c[0] if t0 <= t1 else c[-1], c[-1] if t0 <= t1 else c[0], piece))
     pos_on_line.sort(key=lambda x: x[0])
     total_len = line.length
+    crossed = [False, False]  # a step over the walls at the start, at the end
     for t, p, q, piece in pos_on_line:
         piece_len = float(np.hypot(*(q - p)))
-        if (t < 1e-6 or abs(t + piece_len - total_len) < 1e-6) and (
-            piece_len <= reach or _near_region(st, reach).covers(piece)
-        ):
+        at_a, at_b = t < 1e-6, abs(t + piece_len - total_len) < 1e-6
+        if (at_a or at_b) and (piece_len <= reach or _near_region(st, reach).covers(piece)):
             continue  # from or to the perimeter beside the region
         pp, qp = shapely.points(p), shapely.points(q)
-        d = np.array([ring.distance(pp) + ring.distance(qp) for ring in st.rings])
-        if not len(d) or d.min() > 0.01:
+        dp = np.array([ring.distance(pp) for ring in st.rings])
+        dq = np.array([ring.distance(qp) for ring in st.rings])
+        ok = (dp <= 0.01) & (dq <= 0.01)
+        if not ok.any() and st.comb is not None:
+            # an end off the edge: step straight over the walls (inside the part) to the nearest edge
+            ok = ((dp <= 0.01) | _over_walls(st, p, at_a)) & ((dq <= 0.01) | _over_walls(st, q, at_b))
+        if not ok.any():
             return None
-        ring = st.rings[int(np.argmin(d))]
+        k = int(np.argmin(np.where(ok, dp + dq, np.inf)))
+        ring = st.rings[k]
+        crossed[0] |= bool(at_a and dp[k] > 0.01)
+        crossed[1] |= bool(at_b and dq[k] > 0.01)
         total = ring.length
         sp, sq = ring.project(pp), ring.project(qp)
         fwd = (sq - sp) % total
@@ -251,9 +276,21 @@ def route(st: TravelState, a: Points2, b: Points2, reach: float = 0.35) -> Point
     full = np.vstack([np.asarray(a, dtype=float)[None], *pts])
     keep = np.r_[True, np.hypot(*np.diff(full, axis=0).T) > 1e-6]
     full = full[keep]
-    if len(full) < 2 or not _near_region(st, reach).covers(LineString(full)):
+    inner = full[int(crossed[0]) : len(full) - int(crossed[1])]  # the steps over the walls were tested
+    if len(full) < 2 or (len(inner) >= 2 and not _near_region(st, reach).covers(LineString(inner))):
         return None
     return full[1:]
+
+
+def _over_walls(st: TravelState, end: Points2, at_end: bool) -> np.ndarray:
+    """Per ring of the region: whether the straight step from ``end`` (a travel's own end, off the
+    edge) to the ring's nearest point lies inside the part outline ``st.comb``, shape ``(rings,)``."""
+    if not at_end:
+        return np.zeros(len(st.rings), dtype=bool)
+    pt = shapely.points(end)
+    near = [shapely.get_coordinates(ring.interpolate(ring.project(pt)))[0] for ring in st.rings]
+    steps = shapely.linestrings([[end, n] for n in near])
+    return np.asarray(shapely.covers(st.comb, steps), dtype=bool)
 
 
 def _near_region(st: TravelState, reach: float):

@@ -127,6 +127,23 @@ def test_cura_combs_inside_the_infill_instead_of_retracting(cura_run):
     assert p["loadpath"]["paths"] < p["slicer"]["paths"]
 
 
+def test_cura_sparse_blocks_enter_over_the_walls_without_retracting(sliced):
+    """CuraEngine 4.13, the L-bracket at 20 % grid, sparse infill replaced: CuraEngine retracts
+    nowhere in these blocks (it combs).  Where a layer's block follows the outer wall, the nozzle
+    stands 0.6-0.8 mm outside the infill region, and the first new run may lie round the corner:
+    that travel is routed over the walls and inside the region, as Cura would comb it, instead of
+    retracting (before: 7 retractions in the replaced blocks, 0 in the slicer's)."""
+    grid20 = {"infill_pattern": "grid", "infill_line_distance": "8.0"}
+    program = gcode.read(sliced("cura", "bracket", "mixed", **grid20))
+    s = settings_mod.resolve(program)
+    opts = PipelineOptions(replace=("solid", "sparse"), workers=1)
+    res = run(program, loadcase.parse(GRIP_PULL), opts, settings_mod.splice_options(s))
+    assert res.check is not None and not res.check.problems
+    p = replaced_blocks(program, res.output, res.splice)
+    assert sum(u.kind == "sparse" for jr in res.jobs for u in jr.units) >= 4
+    assert p["loadpath"]["retractions"] <= p["slicer"]["retractions"]
+
+
 def test_prusa_file_does_not_comb(sliced):
     program = gcode.read(sliced("prusa", "bracket", "solid"))
     assert infer_from_moves(program).get("only_retract_when_crossing_perimeters") in (False, None)
