@@ -132,7 +132,7 @@ def test_cura_sparse_blocks_enter_over_the_walls_without_retracting(sliced):
     nowhere in these blocks (it combs).  Where a layer's block follows the outer wall, the nozzle
     stands 0.6-0.8 mm outside the infill region, and the first new run may lie round the corner:
     that travel is routed over the walls and inside the region, as Cura would comb it, instead of
-    retracting (before: 7 retractions in the replaced blocks, 0 in the slicer's)."""
+    retracting (before: 2 retractions in the replaced blocks, 0 in the slicer's)."""
     grid20 = {"infill_pattern": "grid", "infill_line_distance": "8.0"}
     program = gcode.read(sliced("cura", "bracket", "mixed", **grid20))
     s = settings_mod.resolve(program)
