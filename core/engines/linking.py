@@ -78,7 +78,8 @@ from loadpath.engines.edge_links import Rings, ring_pieces, shrunk_rings
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
-__all__ = ["LinkOptions", "LONE_AREA_RANGE", "link_paths", "drop_fragments", "drop_lone", "pieces"]
+__all__ = ["LinkOptions", "LONE_AREA_RANGE", "EXACT_BUDGET"]
+__all__ += ["link_paths", "drop_fragments", "drop_lone", "pieces"]
 
 
 @dataclass(frozen=True)
@@ -183,6 +184,11 @@ class LinkOptions:
         swaps).  The pipeline turns it off for sparse infill: on the
         bench's 30 % gyroid bar it made one run of two whose ends both lay across the part from
         where the perimeters left the nozzle (travel 287 -> 637 mm, retractions 18 -> 18).
+    exact : float, s
+        Also choose the layer's links all at once, by an integer program over every candidate
+        (:mod:`loadpath.engines.exact_links`), with this much time for its solves; they are laid
+        first and the greedy passes go on from them, and the result is kept where it leaves fewer
+        runs.  0 (the default): not.  The pipeline sets :data:`EXACT_BUDGET` on solid infill.
     """
 
     max_link: float = 3.0
@@ -206,6 +212,7 @@ class LinkOptions:
     wedge: float = 0.0
     band_depth: float = 3.0
     insert: bool = True
+    exact: float = 0.0
 
     def __post_init__(self) -> None:
         lo, hi = LONE_AREA_RANGE
@@ -236,6 +243,10 @@ class LinkOptions:
         share = min(1.0, width / pitch) if width > 0 and pitch > 0 else 1.0
         return replace(self, clearance=self.clearance * share)
 
+
+EXACT_BUDGET = 1.0
+"""Seconds the pipeline gives the integer program of each solid layer's links
+(:attr:`LinkOptions.exact`)."""
 
 LONE_AREA_RANGE = (0.0, 25.0)
 """Bounds of :attr:`LinkOptions.lone_area`, square pitches (the one place they are set): at 25, a
@@ -475,7 +486,17 @@ def _link_layer(
         else:
             grown = _link(layer, True, dict(stats), prefer, only)
             first = _link(layer, False, dict(stats), prefer, only)
+            base = stats
             runs, stats = grown if len(grown[0]) <= len(first[0]) else first
+            if options.exact > 0 and len(runs) > 1 and only is None and not prefer:
+                from loadpath.engines.exact_links import exact_links
+
+                chosen = exact_links(layer, options.exact)
+                if chosen:
+                    exact = _link(layer, True, dict(base), chosen, None)
+                    if len(exact[0]) < len(runs):
+                        runs, stats = exact
+                        stats["exact"] = 1
         spans = stats["links_at"]
     keep = drop_lone(runs, spans, options.lone_area * pitch * pitch, options.lone_share)
     stats["lone_dropped"] = int(len(runs) - keep.sum())

@@ -322,3 +322,54 @@ def test_two_runs_ending_either_side_of_a_link_along_the_edge_share_it(monkeypat
     every = np.concatenate([r.points for r in runs])
     for p in paths:  # every path's vertices printed (in one run or another, either way)
         assert shapely.distance(shapely.MultiPoint(every), shapely.points(p.points)).max() < 1e-9
+
+
+@pytest.mark.parametrize("engine, size", [("levelset", (30, 20, 5.0)), ("swarm", (60, 18, 2.5))])
+def test_links_chosen_all_at_once_leave_fewer_runs_and_the_same_paths(engine, size):
+    """The integer program over every candidate link (``LinkOptions.exact``,
+    :mod:`loadpath.engines.exact_links`) on a plate with a hole (the Kirsch field): the greedy ways
+    leave 8 (level sets) and 12 (swarm) runs, the program 4 and 9.  Its links use no end twice and
+    close no loop, and the runs hold every path the greedy ways kept, crossing nothing, inside."""
+    from loadpath import metrics
+    from loadpath.engines import generate
+    from loadpath.engines.exact_links import exact_links
+    from loadpath.engines.linking import EXACT_BUDGET, _Layer
+    from loadpath.engines.registry import get
+    from loadpath.field import AnalyticField, kirsch_tensor
+    from loadpath.toolpath import EngineInput
+    from shapely.geometry import Point
+
+    w, h, r = size
+    region = box(0, 0, w, h).difference(Point(w / 2, h / 2).buffer(r, 64))
+    field = AnalyticField(lambda p: kirsch_tensor(p, (w / 2, h / 2), r, 10.0), region, scale=10.0)
+    tp = generate(engine, EngineInput(region, field, 0.45))
+    base = replace(LinkOptions(free_hop=1.0), **dict(get(engine).linking))
+    greedy, gs = link_paths(list(tp.paths), region, 0.45, base, band=tp.band)
+    runs, st = link_paths(list(tp.paths), region, 0.45, replace(base, exact=EXACT_BUDGET), band=tp.band)
+    assert st["exact"] == 1 and len(runs) < len(greedy), (len(runs), len(greedy))
+    assert st["dropped"] == gs["dropped"] and st["lone_dropped"] == gs["lone_dropped"] == 0
+    assert metrics.crossings(list(runs)) == 0
+    grown = region.buffer(1e-3)
+    assert all(grown.covers(shapely.LineString(p.points)) for p in runs)
+    paths_mm = sum(p.length for p in runs) - st["link_mm"]
+    assert paths_mm == pytest.approx(sum(p.length for p in greedy) - gs["link_mm"], rel=1e-9)
+    # the program's own links: each end once, no loop among the paths
+    kept = [p for p in tp.paths if len(p.points) >= 2]
+    ps, _ = drop_fragments(kept, base.min_fragment * 0.45, base.fragment_share)
+    layer = _Layer.of(ps, region, 0.45, base, tp.band)
+    chosen = exact_links(layer, EXACT_BUDGET)
+    at = {tuple(np.round(q, 9).tolist()): e for e, q in enumerate(layer.e_pt)}
+    ends = [(at[a], at[b]) for a, b, _ in chosen]
+    flat = [e for pair in ends for e in pair]
+    assert len(chosen) >= len(ps) - len(runs) - 2 and len(flat) == len(set(flat))
+    parent = list(range(len(ps)))
+
+    def root(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    for a, b in ends:
+        ra, rb = root(a // 2), root(b // 2)
+        assert ra != rb, "a loop"
+        parent[ra] = rb
