@@ -16,15 +16,21 @@ most links (each one a run fewer), then the shortest, subject to
 * no two links closer than the clearance (the test each link laid meets against those before it);
 * no loop: two links between the same two paths exclude each other from the start, and a longer
   loop of the solution found is excluded and the program solved again (lazy constraints), until
-  none is left or the time ``budget`` runs out; then each loop left loses its longest link.
+  none is left, for at most :data:`ROUNDS` solves of at most ``nodes`` branch-and-bound nodes each
+  (counts, not times, so that the links are the same on every machine); each loop left then loses
+  its longest link.
 
-Solved by HiGHS through :func:`scipy.optimize.milp` (scipy, a base dependency).  The links found are
-laid first by the linking (its ``prefer``), which then continues as usual (the greedy pass, the long
-links, the insertions), and the result is kept where it leaves fewer runs than the greedy ways.
+Solved by HiGHS through :func:`scipy.optimize.milp` (scipy, a base dependency): in integers up to
+:data:`MIP_CANDIDATES` candidates, beyond that the linear relaxation, whose links above one half are
+laid first.  The links found are laid first by the linking (its ``prefer``), which then continues
+as usual (the greedy pass, the long links, the insertions), and the result is kept where it leaves
+fewer runs than the greedy ways.
 
-Measured on the captured layers of the sweep's PrusaSlicer 100 % files (candidate links that pass
-alone; the greedy's runs -> the program's): the bench's bar 5 -> 4 and 3 -> 2, the dog-bone 11 -> 9
-and 13 -> 9, the T 33 -> 20 and 30 -> 21 (0.03-0.2 s; the T's 4-27 s to prove its optimum).
+Measured on captured layers (PrusaSlicer 2.5, 100 %; the greedy ways' runs -> with the program, and
+the linking's time added): the bench's bar 5 -> 4 and 3 -> 2; the sweep's dog-bone 11 -> 9 and
+13 -> 9, its T 33 -> 25 and 30 -> 22 (level sets) and 86 -> 78 (swarm); the tests' specimen 5 -> 3
+and 7 -> 5, L-bracket 24 -> 22 and 25 -> 22, shelf bracket 220 -> 196 (swarm, 851 paths); 0.1-0.7 s
+more per layer.
 """
 
 from __future__ import annotations
@@ -33,10 +39,24 @@ import time
 
 import numpy as np
 
-__all__ = ["exact_links"]
+__all__ = ["exact_links", "ROUNDS", "GUARD_S"]
+
+MIP_CANDIDATES = 300
+"""Layers with at most this many candidate links are solved in integers; larger ones by the linear
+relaxation, its links above one half laid first, the surest first, and the greedy passes going on
+from them.  HiGHS's root node alone took 0.7 s per solve on a layer of 1781 candidates (a swarm layer
+of a shelf bracket); the relaxation takes a few hundredths, and on the T of the sweep it gave fewer
+runs (33 -> 25 and 30 -> 22, the integer program 25 and 24)."""
+
+ROUNDS = 8
+"""Solves at most: each excludes the loops the one before it closed."""
+
+GUARD_S = 5.0
+"""Seconds all the solves of a layer may take, a guard only: the node count bounds the work, so the
+links are the same on any machine unless this is reached (then they depend on the machine's speed)."""
 
 
-def exact_links(layer, budget: float) -> list[tuple[tuple, tuple, bool]]:  # type: ignore[no-untyped-def]
+def exact_links(layer, nodes: int) -> list[tuple[tuple, tuple, bool]]:  # type: ignore[no-untyped-def]
     """The links of the program (module docstring) as the linking's ``prefer`` takes them.
 
     Parameters
@@ -44,14 +64,15 @@ def exact_links(layer, budget: float) -> list[tuple[tuple, tuple, bool]]:  # typ
     layer : loadpath.engines.linking._Layer
         The prepared layer: its ends, candidate links (``a``, ``b``, ``straight``, ``near_edge``) and
         the geometric test.
-    budget : float, s
-        Time for the solves (the test of the candidates comes first and is not counted).
+    nodes : int
+        Branch-and-bound nodes each solve may take (a count, not a time: the same links on any
+        machine).
 
     Returns
     -------
     list of (end point, end point, boundary)
         End points as :func:`loadpath.engines.linking._rounded` names them; empty when there is no
-        candidate, or the solver found no solution in the budget.
+        candidate, or the solver found no solution within its nodes.
     """
     from loadpath.engines.linking import _clear_reach, _length, _rounded
     from scipy import sparse
@@ -92,32 +113,35 @@ def exact_links(layer, budget: float) -> list[tuple[tuple, tuple, bool]]:  # typ
     length = np.array([_length(q) for q in pts])
     # most links first; among as many, the shortest (the lengths' sum is below 1)
     cost = -1.0 + 0.5 * length / max(float(length.sum()), 1e-9)
+    integer = m <= MIP_CANDIDATES
     start = time.perf_counter()
     x = None
-    while True:
-        left = budget - (time.perf_counter() - start)
+    for _ in range(ROUNDS):
+        left = GUARD_S - (time.perf_counter() - start)
         if left <= 0:
             break
         cons = [r for r in rows if r is not None]
         if loops:
             cons.append(_loop_rows(loops, m))
-        res = milp(
-            cost, constraints=cons, integrality=np.ones(m), bounds=Bounds(0, 1), options={"time_limit": left}
-        )
-        if res.x is None:  # no solution within the time (HiGHS status 1 without an incumbent)
+        opts = {"node_limit": int(nodes), "time_limit": left}
+        kinds = np.full(m, float(integer))
+        res = milp(cost, constraints=cons, integrality=kinds, bounds=Bounds(0, 1), options=opts)
+        if res.x is None:  # no solution within the nodes (HiGHS status 1 without an incumbent)
             break
-        x = np.round(res.x).astype(bool)
+        value = res.x
+        x = value > 0.5
         found = _loops_of(e[x], col[x], n)
         if not found:
             break
         loops.extend(found)
-        if res.status != 0:  # out of time: what is left of the budget cannot prove another
+        if res.status != 0:  # at the node limit: another round would not prove more
             break
     if x is None:
         return []
-    for loop in _loops_of(e[x], col[x], n):  # out of time with loops left: each loses its longest link
+    for loop in _loops_of(e[x], col[x], n):  # loops left: each loses its longest link
         x[loop[np.argmax(length[loop])]] = False
     chosen = np.flatnonzero(x)
+    chosen = chosen[np.lexsort((length[chosen], -value[chosen]))]  # the surest first (the relaxation)
     return [(_rounded(layer.e_pt[e[j, 0]]), _rounded(layer.e_pt[e[j, 1]]), boundary[j]) for j in chosen]
 
 

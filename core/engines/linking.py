@@ -78,7 +78,7 @@ from loadpath.engines.edge_links import Rings, ring_pieces, shrunk_rings
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
-__all__ = ["LinkOptions", "LONE_AREA_RANGE", "EXACT_BUDGET"]
+__all__ = ["LinkOptions", "LONE_AREA_RANGE", "EXACT_NODES"]
 __all__ += ["link_paths", "drop_fragments", "drop_lone", "pieces"]
 
 
@@ -184,11 +184,12 @@ class LinkOptions:
         swaps).  The pipeline turns it off for sparse infill: on the
         bench's 30 % gyroid bar it made one run of two whose ends both lay across the part from
         where the perimeters left the nozzle (travel 287 -> 637 mm, retractions 18 -> 18).
-    exact : float, s
+    exact : int
         Also choose the layer's links all at once, by an integer program over every candidate
-        (:mod:`loadpath.engines.exact_links`), with this much time for its solves; they are laid
-        first and the greedy passes go on from them, and the result is kept where it leaves fewer
-        runs.  0 (the default): not.  The pipeline sets :data:`EXACT_BUDGET` on solid infill.
+        (:mod:`loadpath.engines.exact_links`), each solve taking at most this many branch-and-bound
+        nodes; they are laid first and the greedy passes go on from them, and the result is kept
+        where it leaves fewer runs.  0 (the default): not.  The pipeline sets :data:`EXACT_NODES` on
+        solid infill.
     """
 
     max_link: float = 3.0
@@ -212,7 +213,7 @@ class LinkOptions:
     wedge: float = 0.0
     band_depth: float = 3.0
     insert: bool = True
-    exact: float = 0.0
+    exact: int = 0
 
     def __post_init__(self) -> None:
         lo, hi = LONE_AREA_RANGE
@@ -244,9 +245,9 @@ class LinkOptions:
         return replace(self, clearance=self.clearance * share)
 
 
-EXACT_BUDGET = 1.0
-"""Seconds the pipeline gives the integer program of each solid layer's links
-(:attr:`LinkOptions.exact`)."""
+EXACT_NODES = 200
+"""Branch-and-bound nodes per solve the pipeline gives the integer program of each solid layer's
+links (:attr:`LinkOptions.exact`)."""
 
 LONE_AREA_RANGE = (0.0, 25.0)
 """Bounds of :attr:`LinkOptions.lone_area`, square pitches (the one place they are set): at 25, a

@@ -333,7 +333,7 @@ def test_links_chosen_all_at_once_leave_fewer_runs_and_the_same_paths(engine, si
     from loadpath import metrics
     from loadpath.engines import generate
     from loadpath.engines.exact_links import exact_links
-    from loadpath.engines.linking import EXACT_BUDGET, _Layer
+    from loadpath.engines.linking import EXACT_NODES, _Layer
     from loadpath.engines.registry import get
     from loadpath.field import AnalyticField, kirsch_tensor
     from loadpath.toolpath import EngineInput
@@ -345,7 +345,7 @@ def test_links_chosen_all_at_once_leave_fewer_runs_and_the_same_paths(engine, si
     tp = generate(engine, EngineInput(region, field, 0.45))
     base = replace(LinkOptions(free_hop=1.0), **dict(get(engine).linking))
     greedy, gs = link_paths(list(tp.paths), region, 0.45, base, band=tp.band)
-    runs, st = link_paths(list(tp.paths), region, 0.45, replace(base, exact=EXACT_BUDGET), band=tp.band)
+    runs, st = link_paths(list(tp.paths), region, 0.45, replace(base, exact=EXACT_NODES), band=tp.band)
     assert st["exact"] == 1 and len(runs) < len(greedy), (len(runs), len(greedy))
     assert st["dropped"] == gs["dropped"] and st["lone_dropped"] == gs["lone_dropped"] == 0
     assert metrics.crossings(list(runs)) == 0
@@ -357,7 +357,7 @@ def test_links_chosen_all_at_once_leave_fewer_runs_and_the_same_paths(engine, si
     kept = [p for p in tp.paths if len(p.points) >= 2]
     ps, _ = drop_fragments(kept, base.min_fragment * 0.45, base.fragment_share)
     layer = _Layer.of(ps, region, 0.45, base, tp.band)
-    chosen = exact_links(layer, EXACT_BUDGET)
+    chosen = exact_links(layer, EXACT_NODES)
     at = {tuple(np.round(q, 9).tolist()): e for e, q in enumerate(layer.e_pt)}
     ends = [(at[a], at[b]) for a, b, _ in chosen]
     flat = [e for pair in ends for e in pair]
