@@ -78,7 +78,7 @@ from loadpath.engines.edge_links import Rings, ring_pieces, shrunk_rings
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
-__all__ = ["LinkOptions", "LONE_AREA_RANGE", "EXACT_NODES"]
+__all__ = ["LinkOptions", "LONE_AREA_RANGE"]
 __all__ += ["link_paths", "drop_fragments", "drop_lone", "pieces"]
 
 
@@ -188,8 +188,8 @@ class LinkOptions:
         Also choose the layer's links all at once, by an integer program over every candidate
         (:mod:`loadpath.engines.exact_links`), each solve taking at most this many branch-and-bound
         nodes; they are laid first and the greedy passes go on from them, and the result is kept
-        where it leaves fewer runs.  0 (the default): not.  The pipeline sets :data:`EXACT_NODES` on
-        solid infill.
+        where it leaves fewer runs.  0 (the default): not.  The level-set engine's solid infill is
+        linked with 200 (its registry entry's ``linking``).
     """
 
     max_link: float = 3.0
@@ -244,10 +244,6 @@ class LinkOptions:
         share = min(1.0, width / pitch) if width > 0 and pitch > 0 else 1.0
         return replace(self, clearance=self.clearance * share)
 
-
-EXACT_NODES = 200
-"""Branch-and-bound nodes per solve the pipeline gives the integer program of each solid layer's
-links (:attr:`LinkOptions.exact`)."""
 
 LONE_AREA_RANGE = (0.0, 25.0)
 """Bounds of :attr:`LinkOptions.lone_area`, square pitches (the one place they are set): at 25, a

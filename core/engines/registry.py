@@ -349,8 +349,11 @@ register(
         warm_up="loadpath.engines.levelset:warm_up",
         # level sets that leave a cut at 45 degrees reach the edge at a few degrees (a bending
         # part's tension and compression faces): each end's link runs along the edge beside the
-        # path converging on it, for up to 24 pitches (``benchmarks/bench_printability.py``)
-        linking={"wedge": 24.0, "max_edge_link": 24.0},
+        # path converging on it, for up to 24 pitches (``benchmarks/bench_printability.py``); and
+        # the links are chosen all at once too, 200 branch-and-bound nodes a solve
+        # (loadpath.engines.exact_links; not for the swarm's layers, 2-5x as many paths and
+        # candidates, where testing every candidate cost more than the runs it saved: 86 -> 78)
+        linking={"wedge": 24.0, "max_edge_link": 24.0, "exact": 200},
     )
 )
 """The level-set engine (:mod:`loadpath.engines.levelset`): edge-to-edge paths that link into zig-zags."""

@@ -1054,7 +1054,7 @@ def _fills(
     ``engines`` (per job): the engine that laid it (its solid infill is linked with that engine's
     link options).
     """
-    from loadpath.engines.linking import EXACT_NODES, LinkOptions
+    from loadpath.engines.linking import LinkOptions
 
     shifted_paths = shifted_paths or {}
     kept = [0]
@@ -1069,9 +1069,7 @@ def _fills(
     # rectilinear 40 %: 1.901 -> 1.576x), the links' plastic taken from the lines at the slicer's mass,
     # and its retractions did not fall (the 3-point beam's rose: 3.32 -> 3.80x at gyroid 40 %)
     base_opts = LinkOptions(free_hop=free_hop) if math.isfinite(free_hop) else LinkOptions(cut_reach=0.0)
-    # solid infill: its links chosen all at once too (loadpath.engines.exact_links)
-    solid_base = replace(base_opts, exact=EXACT_NODES)
-    solid_opts = {e: replace(solid_base, **dict(engine_named(e).linking)) for e in set(engines)}
+    solid_opts = {e: replace(base_opts, **dict(engine_named(e).linking)) for e in set(engines)}
     tasks: list[tuple[tuple[Path, ...], Any, float, Any, Any, Any]] = []
     task_fields: list[str | None] = []
 

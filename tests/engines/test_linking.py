@@ -333,7 +333,7 @@ def test_links_chosen_all_at_once_leave_fewer_runs_and_the_same_paths(engine, si
     from loadpath import metrics
     from loadpath.engines import generate
     from loadpath.engines.exact_links import exact_links
-    from loadpath.engines.linking import EXACT_NODES, _Layer
+    from loadpath.engines.linking import _Layer
     from loadpath.engines.registry import get
     from loadpath.field import AnalyticField, kirsch_tensor
     from loadpath.toolpath import EngineInput
@@ -343,9 +343,11 @@ def test_links_chosen_all_at_once_leave_fewer_runs_and_the_same_paths(engine, si
     region = box(0, 0, w, h).difference(Point(w / 2, h / 2).buffer(r, 64))
     field = AnalyticField(lambda p: kirsch_tensor(p, (w / 2, h / 2), r, 10.0), region, scale=10.0)
     tp = generate(engine, EngineInput(region, field, 0.45))
-    base = replace(LinkOptions(free_hop=1.0), **dict(get(engine).linking))
+    nodes = 200  # the level-set engine's own (its registry entry); the swarm takes it as an option
+    base = replace(replace(LinkOptions(free_hop=1.0), **dict(get(engine).linking)), exact=0)
+    assert get("levelset").linking["exact"] == nodes and "exact" not in get("swarm").linking
     greedy, gs = link_paths(list(tp.paths), region, 0.45, base, band=tp.band)
-    runs, st = link_paths(list(tp.paths), region, 0.45, replace(base, exact=EXACT_NODES), band=tp.band)
+    runs, st = link_paths(list(tp.paths), region, 0.45, replace(base, exact=nodes), band=tp.band)
     assert st["exact"] == 1 and len(runs) < len(greedy), (len(runs), len(greedy))
     assert st["dropped"] == gs["dropped"] and st["lone_dropped"] == gs["lone_dropped"] == 0
     assert metrics.crossings(list(runs)) == 0
@@ -357,7 +359,7 @@ def test_links_chosen_all_at_once_leave_fewer_runs_and_the_same_paths(engine, si
     kept = [p for p in tp.paths if len(p.points) >= 2]
     ps, _ = drop_fragments(kept, base.min_fragment * 0.45, base.fragment_share)
     layer = _Layer.of(ps, region, 0.45, base, tp.band)
-    chosen = exact_links(layer, EXACT_NODES)
+    chosen = exact_links(layer, nodes)
     at = {tuple(np.round(q, 9).tolist()): e for e, q in enumerate(layer.e_pt)}
     ends = [(at[a], at[b]) for a, b, _ in chosen]
     flat = [e for pair in ends for e in pair]
