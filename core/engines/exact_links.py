@@ -39,7 +39,7 @@ import time
 
 import numpy as np
 
-__all__ = ["exact_links", "ROUNDS", "GUARD_S"]
+__all__ = ["exact_links", "MIP_CANDIDATES", "ROUNDS", "GUARD_S"]
 
 MIP_CANDIDATES = 300
 """Layers with at most this many candidate links are solved in integers; larger ones by the linear
@@ -105,7 +105,9 @@ def exact_links(layer, nodes: int) -> list[tuple[tuple, tuple, bool]]:  # type: 
     pairs = np.unique(np.sort(owner[near], axis=1), axis=0) if len(near) else np.zeros((0, 2), np.int64)
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]
     shared = (e[pairs[:, 0], None, :] == e[pairs[:, 1], :, None]).any(axis=(1, 2))
-    rows.append(_pair_rows(pairs[~shared], m))
+    pairs = pairs[~shared]
+    if len(pairs):
+        rows.append(_all_but_one(list(pairs), m))
     # two links between the same two paths close a loop
     p = np.sort(e // 2, axis=1)
     _, group, counts = np.unique(p, axis=0, return_inverse=True, return_counts=True)
@@ -113,18 +115,15 @@ def exact_links(layer, nodes: int) -> list[tuple[tuple, tuple, bool]]:  # type: 
     length = np.array([_length(q) for q in pts])
     # most links first; among as many, the shortest (the lengths' sum is below 1)
     cost = -1.0 + 0.5 * length / max(float(length.sum()), 1e-9)
-    integer = m <= MIP_CANDIDATES
+    kinds = np.full(m, float(m <= MIP_CANDIDATES))  # in integers, or the relaxation
     start = time.perf_counter()
     x = None
     for _ in range(ROUNDS):
         left = GUARD_S - (time.perf_counter() - start)
         if left <= 0:
             break
-        cons = [r for r in rows if r is not None]
-        if loops:
-            cons.append(_loop_rows(loops, m))
+        cons = rows + ([_all_but_one(loops, m)] if loops else [])
         opts = {"node_limit": int(nodes), "time_limit": left}
-        kinds = np.full(m, float(integer))
         res = milp(cost, constraints=cons, integrality=kinds, bounds=Bounds(0, 1), options=opts)
         if res.x is None:  # no solution within the nodes (HiGHS status 1 without an incumbent)
             break
@@ -145,44 +144,28 @@ def exact_links(layer, nodes: int) -> list[tuple[tuple, tuple, bool]]:  # type: 
     return [(_rounded(layer.e_pt[e[j, 0]]), _rounded(layer.e_pt[e[j, 1]]), boundary[j]) for j in chosen]
 
 
-def _pair_rows(pairs: np.ndarray, m: int):  # type: ignore[no-untyped-def]
-    """``x_j + x_k <= 1`` for each pair ``(j, k)``; None when there is none."""
+def _all_but_one(groups: list[np.ndarray], m: int):  # type: ignore[no-untyped-def]
+    """At most ``len(group) - 1`` of each group's links (``m`` columns): a loop's links, or a pair
+    of links too close to lie together (``x_j + x_k <= 1``)."""
     from scipy import sparse
     from scipy.optimize import LinearConstraint
 
-    if not len(pairs):
-        return None
-    r = np.repeat(np.arange(len(pairs)), 2)
-    a = sparse.csr_matrix((np.ones(r.size), (r, pairs.ravel())), shape=(len(pairs), m))
-    return LinearConstraint(a, 0, 1)
-
-
-def _loop_rows(loops: list[np.ndarray], m: int):  # type: ignore[no-untyped-def]
-    """At most ``len(loop) - 1`` of each loop's links."""
-    from scipy import sparse
-    from scipy.optimize import LinearConstraint
-
-    r = np.repeat(np.arange(len(loops)), [len(q) for q in loops])
-    a = sparse.csr_matrix((np.ones(r.size), (r, np.concatenate(loops))), shape=(len(loops), m))
-    return LinearConstraint(a, 0, np.array([len(q) - 1 for q in loops], dtype=float))
+    r = np.repeat(np.arange(len(groups)), [len(q) for q in groups])
+    a = sparse.csr_matrix((np.ones(r.size), (r, np.concatenate(groups))), shape=(len(groups), m))
+    return LinearConstraint(a, 0, np.array([len(q) - 1 for q in groups], dtype=float))
 
 
 def _loops_of(links: np.ndarray, cols: np.ndarray, n: int) -> list[np.ndarray]:
     """The loops that links ``(k, 2)`` (ends; their columns ``cols``) close among ``n`` paths: per
     connected set of paths with as many links as paths, its links' columns."""
-    parent = np.arange(n)
+    from loadpath.engines.linking import _root
 
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
+    parent = list(range(n))
     for a, b in links // 2:
-        ra, rb = root(int(a)), root(int(b))
+        ra, rb = _root(parent, int(a)), _root(parent, int(b))
         if ra != rb:
             parent[ra] = rb
-    comp = np.array([root(int(a)) for a in links[:, 0] // 2], dtype=np.int64)
+    comp = np.array([_root(parent, int(a)) for a in links[:, 0] // 2], dtype=np.int64)
     out = []
     for c in np.unique(comp):
         mine = comp == c

@@ -78,8 +78,7 @@ from loadpath.engines.edge_links import Rings, ring_pieces, shrunk_rings
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
-__all__ = ["LinkOptions", "LONE_AREA_RANGE"]
-__all__ += ["link_paths", "drop_fragments", "drop_lone", "pieces"]
+__all__ = ["LinkOptions", "LONE_AREA_RANGE", "link_paths", "drop_fragments", "drop_lone", "pieces"]
 
 
 @dataclass(frozen=True)
