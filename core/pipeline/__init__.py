@@ -98,6 +98,24 @@ STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "w
 
 Progress = Callable[[str, int, int], None]
 
+SPARSE_EXACT = 200
+"""Branch-and-bound nodes a solve of the exact links takes on a layer of sparse infill, every engine
+(:attr:`loadpath.engines.linking.LinkOptions.exact`; 0: the greedy linking alone), in files that
+retract travels inside the infill (PrusaSlicer's ``retract_before_travel``): where they do not
+(Cura's combing) a run fewer saves no retraction, and the links' plastic is taken from the lines at
+the slicer's mass (CuraEngine 40 % files of ``bench_printability.py``: failure load 2.330 -> 1.860x
+the slicer's on the bar, 1.796 -> 1.539x on the gyroid bar).  Solid infill takes its engine's own
+(:attr:`loadpath.engines.registry.Engine.linking`).
+
+Sparse layers hold tens of paths, so the program is cheap there (0.02-0.1 s a layer).  Measured
+(``benchmarks/printability_results.md``, thirty-fourth round) on the 20 PrusaSlicer files of
+``bench_sparse.py``: retractions per layer lower on 14 and higher on none (mean ratio to the
+slicer's 1.43 -> 1.24), travel 1.27 -> 1.17; the failure load lower on 10 and higher on 3
+(geometric mean 2.231 -> 2.177x the slicer's; the shelf at gyroid 40 % 1.705 -> 1.258x: more plastic
+in links is less in lines at the slicer's mass), stiffness 1.651 -> 1.652x.
+``bench_printability.py``, PrusaSlicer 40 %, retractions: bar 20 -> 12, L-bracket 44 -> 24, cantilever
+48 -> 36, taper 37 -> 30, gyroid bar 18 -> 14."""
+
 
 @dataclass(frozen=True)
 class PipelineOptions:
@@ -1085,7 +1103,8 @@ def _fills(
             return None
         band = None  # sparse: no band (above), no runs inserted (LinkOptions.insert)
         if u.fixed_width:
-            lo = replace(base_opts.for_bead(u.flow_width, u.pitch), insert=False)
+            exact = SPARSE_EXACT if math.isfinite(free_hop) and not clipped else 0
+            lo = replace(base_opts.for_bead(u.flow_width, u.pitch), insert=False, exact=exact)
         else:
             lo = solid_opts[engines[ji]]
             # where the engine's paths end inside the region (Toolpaths.band): its own staggered
