@@ -13,7 +13,9 @@ sets on sparse, ``sparse_engine = "auto"``.)
 PrusaSlicer 2.5 on several threads does not slice an STL to the same bytes twice (gyroid
 coordinates differ in the third decimal), and the first-ply failure load follows such differences by
 up to 17 % (2026-12-05: the 12 mm specimen at 20 %, 1.900 and 2.034 over two slices); the slices are
-made on one CPU (``tests/slicing.slice_prusa``), where they are the same every time.
+made on one CPU (``tests/slicing.slice_prusa``), where they are nearly always the same (2026-12-08:
+two slicings of the shelf at rectilinear 20 % and 40 % differed in 1087 and 1538 moves, ``Y95.001``
+against ``Y95``; compare runs on the same slices, copied, not sliced again).
 
 Real slices: PrusaSlicer 2.5 (MK3S presets, ``tests/slicing.py``; gyroid, its default, and
 rectilinear) and CuraEngine 4.13 (prusa_i3_mk3; grid, its default, and gyroid) at 20 % and 40 %, of
