@@ -56,7 +56,9 @@ GUARD_S = 5.0
 links are the same on any machine unless this is reached (then they depend on the machine's speed)."""
 
 
-def exact_links(layer, nodes: int) -> list[tuple[tuple, tuple, bool]]:  # type: ignore[no-untyped-def]
+def exact_links(  # type: ignore[no-untyped-def]
+    layer, nodes: int, integers: int = MIP_CANDIDATES
+) -> list[tuple[tuple, tuple, bool]]:
     """The links of the program (module docstring) as the linking's ``prefer`` takes them.
 
     Parameters
@@ -67,6 +69,8 @@ def exact_links(layer, nodes: int) -> list[tuple[tuple, tuple, bool]]:  # type: 
     nodes : int
         Branch-and-bound nodes each solve may take (a count, not a time: the same links on any
         machine).
+    integers : int
+        Most candidates solved in integers; more are solved by the linear relaxation.
 
     Returns
     -------
@@ -115,7 +119,7 @@ def exact_links(layer, nodes: int) -> list[tuple[tuple, tuple, bool]]:  # type: 
     length = np.array([_length(q) for q in pts])
     # most links first; among as many, the shortest (the lengths' sum is below 1)
     cost = -1.0 + 0.5 * length / max(float(length.sum()), 1e-9)
-    kinds = np.full(m, float(m <= MIP_CANDIDATES))  # in integers, or the relaxation
+    kinds = np.full(m, float(m <= integers))  # in integers, or the relaxation
     start = time.perf_counter()
     x = None
     for _ in range(ROUNDS):

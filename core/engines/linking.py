@@ -75,6 +75,7 @@ import shapely
 from loadpath._typing import Points2, Region
 from loadpath.engines.cuts import cut_paths
 from loadpath.engines.edge_links import Rings, ring_pieces, shrunk_rings
+from loadpath.engines.exact_links import MIP_CANDIDATES
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
@@ -189,6 +190,10 @@ class LinkOptions:
         nodes; they are laid first and the greedy passes go on from them, and the result is kept
         where it leaves fewer runs.  0 (the default): not.  The level-set engine's solid infill is
         linked with 200 (its registry entry's ``linking``).
+    exact_integers : int
+        Layers with at most this many candidate links are solved in integers by the exact links,
+        larger ones by the linear relaxation (default
+        :data:`loadpath.engines.exact_links.MIP_CANDIDATES`; 0: always the relaxation).
     """
 
     max_link: float = 3.0
@@ -213,6 +218,7 @@ class LinkOptions:
     band_depth: float = 3.0
     insert: bool = True
     exact: int = 0
+    exact_integers: int = MIP_CANDIDATES
 
     def __post_init__(self) -> None:
         lo, hi = LONE_AREA_RANGE
@@ -487,7 +493,7 @@ def _link_layer(
             if options.exact > 0 and len(runs) > 1 and only is None and not prefer:
                 from loadpath.engines.exact_links import exact_links
 
-                chosen = exact_links(layer, options.exact)
+                chosen = exact_links(layer, options.exact, options.exact_integers)
                 if chosen:
                     exact = _link(layer, True, dict(base), chosen, None)
                     if len(exact[0]) < len(runs):

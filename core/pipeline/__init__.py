@@ -107,14 +107,17 @@ the slicer's mass (CuraEngine 40 % files of ``bench_printability.py``: failure l
 the slicer's on the bar, 1.796 -> 1.539x on the gyroid bar).  Solid infill takes its engine's own
 (:attr:`loadpath.engines.registry.Engine.linking`).
 
-Sparse layers hold tens of paths, so the program is cheap there (0.02-0.1 s a layer).  Measured
-(``benchmarks/printability_results.md``, thirty-fourth round) on the 20 PrusaSlicer files of
-``bench_sparse.py``: retractions per layer lower on 14 and higher on none (mean ratio to the
-slicer's 1.43 -> 1.24), travel 1.27 -> 1.17; the failure load lower on 10 and higher on 3
-(geometric mean 2.231 -> 2.177x the slicer's; the shelf at gyroid 40 % 1.705 -> 1.258x: more plastic
-in links is less in lines at the slicer's mass), stiffness 1.651 -> 1.652x.
-``bench_printability.py``, PrusaSlicer 40 %, retractions: bar 20 -> 12, L-bracket 44 -> 24, cantilever
-48 -> 36, taper 37 -> 30, gyroid bar 18 -> 14."""
+Sparse layers are solved by the linear relaxation (``LinkOptions.exact_integers = 0``): in integers,
+HiGHS took 0.3-5 s a layer on the 30 % gyroid gusset of ``bench_latency.py`` (31-41 paths, the 5 s
+guard reached; its first run 15-18 s -> 22-28 s) whatever the node count (10, 50 or 200), for 27
+runs on its 12 sparse layers where the relaxation leaves 29 in 1.05 s and the greedy linking 32 in
+0.43 s.  Measured (``benchmarks/printability_results.md``, thirty-fourth round): on the 20
+PrusaSlicer files of ``bench_sparse.py`` the retractions per layer are lower on 8 and higher on none
+(mean ratio to the slicer's 1.43 -> 1.34), travel 1.27 -> 1.19; the failure load lower on 6 and
+higher on 3 (geometric mean 2.231 -> 2.178x; the shelf at gyroid 40 % 1.705 -> 1.258x: more
+plastic in links is less in lines at the slicer's mass), stiffness 1.651x as before.
+``bench_printability.py``, PrusaSlicer 40 %, retractions: cantilever 48 -> 32, L-bracket 44 -> 32,
+taper 37 -> 33, gyroid bar 18 -> 14, bar 20 as before."""
 
 
 @dataclass(frozen=True)
@@ -1104,7 +1107,9 @@ def _fills(
         band = None  # sparse: no band (above), no runs inserted (LinkOptions.insert)
         if u.fixed_width:
             exact = SPARSE_EXACT if math.isfinite(free_hop) and not clipped else 0
-            lo = replace(base_opts.for_bead(u.flow_width, u.pitch), insert=False, exact=exact)
+            lo = replace(
+                base_opts.for_bead(u.flow_width, u.pitch), insert=False, exact=exact, exact_integers=0
+            )
         else:
             lo = solid_opts[engines[ji]]
             # where the engine's paths end inside the region (Toolpaths.band): its own staggered
