@@ -75,7 +75,7 @@ import shapely
 from loadpath._typing import Points2, Region
 from loadpath.engines.cuts import cut_paths
 from loadpath.engines.edge_links import Rings, ring_pieces, shrunk_rings
-from loadpath.engines.exact_links import MIP_CANDIDATES
+from loadpath.engines.exact_links import MIP_CANDIDATES, exact_links
 from loadpath.errors import SettingsError
 from loadpath.toolpath import Path
 
@@ -491,8 +491,6 @@ def _link_layer(
             base = stats
             runs, stats = grown if len(grown[0]) <= len(first[0]) else first
             if options.exact > 0 and len(runs) > 1 and only is None and not prefer:
-                from loadpath.engines.exact_links import exact_links
-
                 chosen = exact_links(layer, options.exact, options.exact_integers)
                 if chosen:
                     exact = _link(layer, True, dict(base), chosen, None)

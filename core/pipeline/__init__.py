@@ -99,12 +99,14 @@ STAGES = ("parse", "geometry", "loadcase", "fea", "paths", "splice", "check", "w
 Progress = Callable[[str, int, int], None]
 
 SPARSE_EXACT = 200
-"""Branch-and-bound nodes a solve of the exact links takes on a layer of sparse infill, every engine
-(:attr:`loadpath.engines.linking.LinkOptions.exact`; 0: the greedy linking alone), in files that
-retract travels inside the infill (PrusaSlicer's ``retract_before_travel``): where they do not
-(Cura's combing) a run fewer saves no retraction, and the links' plastic is taken from the lines at
-the slicer's mass (CuraEngine 40 % files of ``bench_printability.py``: failure load 2.330 -> 1.860x
-the slicer's on the bar, 1.796 -> 1.539x on the gyroid bar).  Solid infill takes its engine's own
+"""The exact links' node count on a layer of sparse infill, every engine
+(:attr:`loadpath.engines.linking.LinkOptions.exact`; 0: the greedy linking alone; sparse layers are
+solved by the linear relaxation, below, which takes no branch-and-bound node, so any count above 0
+lays the same links), in files that retract travels inside the infill (PrusaSlicer's
+``retract_before_travel``): where they do not (Cura's combing) a run fewer saves no retraction,
+and the links' plastic is taken from the lines at the slicer's mass (CuraEngine 40 % files of
+``bench_printability.py``: failure load 2.330 -> 1.860x the slicer's on the bar, 1.796 -> 1.539x on
+the gyroid bar).  Solid infill takes its engine's own
 (:attr:`loadpath.engines.registry.Engine.linking`).
 
 Sparse layers are solved by the linear relaxation (``LinkOptions.exact_integers = 0``): in integers,
@@ -1106,7 +1108,7 @@ def _fills(
             return None
         band = None  # sparse: no band (above), no runs inserted (LinkOptions.insert)
         if u.fixed_width:
-            exact = SPARSE_EXACT if math.isfinite(free_hop) and not clipped else 0
+            exact = SPARSE_EXACT if math.isfinite(free_hop) else 0
             lo = replace(
                 base_opts.for_bead(u.flow_width, u.pitch), insert=False, exact=exact, exact_integers=0
             )
@@ -1116,8 +1118,8 @@ def _fills(
             # copy's, else the job's (a copy moved by stagger() keeps the job's band)
             own = shifted_paths.get(ji)
             band = own.band if shifted and own is not None and own.paths else results[ji][0].band
-            if clipped:
-                lo = replace(lo, exact=0)
+        if clipped:
+            lo = replace(lo, exact=0)
         tasks.append((ps, u.fill_region, u.pitch, fld, lo, band))
         task_fields.append(fid)
         return len(tasks) - 1
